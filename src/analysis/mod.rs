@@ -1,0 +1,1 @@
+//! The slip and unpredictability pipeline.

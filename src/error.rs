@@ -1,0 +1,89 @@
+//! The crate's error type: every failure on user input says what and where.
+
+use std::path::PathBuf;
+
+/// Errors reported to the user. Each variant names the file, field, step or time involved.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A robot or terrain file (or any TOML input) is missing, malformed or has an impossible value.
+    #[error("{file}: field `{field}`: {message}")]
+    Config {
+        /// The file that holds the bad value.
+        file: PathBuf,
+        /// Dotted path of the field, e.g. `body.mass_kg`.
+        field: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A named robot or terrain that no file provides.
+    #[error("unknown {kind} `{name}`; available: {available}")]
+    Unknown {
+        /// "robot" or "terrain".
+        kind: &'static str,
+        /// The name the user asked for.
+        name: String,
+        /// Comma-separated list of names that exist.
+        available: String,
+    },
+    /// A log (MCAP or CSV) that cannot be read, with the location of the problem.
+    #[error("{file}: {location}: {message}")]
+    Log {
+        /// The log file.
+        file: PathBuf,
+        /// Where in it: a row and column, a topic and message index, a step.
+        location: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The simulation produced a non-physical state.
+    #[error("simulation diverged at step {step}, t = {time_s:.3} s: {message}")]
+    Diverged {
+        /// Protocol step index (0 before the protocol starts).
+        step: u32,
+        /// Simulated time, s.
+        time_s: f64,
+        /// What diverged.
+        message: String,
+    },
+    /// An analysis that cannot be done on the data given (e.g. no complete step).
+    #[error("analysis: {0}")]
+    Analysis(String),
+    /// Input/output failure on a path.
+    #[error("{path}: {source}")]
+    Io {
+        /// The path that failed.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl Error {
+    /// Builds a [`Error::Config`] error.
+    pub fn config(file: impl Into<PathBuf>, field: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Config {
+            file: file.into(),
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+    /// Builds a [`Error::Log`] error.
+    pub fn log(file: impl Into<PathBuf>, location: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Log {
+            file: file.into(),
+            location: location.into(),
+            message: message.into(),
+        }
+    }
+    /// Builds an [`Error::Io`] error.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}
+
+/// Result alias used across the crate.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,18 @@
+//! drive-sim: a simulation-backed test harness for the DRIVE protocol.
+//!
+//! Data flows one way: robot and terrain models ([`robot`], [`terrain`]) → simulator ([`sim`])
+//! driven by the protocol ([`protocol`]) → logs ([`log`]) → analysis ([`analysis`]) and
+//! calibration ([`calibration`]) → figures and reports ([`report`]). The [`cli`] wires them.
+
+pub mod analysis;
+pub mod config;
+pub mod error;
+pub mod kinematics;
+pub mod log;
+pub mod protocol;
+pub mod report;
+pub mod robot;
+pub mod sim;
+pub mod terrain;
+
+pub use error::{Error, Result};

@@ -1,0 +1,1 @@
+//! Measured-CSV reader (format: shared/data/measured/README.md).

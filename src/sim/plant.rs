@@ -1,0 +1,159 @@
+//! The interface between the DRIVE protocol and whatever moves: the rapier simulator, or the
+//! ideal differential-drive plant used as a reference and in protocol tests.
+
+use crate::error::{Error, Result};
+use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
+use crate::log::{GroundTruth, ImuReading, Measurement, Pose};
+
+/// Something the protocol can drive: it takes wheel-speed targets and can be measured.
+pub trait Plant {
+    /// Sets the wheel-speed targets (the low-level controller applies its own ramps and limits).
+    fn command(&mut self, cmd: WheelSpeeds);
+    /// Advances simulated time by `dt_s`.
+    fn advance(&mut self, dt_s: f64) -> Result<()>;
+    /// Reads the sensors now; `cmd` of the returned measurement is the current target.
+    fn measure(&mut self) -> Measurement;
+    /// True pose in the world frame (what the safety operator sees).
+    fn true_pose(&self) -> Pose;
+    /// True body velocity.
+    fn true_velocity(&self) -> BodyVelocity;
+    /// Simulated time since creation, s.
+    fn time_s(&self) -> f64;
+}
+
+/// A robot that follows the ideal differential drive exactly, with a first-order lag on the
+/// wheel speeds: no slip, no dynamics of the chassis. The reference for "what the IDD predicts".
+#[derive(Debug, Clone)]
+pub struct IdealPlant {
+    idd: IdealDiffDrive,
+    time_constant_s: f64,
+    cmd: WheelSpeeds,
+    wheels: WheelSpeeds,
+    pose: Pose,
+    time_s: f64,
+    last_velocity: BodyVelocity,
+}
+
+impl IdealPlant {
+    /// A plant at the origin, at rest. `time_constant_s = 0` makes wheels follow instantly.
+    pub fn new(idd: IdealDiffDrive, time_constant_s: f64) -> Self {
+        Self {
+            idd,
+            time_constant_s,
+            cmd: WheelSpeeds::default(),
+            wheels: WheelSpeeds::default(),
+            pose: Pose::default(),
+            time_s: 0.0,
+            last_velocity: BodyVelocity::default(),
+        }
+    }
+}
+
+impl Plant for IdealPlant {
+    fn command(&mut self, cmd: WheelSpeeds) {
+        self.cmd = cmd;
+    }
+    fn advance(&mut self, dt_s: f64) -> Result<()> {
+        if !(dt_s.is_finite() && dt_s >= 0.0) {
+            return Err(Error::Diverged {
+                step: 0,
+                time_s: self.time_s,
+                message: format!("invalid time step {dt_s}"),
+            });
+        }
+        let a = if self.time_constant_s > 0.0 {
+            1.0 - (-dt_s / self.time_constant_s).exp()
+        } else {
+            1.0
+        };
+        self.wheels.left_rad_s += a * (self.cmd.left_rad_s - self.wheels.left_rad_s);
+        self.wheels.right_rad_s += a * (self.cmd.right_rad_s - self.wheels.right_rad_s);
+        let v = self.idd.body_from_wheels(self.wheels);
+        // Exact integration of a unicycle at constant (vx, wz) over dt.
+        let (yaw, dyaw) = (self.pose.yaw_rad, v.wz_rad_s * dt_s);
+        let (dx, dy) = if dyaw.abs() < 1e-9 {
+            (v.vx_m_s * dt_s * yaw.cos(), v.vx_m_s * dt_s * yaw.sin())
+        } else {
+            let rho = v.vx_m_s / v.wz_rad_s;
+            (
+                rho * ((yaw + dyaw).sin() - yaw.sin()),
+                -rho * ((yaw + dyaw).cos() - yaw.cos()),
+            )
+        };
+        self.pose.x_m += dx;
+        self.pose.y_m += dy;
+        self.pose.yaw_rad = wrap_angle(yaw + dyaw);
+        self.time_s += dt_s;
+        self.last_velocity = v;
+        Ok(())
+    }
+    fn measure(&mut self) -> Measurement {
+        let v = self.last_velocity;
+        Measurement {
+            cmd: self.cmd,
+            enc: self.wheels,
+            pose: self.pose,
+            imu: ImuReading {
+                wz_rad_s: v.wz_rad_s,
+                ax_m_s2: 0.0,
+                ay_m_s2: v.vx_m_s * v.wz_rad_s,
+                az_m_s2: 9.81,
+            },
+            reference: None,
+            truth: Some(GroundTruth {
+                pose: self.pose,
+                velocity: v,
+                wheels: self.wheels,
+            }),
+        }
+    }
+    fn true_pose(&self) -> Pose {
+        self.pose
+    }
+    fn true_velocity(&self) -> BodyVelocity {
+        self.last_velocity
+    }
+    fn time_s(&self) -> f64 {
+        self.time_s
+    }
+}
+
+/// Wraps an angle to (-π, π].
+pub fn wrap_angle(a: f64) -> f64 {
+    let mut a = a % std::f64::consts::TAU;
+    if a <= -std::f64::consts::PI {
+        a += std::f64::consts::TAU;
+    } else if a > std::f64::consts::PI {
+        a -= std::f64::consts::TAU;
+    }
+    a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ideal_plant_drives_a_circle() {
+        // wl = 1, wr = 2 rad/s, r = 0.3, b = 1.08 -> vx = 0.45 m/s, wz = 0.2778 rad/s,
+        // radius 1.62 m: after a full period 2π/wz the robot is back at the origin.
+        let idd = IdealDiffDrive {
+            wheel_radius_m: 0.3,
+            baseline_m: 1.08,
+        };
+        let mut p = IdealPlant::new(idd, 0.0);
+        p.command(WheelSpeeds::new(1.0, 2.0));
+        let period = std::f64::consts::TAU / (0.3 / 1.08);
+        let n = 1000;
+        for _ in 0..n {
+            p.advance(period / n as f64).unwrap();
+        }
+        let q = p.true_pose();
+        assert!(q.x_m.abs() < 1e-9 && q.y_m.abs() < 1e-9, "{q:?}");
+        // Half a period: at (0, 2R).
+        let mut p = IdealPlant::new(idd, 0.0);
+        p.command(WheelSpeeds::new(1.0, 2.0));
+        p.advance(period / 2.0).unwrap();
+        assert!((p.true_pose().y_m - 2.0 * 1.62).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,117 @@
+//! Terrain profiles as data (`terrains/*.toml`): slip-dependent friction, rolling resistance,
+//! soft-soil effects and roughness.
+
+use crate::config::{non_negative, positive, Validate};
+use crate::error::Result;
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+/// Terrains shipped with the binary; files in `./terrains/` override or extend them.
+pub const BUILTIN_TERRAINS: &[(&str, &str)] = &[
+    ("asphalt", include_str!("../terrains/asphalt.toml")),
+    ("grass", include_str!("../terrains/grass.toml")),
+    ("gravel", include_str!("../terrains/gravel.toml")),
+    ("ice", include_str!("../terrains/ice.toml")),
+    ("mud", include_str!("../terrains/mud.toml")),
+    ("sand", include_str!("../terrains/sand.toml")),
+    ("snow", include_str!("../terrains/snow.toml")),
+    ("tile", include_str!("../terrains/tile.toml")),
+];
+
+/// A terrain's wheel-terrain interaction profile.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Terrain {
+    /// Short name, e.g. `ice`.
+    pub name: String,
+    /// One-line description.
+    pub description: String,
+    /// Slip-dependent friction.
+    pub friction: FrictionProfile,
+    /// Resistance to rolling and soft-soil effects.
+    pub resistance: Resistance,
+    /// Ground unevenness.
+    pub roughness: Roughness,
+}
+
+/// Slip-dependent friction: the coefficient rises to a peak at a characteristic slip, then
+/// falls towards the sliding value.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FrictionProfile {
+    /// Peak longitudinal friction coefficient.
+    pub peak_longitudinal: f64,
+    /// Fully sliding longitudinal friction coefficient.
+    pub sliding_longitudinal: f64,
+    /// Peak lateral friction coefficient.
+    pub peak_lateral: f64,
+    /// Fully sliding lateral friction coefficient.
+    pub sliding_lateral: f64,
+    /// Longitudinal slip ratio at the peak (dimensionless).
+    pub peak_slip_ratio: f64,
+    /// Lateral slip angle at the peak, rad.
+    pub peak_slip_angle_rad: f64,
+}
+
+/// Rolling resistance and soft-soil effects.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Resistance {
+    /// Rolling resistance coefficient (force / normal load).
+    pub rolling_coefficient: f64,
+    /// Static sinkage of a tyre, m (0 on hard ground).
+    pub sinkage_m: f64,
+    /// Bulldozing resistance per unit of sunk frontal area and speed, N/(m²·m/s)... see sim.
+    pub bulldozing_coefficient: f64,
+}
+
+/// Random ground unevenness.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Roughness {
+    /// Standard deviation of the ground height, m.
+    pub height_std_m: f64,
+    /// Correlation length of the height field, m.
+    pub correlation_length_m: f64,
+}
+
+impl Terrain {
+    /// Loads a terrain by name (catalog) or path.
+    pub fn resolve(name_or_path: &str) -> Result<(Self, PathBuf)> {
+        crate::config::resolve("terrain", name_or_path, BUILTIN_TERRAINS)
+    }
+}
+
+impl Validate for Terrain {
+    fn validate(&self) -> std::result::Result<(), (String, String)> {
+        let f = &self.friction;
+        positive("friction.peak_longitudinal", f.peak_longitudinal)?;
+        positive("friction.sliding_longitudinal", f.sliding_longitudinal)?;
+        positive("friction.peak_lateral", f.peak_lateral)?;
+        positive("friction.sliding_lateral", f.sliding_lateral)?;
+        positive("friction.peak_slip_ratio", f.peak_slip_ratio)?;
+        positive("friction.peak_slip_angle_rad", f.peak_slip_angle_rad)?;
+        if f.sliding_longitudinal > f.peak_longitudinal {
+            return Err((
+                "friction.sliding_longitudinal".into(),
+                "must not exceed peak_longitudinal".into(),
+            ));
+        }
+        if f.sliding_lateral > f.peak_lateral {
+            return Err((
+                "friction.sliding_lateral".into(),
+                "must not exceed peak_lateral".into(),
+            ));
+        }
+        let r = &self.resistance;
+        non_negative("resistance.rolling_coefficient", r.rolling_coefficient)?;
+        non_negative("resistance.sinkage_m", r.sinkage_m)?;
+        non_negative("resistance.bulldozing_coefficient", r.bulldozing_coefficient)?;
+        non_negative("roughness.height_std_m", self.roughness.height_std_m)?;
+        positive(
+            "roughness.correlation_length_m",
+            self.roughness.correlation_length_m,
+        )?;
+        Ok(())
+    }
+}
