@@ -6,6 +6,7 @@
 //! (its rear, for a backward command), and the same command restarts from zero elapsed time.
 
 pub mod sampler;
+pub mod samplers;
 
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, CommandSpace, WheelSpeeds};
