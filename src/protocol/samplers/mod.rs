@@ -8,6 +8,7 @@
 use super::sampler::Sampler;
 
 pub mod geometry;
+pub mod metrics;
 
 /// A strategy the command line and sweeps can name.
 #[derive(Debug, Clone, Copy)]

@@ -37,12 +37,12 @@ pub struct UniformStep {
 }
 
 impl UniformStep {
-    /// Default parameters (32 candidates, floor 0.05), seeded with `seed`.
+    /// Default parameters (32 candidates, floor 0.02), seeded with `seed`.
     pub fn new(seed: u64) -> Self {
         Self {
             rng: ChaCha8Rng::seed_from_u64(seed),
             candidates: 32,
-            floor: 0.05,
+            floor: 0.02,
         }
     }
 }
