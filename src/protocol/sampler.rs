@@ -12,6 +12,7 @@ use rand_chacha::ChaCha8Rng;
 
 pub use super::samplers::uniform_wheel::UniformWheel;
 use super::samplers::REGISTRY;
+use super::ProtocolConfig;
 
 /// What a sampler may look at when it draws the next command.
 #[derive(Debug, Clone, Copy)]
@@ -73,7 +74,17 @@ const SAMPLER_NAMES: [&str; N_SAMPLERS] = {
 /// Names of the samplers [`make_sampler`] knows, in registry order.
 pub const SAMPLERS: &[&str] = &SAMPLER_NAMES;
 
-/// Builds a sampler by name, seeded with `seed`, with its default parameters.
+/// Builds a sampler by name, seeded with `seed`, with its default parameters, for a run with
+/// the default protocol parameters.
 pub fn make_sampler(name: &str, seed: u64) -> Option<Box<dyn Sampler>> {
-    REGISTRY.iter().find(|e| e.name == name).map(|e| (e.build)(seed))
+    make_sampler_for(name, seed, &ProtocolConfig::default())
+}
+
+/// Builds a sampler by name, seeded with `seed`, for a run with the protocol parameters
+/// `protocol` (step duration, operator margins: what `boundary-aware` predicts with).
+pub fn make_sampler_for(name: &str, seed: u64, protocol: &ProtocolConfig) -> Option<Box<dyn Sampler>> {
+    REGISTRY
+        .iter()
+        .find(|e| e.name == name)
+        .map(|e| (e.build)(seed, protocol))
 }

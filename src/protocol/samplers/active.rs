@@ -24,7 +24,7 @@ use rand_chacha::ChaCha8Rng;
 pub const ENTRY: SamplerEntry = SamplerEntry {
     name: "active",
     summary: "among uniform candidates, the one where the slip kernel smoother is most uncertain",
-    build: |seed| Box::new(Active::new(seed)),
+    build: |seed, _protocol| Box::new(Active::new(seed)),
 };
 
 /// Uncertainty sampling over the kernel-smoother estimate of slip.

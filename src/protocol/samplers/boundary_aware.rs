@@ -24,7 +24,7 @@ use rand_chacha::ChaCha8Rng;
 pub const ENTRY: SamplerEntry = SamplerEntry {
     name: "boundary-aware",
     summary: "uniform over the commands whose predicted step stays in the safe area",
-    build: |seed| Box::new(BoundaryAware::new(seed)),
+    build: |seed, protocol| Box::new(BoundaryAware::from_protocol(seed, protocol)),
 };
 
 /// Rejects candidates whose predicted step would make the operator interrupt it.

@@ -19,7 +19,7 @@ use rand_chacha::ChaCha8Rng;
 pub const ENTRY: SamplerEntry = SamplerEntry {
     name: "halton",
     summary: "scrambled Halton low-discrepancy sequence over the wheel-frame command space",
-    build: |seed| Box::new(Halton::new(seed)),
+    build: |seed, _protocol| Box::new(Halton::new(seed)),
 };
 
 /// Bases of the two coordinates (left, right wheel).

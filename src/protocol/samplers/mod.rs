@@ -6,6 +6,7 @@
 //! the entry in [`REGISTRY`], which `make_sampler` and `SAMPLERS` read.
 
 use super::sampler::Sampler;
+use super::ProtocolConfig;
 
 pub mod geometry;
 pub mod metrics;
@@ -17,8 +18,9 @@ pub struct SamplerEntry {
     pub name: &'static str,
     /// One-line description for `--help` and reports.
     pub summary: &'static str,
-    /// Builds the strategy with its default parameters, seeded with the run's seed.
-    pub build: fn(u64) -> Box<dyn Sampler>,
+    /// Builds the strategy with its default parameters, seeded with the run's seed, for a run
+    /// with the given protocol parameters (strategies that predict steps read them).
+    pub build: fn(u64, &ProtocolConfig) -> Box<dyn Sampler>,
 }
 
 /// Declares each strategy module and lists its `ENTRY` in [`REGISTRY`], in order.
@@ -50,7 +52,7 @@ mod tests {
         let mut names: Vec<&str> = REGISTRY.iter().map(|e| e.name).collect();
         assert_eq!(names, SAMPLERS);
         for e in REGISTRY {
-            assert_eq!((e.build)(1).name(), e.name);
+            assert_eq!((e.build)(1, &ProtocolConfig::default()).name(), e.name);
             assert_eq!(make_sampler(e.name, 1).unwrap().name(), e.name);
             assert!(!e.summary.is_empty());
         }

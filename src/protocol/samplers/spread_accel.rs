@@ -18,7 +18,7 @@ use rand_chacha::ChaCha8Rng;
 pub const ENTRY: SamplerEntry = SamplerEntry {
     name: "spread-accel",
     summary: "among uniform candidates, the one whose |dvx|, |dwz| bins are least populated",
-    build: |seed| Box::new(SpreadAccel::new(seed)),
+    build: |seed, _protocol| Box::new(SpreadAccel::new(seed)),
 };
 
 /// Picks, among uniform candidates, the step whose acceleration bins are least populated.

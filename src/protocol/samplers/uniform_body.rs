@@ -16,7 +16,7 @@ use rand_chacha::ChaCha8Rng;
 pub const ENTRY: SamplerEntry = SamplerEntry {
     name: "uniform-body",
     summary: "uniform in the body-frame command space (vx, wz), independent draws",
-    build: |seed| Box::new(UniformBody::new(seed)),
+    build: |seed, _protocol| Box::new(UniformBody::new(seed)),
 };
 
 /// Uniform in (vx, wz) over U, by rejection from the bounding rectangle of U in B.

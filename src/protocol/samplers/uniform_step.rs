@@ -23,7 +23,7 @@ use rand_chacha::ChaCha8Rng;
 pub const ENTRY: SamplerEntry = SamplerEntry {
     name: "uniform-step",
     summary: "flattens the distribution of speed steps (undoes the triangular bias towards small steps)",
-    build: |seed| Box::new(UniformStep::new(seed)),
+    build: |seed, _protocol| Box::new(UniformStep::new(seed)),
 };
 
 /// Importance resampling of uniform candidates by the inverse of the step density.

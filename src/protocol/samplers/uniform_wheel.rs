@@ -10,7 +10,7 @@ use rand_chacha::ChaCha8Rng;
 pub const ENTRY: SamplerEntry = SamplerEntry {
     name: "uniform-wheel",
     summary: "uniform in the wheel-frame command space, independent draws (the paper's)",
-    build: |seed| Box::new(UniformWheel::new(seed)),
+    build: |seed, _protocol| Box::new(UniformWheel::new(seed)),
 };
 
 /// The paper's strategy: each command uniform in the wheel-frame command space, independent of
