@@ -339,3 +339,45 @@ fn the_example_matrix_loads() {
         }
     );
 }
+
+#[test]
+fn a_protocol_sweep_on_the_ideal_plant_matches_direct_runs() {
+    use drive_sim::protocol::sampler::make_sampler_for;
+    use drive_sim::protocol::{run_drive, RunSummary};
+    use drive_sim::robot::Robot;
+    use drive_sim::sim::IdealPlant;
+    let text = r#"
+name = "ideal"
+robots = ["husky"]
+terrains = ["asphalt"]
+samplers = ["uniform-wheel", "boundary-aware", "halton"]
+seeds = [1, 2]
+steps = 8
+"#;
+    let m = SweepMatrix::parse(text, Path::new("ideal.toml")).unwrap();
+    // The lead's real callback simulates the terrain; the ideal plant ignores it.
+    let simulate = |spec: &RunSpec| -> drive_sim::Result<RunSummary> {
+        let (robot, _) = Robot::resolve(&spec.robot)?;
+        let mut plant = IdealPlant::new(robot.idd(), robot.powertrain.time_constant_s);
+        let mut sampler = make_sampler_for(&spec.sampler, spec.seed, &spec.protocol)
+            .ok_or_else(|| Error::Analysis(format!("unknown sampler {}", spec.sampler)))?;
+        let mut frames = Vec::new();
+        run_drive(&mut plant, &robot, sampler.as_mut(), &spec.protocol, &mut frames)
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let report = run_sweep(
+        &m,
+        &opts(tmp.path(), Shard::default()),
+        |s: &RunSpec, _: &Path| Ok(serde_json::to_value(simulate(s)?).unwrap()),
+    )
+    .unwrap();
+    assert_eq!(report.done(), 6);
+    let merged = merge(&[tmp.path().to_path_buf()]).unwrap();
+    for (row, spec) in merged.rows.iter().zip(m.expand()) {
+        let direct = simulate(&spec).unwrap();
+        assert_eq!(row["id"], json!(spec.id));
+        assert_eq!(row["interruptions"], json!(direct.interruptions));
+        assert_eq!(row["total_time_s"], json!(direct.total_time_s));
+        assert_eq!(row["steps_completed"], json!(8));
+    }
+}

@@ -12,10 +12,12 @@
 //! What a run does is the caller's: a callback `Fn(&RunSpec, &Path) -> Result<Value>` that
 //! writes its files in the given directory and returns the figures to tabulate.
 
+mod args;
 mod matrix;
 mod merge;
 mod run;
 
+pub use args::{MergeArgs, SweepArgs};
 pub use matrix::{ProtocolOverrides, RunSpec, Shard, SweepMatrix};
 pub use merge::{merge, MergedReport};
 pub use run::{
