@@ -61,7 +61,8 @@ impl Active {
             (b.vx_m_s / vm, b.wz_rad_s / wm)
         };
         let zu = z(u);
-        let inv2s2 = 0.5 / (self.bandwidth * self.bandwidth);
+        let bw = self.bandwidth.max(1e-9);
+        let inv2s2 = 0.5 / (bw * bw);
         let (mut s0, mut s1, mut s2) = (0.0, [0.0; 3], 0.0);
         for o in history {
             let zi = z(o.cmd);

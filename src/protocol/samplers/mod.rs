@@ -1,8 +1,8 @@
 //! The sampling strategies, one file each, and their registry.
 //!
 //! To add a strategy: write `my_strategy.rs` here with a type implementing
-//! [`Sampler`](super::sampler::Sampler) and a `pub const ENTRY: SamplerEntry`, then add
-//! `my_strategy` to the [`register!`] list below. That one line declares the module and puts
+//! [`Sampler`] and a `pub const ENTRY: SamplerEntry`, then add
+//! `my_strategy` to the `register!` list below. That one line declares the module and puts
 //! the entry in [`REGISTRY`], which `make_sampler` and `SAMPLERS` read.
 
 use super::sampler::Sampler;
