@@ -266,7 +266,10 @@ fn decode_no_panic(bytes: &[u8], what: &str) -> drive_sim::Result<(LogMeta, Vec<
 #[test]
 fn truncated_files_are_errors_not_panics() {
     let (bytes, _, _) = small_log();
-    for cut in (0..bytes.len()).step_by(3).chain(bytes.len() - 16..bytes.len()) {
+    // ~500 cuts spread over the file, plus every cut in the header and the footer.
+    let stride = bytes.len() / 500 + 1;
+    let ends = (0..64).chain(bytes.len() - 64..bytes.len());
+    for cut in (0..bytes.len()).step_by(stride).chain(ends) {
         match decode_no_panic(&bytes[..cut], &format!("truncation at {cut}")) {
             Err(Error::Log { .. }) => {}
             r => panic!("truncation at {cut} of {}: {:?}", bytes.len(), r.map(|x| x.1.len())),
@@ -278,7 +281,9 @@ fn truncated_files_are_errors_not_panics() {
 fn flipped_bytes_are_errors_or_leave_the_frames_intact() {
     let (bytes, _, frames) = small_log();
     let mut errors = 0;
-    for at in (0..bytes.len()).step_by(5) {
+    // ~700 flips spread over the file (an odd stride, so every byte lane of the records).
+    let stride = (bytes.len() / 700) | 1;
+    for at in (0..bytes.len()).step_by(stride) {
         let mut b = bytes.clone();
         b[at] ^= 0x5a;
         match decode_no_panic(&b, &format!("flip at {at}")) {
@@ -289,7 +294,10 @@ fn flipped_bytes_are_errors_or_leave_the_frames_intact() {
             Ok((_, got)) => assert_eq!(got, frames, "flip at {at} changed the frames silently"),
         }
     }
-    assert!(errors > 0);
+    // Every record is covered by a CRC (chunks, data section, summary): few flips go unseen.
+    let tried = bytes.len().div_ceil(stride);
+    assert!(errors * 10 > tried * 9, "{errors} errors out of {tried} flips");
+    eprintln!("{} bytes: {errors} of {tried} flips detected", bytes.len());
 }
 
 /// Copies a valid log through the `mcap` crate, letting `edit` drop or change messages
