@@ -376,7 +376,7 @@ mod tests {
         let r = row(0, 0, 1).replacen(",0.9,", ",abc,", 1);
         expect_err(&format!("{HEADER}\n{}\n{r}\n", row(0, 0, 0)), Some(JSON),
             "row 3, column `enc_left_rad_s`", "cannot parse");
-        let r = row(0, 0, 1).replacen(",0.05,", ",NaN,", 1);
+        let r = row(0, 0, 1).replacen(",0,0,0.05,", ",0,0,NaN,", 1);
         expect_err(&format!("{HEADER}\n{}\n{r}\n", row(0, 0, 0)), Some(JSON), "row 3, column `icp_yaw_rad`", "non-finite");
         let r = row(0, 0, 0).replacen(",9.8,", ",inf,", 1);
         expect_err(&format!("{HEADER}\n{r}\n"), Some(JSON), "row 2, column `imu_az_m_s2`", "non-finite");
