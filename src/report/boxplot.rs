@@ -70,7 +70,7 @@ impl BoxFig<'_> {
             .margin_right(20)
             .caption(&panel.title, caption_style())
             .x_label_area_size(40)
-            .y_label_area_size(72)
+            .y_label_area_size(66)
             .build_cartesian_2d(-0.6..n as f64 - 0.4, y0..y1)?;
         chart
             .configure_mesh()

@@ -290,9 +290,10 @@ mod tests {
 
     #[test]
     fn levels_at_spacing() {
+        // Multiples of 0.2 in [-0.25, 0.45]: -0.2, 0, 0.2, 0.4.
         let l = contour_levels(-0.25, 0.45, 0.2).unwrap();
-        assert_eq!(l.len(), 3);
-        assert!((l[0] + 0.2).abs() < 1e-12 && l[1] == 0.0 && (l[2] - 0.2).abs() < 1e-12);
+        assert_eq!(l.len(), 4);
+        assert!((l[0] + 0.2).abs() < 1e-12 && l[1] == 0.0 && (l[3] - 0.4).abs() < 1e-12);
         assert!(contour_levels(0.0, 1.0, 0.0).is_err());
         assert!(contour_levels(0.0, 1.0, 1e-6).is_err());
         assert!(contour_levels(0.3, 0.35, 0.2).unwrap().is_empty());

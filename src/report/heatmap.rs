@@ -63,7 +63,7 @@ pub struct ScatterPanel {
 
 const PANEL_W: u32 = 500;
 const PANEL_H: u32 = 480;
-const BAR_W: u32 = 150;
+const BAR_W: u32 = 180;
 
 /// True if `p = (vx, wz)` is inside the polygon or on its border (relative tolerance 1e-9).
 fn in_polygon(poly: &[(f64, f64)], p: (f64, f64)) -> bool {
@@ -99,6 +99,63 @@ fn in_polygon(poly: &[(f64, f64)], p: (f64, f64)) -> bool {
         }
     }
     inside
+}
+
+/// True if the polygon is convex (all turns the same way), so that it can clip cells.
+fn is_convex(poly: &[(f64, f64)]) -> bool {
+    let n = poly.len();
+    if n < 3 {
+        return false;
+    }
+    let mut sign = 0.0f64;
+    for i in 0..n {
+        let (a, b, c) = (poly[i], poly[(i + 1) % n], poly[(i + 2) % n]);
+        let cross = (b.0 - a.0) * (c.1 - b.1) - (b.1 - a.1) * (c.0 - b.0);
+        if cross.abs() < 1e-15 {
+            continue;
+        }
+        if sign == 0.0 {
+            sign = cross.signum();
+        } else if cross.signum() != sign {
+            return false;
+        }
+    }
+    sign != 0.0
+}
+
+/// Clips polygon `p` by the convex polygon `clip` (Sutherland–Hodgman, one half-plane per
+/// edge of `clip`, whichever its orientation).
+fn clip_convex(p: Vec<(f64, f64)>, clip: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let n = clip.len();
+    // Orientation of the clip polygon: inside is on the left of CCW edges.
+    let area: f64 = (0..n)
+        .map(|i| {
+            let (a, b) = (clip[i], clip[(i + 1) % n]);
+            a.0 * b.1 - b.0 * a.1
+        })
+        .sum();
+    let orient = if area >= 0.0 { 1.0 } else { -1.0 };
+    let mut out = p;
+    for i in 0..n {
+        if out.is_empty() {
+            break;
+        }
+        let (a, b) = (clip[i], clip[(i + 1) % n]);
+        let side = |q: (f64, f64)| orient * ((b.0 - a.0) * (q.1 - a.1) - (b.1 - a.1) * (q.0 - a.0));
+        let input = std::mem::take(&mut out);
+        for k in 0..input.len() {
+            let (p0, p1) = (input[k], input[(k + 1) % input.len()]);
+            let (s0, s1) = (side(p0), side(p1));
+            if s0 >= 0.0 {
+                out.push(p0);
+            }
+            if (s0 >= 0.0) != (s1 >= 0.0) {
+                let t = s0 / (s0 - s1);
+                out.push((p0.0 + t * (p1.0 - p0.0), p0.1 + t * (p1.1 - p0.1)));
+            }
+        }
+    }
+    out
 }
 
 /// The grid with points outside `poly` masked.
@@ -160,7 +217,8 @@ fn colour_bar<DB: DrawingBackend>(
         .margin_top(50)
         .margin_bottom(((h as f64) * 0.12) as u32)
         .margin_left(8)
-        .right_y_label_area_size(100)
+        .margin_right(36)
+        .right_y_label_area_size(96)
         .build_cartesian_2d(0.0..1.0, range.0..range.1)?;
     chart
         .configure_mesh()
@@ -252,14 +310,30 @@ impl Figure for HeatFig<'_> {
             let ex = cell_edges(&grid.wz_rad_s);
             let ey = cell_edges(&grid.vx_m_s);
             let nw = grid.wz_rad_s.len();
-            ch.draw_series(grid.values.iter().enumerate().filter_map(|(k, v)| {
-                let v = (*v)?;
+            // U in plot coordinates (wz, vx): cells are clipped to it when it is convex, so
+            // that no colour leaks outside the outline.
+            let clip: Option<Vec<(f64, f64)>> =
+                is_convex(poly).then(|| poly.iter().map(|&(vx, wz)| (wz, vx)).collect());
+            let mut rects = vec![];
+            let mut clipped = vec![];
+            for (k, v) in grid.values.iter().enumerate() {
+                let Some(v) = *v else { continue };
                 let (i, j) = (k / nw, k % nw);
-                Some(Rectangle::new(
-                    [(ex[j].0, ey[i].0), (ex[j].1, ey[i].1)],
-                    self.scale.map.at(norm(v, self.range)).filled(),
-                ))
-            }))?;
+                let (x0, x1, y0, y1) = (ex[j].0, ex[j].1, ey[i].0, ey[i].1);
+                let colour = self.scale.map.at(norm(v, self.range)).filled();
+                let corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)];
+                match &clip {
+                    Some(c) if !corners.iter().all(|&(x, y)| in_polygon(poly, (y, x))) => {
+                        let p = clip_convex(corners.to_vec(), c);
+                        if p.len() >= 3 {
+                            clipped.push(Polygon::new(p, colour));
+                        }
+                    }
+                    _ => rects.push(Rectangle::new([(x0, y0), (x1, y1)], colour)),
+                }
+            }
+            ch.draw_series(rects)?;
+            ch.draw_series(clipped)?;
             for &level in &self.levels {
                 let segs = contour_segments(grid, level).map_err(|e| super::style::DrawError(e.to_string()))?;
                 let style = if level == 0.0 {
@@ -471,6 +545,29 @@ mod tests {
         assert!(in_polygon(&sq, (0.0, 0.0)));
         assert!(!in_polygon(&sq, (1.01, 0.5)));
         assert!(!in_polygon(&sq, (-0.5, -0.5)));
+    }
+
+    #[test]
+    fn convex_clipping_by_hand() {
+        let tri = [(0.0, 0.0), (2.0, 0.0), (0.0, 2.0)];
+        assert!(is_convex(&tri));
+        let sq = vec![(0.5, 0.5), (1.5, 0.5), (1.5, 1.5), (0.5, 1.5)];
+        let p = clip_convex(sq, &tri);
+        // The triangle's hypotenuse x + y = 2 cuts the square [0.5, 1.5]² along its
+        // diagonal (1.5, 0.5)-(0.5, 1.5), leaving a right triangle of area 0.5.
+        let area: f64 = (0..p.len())
+            .map(|i| {
+                let (a, b) = (p[i], p[(i + 1) % p.len()]);
+                a.0 * b.1 - b.0 * a.1
+            })
+            .sum::<f64>()
+            / 2.0;
+        assert!((area.abs() - 0.5).abs() < 1e-12, "area {area}, {p:?}");
+        // Clockwise clip polygon gives the same result.
+        let cw: Vec<(f64, f64)> = tri.iter().rev().copied().collect();
+        let q = clip_convex(vec![(0.5, 0.5), (1.5, 0.5), (1.5, 1.5), (0.5, 1.5)], &cw);
+        assert_eq!(q.len(), p.len());
+        assert!(!is_convex(&[(0.0, 0.0), (2.0, 0.0), (1.0, 0.5), (2.0, 2.0), (0.0, 2.0)]));
     }
 
     #[test]

@@ -543,7 +543,7 @@ pub(crate) fn xy_chart<'a, DB: DrawingBackend>(
     b.margin(12)
         .margin_right(22)
         .x_label_area_size(52)
-        .y_label_area_size(72);
+        .y_label_area_size(66);
     if !caption.is_empty() {
         b.caption(caption, caption_style());
     }
