@@ -146,3 +146,47 @@ fn boundary_aware_reads_the_protocol_it_runs_in() {
     assert_eq!(long_n, 0);
     assert!(short_n >= 3, "{short_n}");
 }
+
+#[test]
+fn boundary_aware_wraps_another_strategy() {
+    use drive_sim::protocol::samplers::boundary_aware::BoundaryAware;
+    use drive_sim::protocol::samplers::metrics::acceleration_coverage;
+    let (robot, _) = Robot::resolve("husky").unwrap();
+    let space = robot.command_space();
+    let cfg = ProtocolConfig {
+        steps: 60,
+        ..Default::default()
+    };
+    let (mut plain_h, mut wrapped_h, mut wrapped_int) = (0.0, 0.0, 0);
+    for seed in 1..=3 {
+        let run = |sampler: Box<dyn drive_sim::protocol::sampler::Sampler>| {
+            let mut plant = IdealPlant::new(robot.idd(), robot.powertrain.time_constant_s);
+            let mut rec = Recorder(sampler, Vec::new());
+            let sum = run_drive(&mut plant, &robot, &mut rec, &cfg, &mut Discard).unwrap();
+            (
+                sum,
+                acceleration_coverage(&space, &rec.1, 10)
+                    .linear
+                    .normalized_entropy(),
+            )
+        };
+        let inner = make_sampler("spread-accel", seed).unwrap();
+        let wrapped = BoundaryAware::wrapping(inner, &cfg);
+        assert_eq!(
+            drive_sim::protocol::sampler::Sampler::name(&wrapped),
+            "boundary-aware(spread-accel)"
+        );
+        let (sw, hw) = run(Box::new(wrapped));
+        let (_, hp) = run(make_sampler("boundary-aware", seed).unwrap());
+        wrapped_int += sw.interruptions;
+        wrapped_h += hw;
+        plain_h += hp;
+    }
+    println!(
+        "boundary-aware H(|dvx|) {:.3}, wrapping spread-accel {:.3}",
+        plain_h / 3.0,
+        wrapped_h / 3.0
+    );
+    assert!(wrapped_int <= 2, "{wrapped_int}");
+    assert!(wrapped_h > plain_h + 0.15, "{wrapped_h} vs {plain_h}");
+}

@@ -11,14 +11,16 @@
 //! excursion beyond the border. Predictions ignore slip: on low-friction terrain the robot
 //! drifts and some interruptions remain. Feasible commands near a border are the slow and
 //! turning ones, so this strategy under-samples fast straight commands in small areas.
+//!
+//! The candidates come from another strategy: uniform draws (`uniform-wheel`) by default, any
+//! sampler with [`BoundaryAware::wrapping`] (e.g. `spread-accel` made boundary-aware).
 
+use super::uniform_wheel::UniformWheel;
 use super::SamplerEntry;
 use crate::kinematics::{CommandSpace, WheelSpeeds};
 use crate::log::Pose;
-use crate::protocol::sampler::{uniform_in_wheel_space, Sampler, SamplingContext};
+use crate::protocol::sampler::{Sampler, SamplingContext};
 use crate::protocol::ProtocolConfig;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 
 /// Registry entry.
 pub const ENTRY: SamplerEntry = SamplerEntry {
@@ -28,10 +30,12 @@ pub const ENTRY: SamplerEntry = SamplerEntry {
 };
 
 /// Rejects candidates whose predicted step would make the operator interrupt it.
-#[derive(Debug, Clone)]
 pub struct BoundaryAware {
-    rng: ChaCha8Rng,
-    /// Uniform candidates drawn per command.
+    /// Where candidates come from.
+    proposals: Box<dyn Sampler>,
+    /// `boundary-aware`, or `boundary-aware(<inner>)` for a wrapped strategy.
+    name: String,
+    /// Candidates drawn per command.
     pub candidates: usize,
     /// Duration of one step, s.
     pub horizon_s: f64,
@@ -53,10 +57,20 @@ impl BoundaryAware {
         Self::from_protocol(seed, &ProtocolConfig::default())
     }
 
-    /// Parameters matching `cfg` (step duration, operator deceleration and margin).
+    /// Uniform candidates, parameters matching `cfg` (step duration, operator deceleration and
+    /// margin).
     pub fn from_protocol(seed: u64, cfg: &ProtocolConfig) -> Self {
+        let mut s = Self::wrapping(Box::new(UniformWheel::new(seed)), cfg);
+        s.name = ENTRY.name.to_string();
+        s
+    }
+
+    /// Candidates drawn from `inner` (each call of its `next` is one candidate), parameters
+    /// matching `cfg`. Named `boundary-aware(<inner name>)`.
+    pub fn wrapping(inner: Box<dyn Sampler>, cfg: &ProtocolConfig) -> Self {
         Self {
-            rng: ChaCha8Rng::seed_from_u64(seed),
+            name: format!("{}({})", ENTRY.name, inner.name()),
+            proposals: inner,
             candidates: 32,
             horizon_s: cfg.window_s * cfg.windows_per_step as f64,
             operator_decel_m_s2: cfg.operator_decel_m_s2,
@@ -116,19 +130,13 @@ impl BoundaryAware {
 
 impl Sampler for BoundaryAware {
     fn name(&self) -> &str {
-        ENTRY.name
+        &self.name
     }
     fn next(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
         let mut best: Option<(f64, WheelSpeeds)> = None;
         for _ in 0..self.candidates.max(1) {
-            let c = uniform_in_wheel_space(ctx.space, &mut self.rng);
-            let e = self.excursion_m(
-                ctx.space,
-                ctx.pose,
-                ctx.previous,
-                c,
-                ctx.safe_half_extents_m,
-            );
+            let c = self.proposals.next(ctx);
+            let e = self.excursion_m(ctx.space, ctx.pose, ctx.previous, c, ctx.safe_half_extents_m);
             if e <= 0.0 {
                 return c;
             }
@@ -137,6 +145,21 @@ impl Sampler for BoundaryAware {
             }
         }
         best.map(|(_, c)| c).unwrap_or_default()
+    }
+}
+
+impl std::fmt::Debug for BoundaryAware {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BoundaryAware")
+            .field("name", &self.name)
+            .field("candidates", &self.candidates)
+            .field("horizon_s", &self.horizon_s)
+            .field("operator_decel_m_s2", &self.operator_decel_m_s2)
+            .field("border_margin_m", &self.border_margin_m)
+            .field("extra_margin_m", &self.extra_margin_m)
+            .field("lag_s", &self.lag_s)
+            .field("dt_s", &self.dt_s)
+            .finish()
     }
 }
 

@@ -81,4 +81,3 @@ impl Sampler for UniformStep {
         cands[k - 1]
     }
 }
-
