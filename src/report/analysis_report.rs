@@ -298,8 +298,15 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
         ("slip_wz_rad_s", "angular slip", "rad/s", Some(0.2)),
         ("rho", "ρ", "", Some(0.1)),
     ];
-    for (name, quantity, unit, spacing) in channels {
-        let panels: Vec<HeatPanel> = analyses.iter().filter_map(|a| heat_panel(a, name)).collect();
+    // One figure per robot and channel: U and the slip magnitudes differ between robots.
+    for (robot, (name, quantity, unit, spacing)) in
+        robots.iter().flat_map(|r| channels.iter().map(move |c| (r, *c)))
+    {
+        let panels: Vec<HeatPanel> = analyses
+            .iter()
+            .filter(|a| a.robot == *robot)
+            .filter_map(|a| heat_panel(a, name))
+            .collect();
         if panels.is_empty() {
             continue;
         }
@@ -323,7 +330,7 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
         )?;
         html.figure(
             format!("Smoothed steady-state {quantity} over U (kernel Σ = diag({}, {})), contour lines every {} {unit}.",
-                analyses[0].params.smoother.covariance.var_vx, analyses[0].params.smoother.covariance.var_wz, spacing.unwrap_or(0.0)),
+                panels_cov(&analyses, robot).0, panels_cov(&analyses, robot).1, spacing.unwrap_or(0.0)),
             &f,
         )?;
         figures.push(f);
@@ -431,6 +438,19 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
         html: html_path,
         figures,
     })
+}
+
+/// Kernel variances used for a robot's logs (the first of them).
+fn panels_cov(analyses: &[&Analysis], robot: &str) -> (f64, f64) {
+    analyses
+        .iter()
+        .find(|a| a.robot == robot)
+        .map_or((f64::NAN, f64::NAN), |a| {
+            (
+                a.params.smoother.covariance.var_vx,
+                a.params.smoother.covariance.var_wz,
+            )
+        })
 }
 
 fn verdict_text(v: &crate::analysis::crosscheck::Verdict) -> String {
