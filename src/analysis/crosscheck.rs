@@ -5,8 +5,9 @@
 //! * sign, scale and bias from the least-squares line through the per-window means
 //!   (measured = slope · reference + intercept); window means average the sample noise away,
 //!   so the slope is not attenuated by noise in the reference;
-//! * latency from the cross-correlation of the per-window de-meaned sample series (only the
-//!   variation inside a window carries timing information), pooled over windows, searched over
+//! * latency from the cross-correlation of the sample series, centred per window over the pairs
+//!   that overlap at each lag (only the variation inside a window carries timing information),
+//!   pooled over windows, using only samples whose pose derivative is centred, searched over
 //!   ±`max_lag_search_s`, refined by a parabola through the peak; positive = the measured signal
 //!   is late.
 //!
@@ -60,7 +61,7 @@ pub struct Comparison {
     pub fit: LinearFit,
     /// Estimated latency of the measured signal, s (positive = late).
     pub latency_s: f64,
-    /// Correlation of the de-meaned sample series at that latency.
+    /// Correlation of the (per-window centred) sample series at that latency.
     pub latency_correlation: f64,
 }
 
@@ -143,7 +144,8 @@ fn compare(
 ) -> Comparison {
     let mut mx = Vec::new();
     let mut my = Vec::new();
-    // De-meaned per-window series.
+    // Per-window sample series, NaN where unusable for timing (non-finite or one-sided
+    // derivative at the window's ends).
     let mut series: Vec<(Vec<f64>, Vec<f64>)> = Vec::new();
     for w in windows {
         let a: Vec<f64> = w.iter().map(measured.1).collect();
@@ -153,31 +155,40 @@ fn compare(
         if n == 0 {
             continue;
         }
-        let ma = a.iter().zip(&ok).filter(|p| *p.1).map(|p| p.0).sum::<f64>() / n as f64;
-        let mb = b.iter().zip(&ok).filter(|p| *p.1).map(|p| p.0).sum::<f64>() / n as f64;
-        my.push(ma);
-        mx.push(mb);
-        series.push((
-            a.iter().zip(&ok).map(|(x, o)| if *o { x - ma } else { f64::NAN }).collect(),
-            b.iter().zip(&ok).map(|(y, o)| if *o { y - mb } else { f64::NAN }).collect(),
-        ));
+        my.push(a.iter().zip(&ok).filter(|p| *p.1).map(|p| p.0).sum::<f64>() / n as f64);
+        mx.push(b.iter().zip(&ok).filter(|p| *p.1).map(|p| p.0).sum::<f64>() / n as f64);
+        let timing = |v: &[f64]| -> Vec<f64> {
+            v.iter().zip(w).map(|(x, s)| if x.is_finite() && s.centered { *x } else { f64::NAN }).collect()
+        };
+        series.push((timing(&a), timing(&b)));
     }
     let fit = linear_fit(&mx, &my);
     let max_lag = (params.max_lag_search_s * rate_hz).round() as i64;
+    // Pearson correlation at `lag`, each window centred over its own overlapping pairs (so a
+    // shift does not leave a constant offset that biases the peak), pooled over windows.
     let corr_at = |lag: i64| -> f64 {
         let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
         for (a, b) in &series {
-            for i in 0..b.len() as i64 {
-                let j = i + lag;
-                if j < 0 || j >= a.len() as i64 {
-                    continue;
-                }
-                let (x, y) = (a[j as usize], b[i as usize]);
-                if x.is_finite() && y.is_finite() {
-                    sab += x * y;
-                    saa += x * x;
-                    sbb += y * y;
-                }
+            let pairs: Vec<(f64, f64)> = (0..b.len() as i64)
+                .filter_map(|i| {
+                    let j = i + lag;
+                    if j < 0 || j >= a.len() as i64 {
+                        return None;
+                    }
+                    let (x, y) = (a[j as usize], b[i as usize]);
+                    (x.is_finite() && y.is_finite()).then_some((x, y))
+                })
+                .collect();
+            if pairs.len() < 3 {
+                continue;
+            }
+            let n = pairs.len() as f64;
+            let ma = pairs.iter().map(|p| p.0).sum::<f64>() / n;
+            let mb = pairs.iter().map(|p| p.1).sum::<f64>() / n;
+            for (x, y) in pairs {
+                sab += (x - ma) * (y - mb);
+                saa += (x - ma) * (x - ma);
+                sbb += (y - mb) * (y - mb);
             }
         }
         if saa > 0.0 && sbb > 0.0 {

@@ -86,6 +86,9 @@ pub struct SampleKinematics {
     pub enc_body: BodyVelocity,
     /// Commanded wheel speeds, rad/s.
     pub cmd: WheelSpeeds,
+    /// True when the derivative neighbourhood is symmetric (not clipped by the window's ends):
+    /// only such samples carry undistorted timing for the latency estimate.
+    pub centered: bool,
 }
 
 /// Estimates every velocity of the samples of one window (in time order).
@@ -126,6 +129,7 @@ pub fn window_kinematics(samples: &[Sample], half_width: usize, idd: &IdealDiffD
                 enc: m.enc,
                 enc_body: idd.body_from_wheels(m.enc),
                 cmd: m.cmd,
+                centered: i >= half_width && i + half_width < t.len(),
             }
         })
         .collect()
