@@ -7,7 +7,8 @@
 //!   so the slope is not attenuated by noise in the reference;
 //! * latency from the cross-correlation of the sample series, centred per window over the pairs
 //!   that overlap at each lag (only the variation inside a window carries timing information),
-//!   pooled over windows, using only samples whose pose derivative is centred, searched over
+//!   pooled over the transient windows (where the signals move), using only samples whose pose
+//!   derivative is centred, searched over
 //!   ±`max_lag_search_s`, refined by a parabola through the peak; positive = the measured signal
 //!   is late.
 //!
@@ -35,6 +36,8 @@ pub struct CrossCheckParams {
     pub max_latency_s: f64,
     /// Lag search range, s.
     pub max_lag_search_s: f64,
+    /// Below this |correlation| at the peak the latency is undetermined and not judged.
+    pub min_latency_correlation: f64,
 }
 
 impl Default for CrossCheckParams {
@@ -46,6 +49,7 @@ impl Default for CrossCheckParams {
             max_yaw_bias_rad_s: 0.05,
             max_latency_s: 0.1,
             max_lag_search_s: 0.5,
+            min_latency_correlation: 0.5,
         }
     }
 }
@@ -160,7 +164,11 @@ fn compare(
         let timing = |v: &[f64]| -> Vec<f64> {
             v.iter().zip(w).map(|(x, s)| if x.is_finite() && s.centered { *x } else { f64::NAN }).collect()
         };
-        series.push((timing(&a), timing(&b)));
+        // Timing from the transient windows only: in steady windows the signals are flat and
+        // their within-window variation is sensor noise, which dilutes the correlation peak.
+        if w.first().is_some_and(|s| s.window == 0) {
+            series.push((timing(&a), timing(&b)));
+        }
     }
     let fit = linear_fit(&mx, &my);
     let max_lag = (params.max_lag_search_s * rate_hz).round() as i64;
@@ -247,7 +255,7 @@ fn identity_verdict(c: &Comparison, scale_tol: f64, max_bias: Option<f64>, param
             faults.push(format!("bias {:+.4} (tolerance ±{b})", c.fit.intercept));
         }
     }
-    if c.latency_s.abs() > params.max_latency_s {
+    if c.latency_correlation.abs() >= params.min_latency_correlation && c.latency_s.abs() > params.max_latency_s {
         faults.push(format!("latency {:+.3} s (tolerance ±{} s)", c.latency_s, params.max_latency_s));
     }
     if faults.is_empty() {

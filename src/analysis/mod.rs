@@ -323,15 +323,12 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
                 mean_of(k.iter().map(|s| s.enc.left_rad_s)),
                 mean_of(k.iter().map(|s| s.enc.right_rad_s)),
             );
+            let pose = velocity::window_mean_body_velocity(seg.windows[w]);
             let wz = match source {
                 YawRateSource::Imu => mean_of(k.iter().map(|s| s.imu_wz_rad_s)),
-                YawRateSource::Pose => mean_of(k.iter().map(|s| s.pose.wz_rad_s)),
+                YawRateSource::Pose => pose.wz_rad_s,
             };
-            let body = BodyVelocity::new(
-                mean_of(k.iter().map(|s| s.pose.vx_m_s)),
-                mean_of(k.iter().map(|s| s.pose.vy_m_s)),
-                wz,
-            );
+            let body = BodyVelocity::new(pose.vx_m_s, pose.vy_m_s, wz);
             let rec = slip::slip(&idd, cmd, wheels, body);
             windows.push(WindowResult {
                 window: seg.windows[w].first().map_or(w as u32, |s| s.window),
