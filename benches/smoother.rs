@@ -59,7 +59,10 @@ fn benches(c: &mut Criterion) {
     let fast = FastParams::default();
     let sp = space();
     let mut group = c.benchmark_group("smoother");
-    group.sample_size(10).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(3));
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3));
     for &n in &[101usize, 1001] {
         let grid = Grid::with_counts(&sp, n, n);
         for &s in &[300usize, 3_000, 100_000] {

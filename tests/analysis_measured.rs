@@ -62,12 +62,24 @@ fn steady_wheel_slip_matches_hand_arithmetic() {
         let a = analyze(&log, &AnalysisParams::default()).unwrap();
         assert!(a.exclusions.is_empty(), "{:?}", a.exclusions);
         let st = a.stats;
-        assert!((st.left_rad_s.unwrap().median - median(left)).abs() < 1e-9, "{name}");
-        assert!((st.right_rad_s.unwrap().median - median(right)).abs() < 1e-9, "{name}");
+        assert!(
+            (st.left_rad_s.unwrap().median - median(left)).abs() < 1e-9,
+            "{name}"
+        );
+        assert!(
+            (st.right_rad_s.unwrap().median - median(right)).abs() < 1e-9,
+            "{name}"
+        );
         // A couple of steps individually.
         for s in [3usize, 42] {
             let e = by_step[&(s as u32)];
-            let got = a.steps.iter().find(|x| x.step == s as u32).unwrap().steady.slip_wheels;
+            let got = a
+                .steps
+                .iter()
+                .find(|x| x.step == s as u32)
+                .unwrap()
+                .steady
+                .slip_wheels;
             assert!((got.left_rad_s - (e.0 - e.2 / e.4 as f64)).abs() < 1e-9);
         }
     }
@@ -96,7 +108,11 @@ fn steady_vx_slip_matches_displacement_arithmetic() {
     let log = read_measured_csv(format!("{DIR}/{name}.csv")).unwrap();
     let a = analyze(&log, &AnalysisParams::default()).unwrap();
     let (mut diffs, mut hand, mut pipe) = (Vec::new(), Vec::new(), Vec::new());
-    for step in a.steps.iter().filter(|s| s.steady.realized_body.wz_rad_s.abs() < 0.05) {
+    for step in a
+        .steps
+        .iter()
+        .filter(|s| s.steady.realized_body.wz_rad_s.abs() < 0.05)
+    {
         let mut vxs = Vec::new();
         let mut cmd = (0.0, 0.0);
         for w in 1..=2u32 {
@@ -133,7 +149,12 @@ fn steady_vx_slip_matches_displacement_arithmetic() {
         hand.push(slip);
         pipe.push(step.steady.slip_body.vx_m_s);
     }
-    eprintln!("low-rotation steps: {}, |diff| median {:.4}, max {:.4}", diffs.len(), median(diffs.clone()), diffs.iter().cloned().fold(0.0, f64::max));
+    eprintln!(
+        "low-rotation steps: {}, |diff| median {:.4}, max {:.4}",
+        diffs.len(),
+        median(diffs.clone()),
+        diffs.iter().cloned().fold(0.0, f64::max)
+    );
     assert!(diffs.len() >= 5, "only {} low-rotation steps", diffs.len());
     // The two estimators weight the samples differently (end points vs local lines), so they
     // differ where the speed still drifts inside a window; typically by well under 2 cm/s.
@@ -162,8 +183,14 @@ fn pipeline_agrees_with_the_source_reference_velocity() {
             ours.push(s.steady.realized_body.vx_m_s);
         }
         let fit = drive_sim::analysis::stats::linear_fit(&theirs, &ours);
-        eprintln!("{name}: ours = {:.3} ref {:+.3}, r {:.4}", fit.slope, fit.intercept, fit.correlation);
-        assert!((fit.slope - 1.0).abs() < 0.1 && fit.intercept.abs() < 0.1 && fit.correlation > 0.97, "{name}: {fit:?}");
+        eprintln!(
+            "{name}: ours = {:.3} ref {:+.3}, r {:.4}",
+            fit.slope, fit.intercept, fit.correlation
+        );
+        assert!(
+            (fit.slope - 1.0).abs() < 0.1 && fit.intercept.abs() < 0.1 && fit.correlation > 0.97,
+            "{name}: {fit:?}"
+        );
     }
 }
 
@@ -171,13 +198,21 @@ fn pipeline_agrees_with_the_source_reference_velocity() {
 fn crosscheck_finds_the_inverted_imus() {
     // Found on these files: the IMU yaw rate of warthog_ice and warthog_gravel has the opposite
     // sign of the ICP yaw rate and of the encoders; asphalt and husky agree.
-    for (name, inverted) in [("warthog_asphalt", false), ("warthog_ice", true), ("warthog_gravel", true), ("husky_2023", false)] {
+    for (name, inverted) in [
+        ("warthog_asphalt", false),
+        ("warthog_ice", true),
+        ("warthog_gravel", true),
+        ("husky_2023", false),
+    ] {
         let log = read_measured_csv(format!("{DIR}/{name}.csv")).unwrap();
         let a = analyze(&log, &AnalysisParams::default()).unwrap();
         let v = a.crosscheck.verdict("imu_yaw_rate").unwrap();
         let c = a.crosscheck.comparison("imu_wz", "pose_wz").unwrap();
         if inverted {
-            assert!(matches!(v, Verdict::Fault { description } if description.contains("sign inverted")), "{name}: {v:?}");
+            assert!(
+                matches!(v, Verdict::Fault { description } if description.contains("sign inverted")),
+                "{name}: {v:?}"
+            );
             assert_eq!(a.yaw_rate_source, YawRateSource::Pose, "{name}");
             assert!(c.fit.slope < -0.8);
         } else {
@@ -198,7 +233,11 @@ fn report() {
         let a = analyze(&log, &AnalysisParams::default()).unwrap();
         let s = &a.stats;
         let m = |b: Option<drive_sim::analysis::stats::BoxStats>| b.map_or(f64::NAN, |b| b.median);
-        println!("== {name}: {} steps analysed, {} excluded", a.steps.len(), a.exclusions.len());
+        println!(
+            "== {name}: {} steps analysed, {} excluded",
+            a.steps.len(),
+            a.exclusions.len()
+        );
         println!(
             "median steady slip: vx {:.3} m/s, vy {:.3} m/s, wz {:.3} rad/s, left {:.3} rad/s, right {:.3} rad/s; median rho {:.3}",
             m(s.vx_m_s),
@@ -209,7 +248,10 @@ fn report() {
             m(s.rho)
         );
         let r = ideal_dd_rmse(&log).unwrap();
-        println!("IDD RMSE: vx {:.3} m/s, vy {:.3} m/s, wz {:.3} rad/s", r.vx_m_s, r.vy_m_s, r.wz_rad_s);
+        println!(
+            "IDD RMSE: vx {:.3} m/s, vy {:.3} m/s, wz {:.3} rad/s",
+            r.vx_m_s, r.vy_m_s, r.wz_rad_s
+        );
         println!(
             "area of T: B {:.1} % (hull {:.1} %), W {:.1} % (hull {:.1} %); lateral q2.5/50/97.5 {:.3}/{:.3}/{:.3}, max |vy| {:.3}",
             a.spaces.t_area_pct_body,
@@ -221,11 +263,20 @@ fn report() {
             a.spaces.lateral.quantiles_m_s[4],
             a.spaces.lateral.max_abs_m_s
         );
-        println!("yaw rate source: {:?} ({})", a.yaw_rate_source, a.crosscheck.yaw_rate_reason);
+        println!(
+            "yaw rate source: {:?} ({})",
+            a.yaw_rate_source, a.crosscheck.yaw_rate_reason
+        );
         for c in &a.crosscheck.comparisons {
             println!(
                 "  {} vs {}: slope {:.3}, intercept {:+.4}, r {:.3}, latency {:+.3} s (r {:.3})",
-                c.measured, c.reference, c.fit.slope, c.fit.intercept, c.fit.correlation, c.latency_s, c.latency_correlation
+                c.measured,
+                c.reference,
+                c.fit.slope,
+                c.fit.intercept,
+                c.fit.correlation,
+                c.latency_s,
+                c.latency_correlation
             );
         }
         for v in &a.crosscheck.verdicts {
@@ -233,12 +284,29 @@ fn report() {
         }
         println!("max K over U: {:.0} J", a.max_kinetic_energy.k_max_j);
         for sc in &a.risk {
-            println!("  risk {:?}: n {}, median rho {:.3}, median K_x {:.1} J", sc.motion, sc.n, sc.median_rho, sc.median_k_x_j);
+            println!(
+                "  risk {:?}: n {}, median rho {:.3}, median K_x {:.1} J",
+                sc.motion, sc.n, sc.median_rho, sc.median_k_x_j
+            );
         }
         if let Some(t) = &a.transfer {
             let b = t.smoothed.error_bound.as_ref().unwrap();
-            let mb = b.iter().map(|f| f.iter().zip(&t.grid.inside).filter(|p| *p.1).map(|p| *p.0).fold(0.0, f64::max)).collect::<Vec<_>>();
-            println!("  transfer grid {}x{}, max error bounds {:?}", t.grid.vx_m_s.len(), t.grid.wz_rad_s.len(), mb);
+            let mb = b
+                .iter()
+                .map(|f| {
+                    f.iter()
+                        .zip(&t.grid.inside)
+                        .filter(|p| *p.1)
+                        .map(|p| *p.0)
+                        .fold(0.0, f64::max)
+                })
+                .collect::<Vec<_>>();
+            println!(
+                "  transfer grid {}x{}, max error bounds {:?}",
+                t.grid.vx_m_s.len(),
+                t.grid.wz_rad_s.len(),
+                mb
+            );
         }
     }
 }

@@ -66,7 +66,11 @@ fn truth(cmd: WheelSpeeds, o: &Synth, t: f64) -> BodyVelocity {
     let ss = meta().nominal.idd().body_from_wheels(cmd);
     let rise = 1.0 - (-t / 0.4).exp();
     let wobble = 0.05 * (2.0 * std::f64::consts::PI * 1.3 * t).sin();
-    BodyVelocity::new(o.body_gain * ss.vx_m_s * rise, o.vy_m_s * rise, o.body_gain * ss.wz_rad_s * rise + wobble)
+    BodyVelocity::new(
+        o.body_gain * ss.vx_m_s * rise,
+        o.vy_m_s * rise,
+        o.body_gain * ss.wz_rad_s * rise + wobble,
+    )
 }
 
 /// Frames of a DRIVE run over CMDS, pose integrated in one continuous odom frame (as a
@@ -102,7 +106,8 @@ fn frames(o: Synth) -> Vec<Frame> {
                     pose: Pose {
                         x_m: x,
                         y_m: y,
-                        yaw_rad: (psi + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI,
+                        yaw_rad: (psi + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                            - std::f64::consts::PI,
                         ..Default::default()
                     },
                     imu: ImuReading {
@@ -162,9 +167,15 @@ fn known_slips_are_recovered() {
         let rise = |t0: f64, t1: f64| 1.0 - 0.4 * ((-t0 / 0.4f64).exp() - (-t1 / 0.4f64).exp()) / (t1 - t0);
         let k = rise(2.0, 6.0);
         let g = s.steady.slip_body;
-        assert!((g.vx_m_s - (u.vx_m_s - 0.8 * k * u.vx_m_s)).abs() < 0.02, "{g:?} vs {u:?}");
+        assert!(
+            (g.vx_m_s - (u.vx_m_s - 0.8 * k * u.vx_m_s)).abs() < 0.02,
+            "{g:?} vs {u:?}"
+        );
         assert!((g.vy_m_s - (-0.1 * k)).abs() < 0.02, "{g:?}");
-        assert!((g.wz_rad_s - (u.wz_rad_s - 0.8 * k * u.wz_rad_s)).abs() < 0.01, "{g:?} vs {u:?}");
+        assert!(
+            (g.wz_rad_s - (u.wz_rad_s - 0.8 * k * u.wz_rad_s)).abs() < 0.01,
+            "{g:?} vs {u:?}"
+        );
         // Wheels at 0.9 of the command: slip = 0.1 cmd exactly.
         assert!((s.steady.slip_wheels.left_rad_s - 0.1 * l).abs() < 1e-9);
         assert!((s.steady.slip_wheels.right_rad_s - 0.1 * r).abs() < 1e-9);
@@ -173,14 +184,33 @@ fn known_slips_are_recovered() {
     }
     // The IDD RMSE of vx is the RMS of (1 - 0.8 k) vx over the commands.
     let k = 1.0 - 0.4 * ((-5.0f64).exp() - (-15.0f64).exp()) / 4.0;
-    let rms = (CMDS.iter().map(|&(l, r)| ((1.0 - 0.8 * k) * 0.3 * (l + r) / 2.0).powi(2)).sum::<f64>() / CMDS.len() as f64).sqrt();
-    assert!((a.idd_rmse.vx_m_s - rms).abs() < 0.02, "{} vs {rms}", a.idd_rmse.vx_m_s);
-    assert!(a.crosscheck.verdicts.iter().take(3).all(|v| v.verdict.passed()), "{:?}", a.crosscheck.verdicts);
+    let rms = (CMDS
+        .iter()
+        .map(|&(l, r)| ((1.0 - 0.8 * k) * 0.3 * (l + r) / 2.0).powi(2))
+        .sum::<f64>()
+        / CMDS.len() as f64)
+        .sqrt();
+    assert!(
+        (a.idd_rmse.vx_m_s - rms).abs() < 0.02,
+        "{} vs {rms}",
+        a.idd_rmse.vx_m_s
+    );
+    assert!(
+        a.crosscheck.verdicts.iter().take(3).all(|v| v.verdict.passed()),
+        "{:?}",
+        a.crosscheck.verdicts
+    );
 }
 
 #[test]
 fn crosscheck_detects_an_inverted_imu() {
-    let log = DriveLog::from_frames(meta(), &frames(Synth { imu_sign: -1.0, ..good() }));
+    let log = DriveLog::from_frames(
+        meta(),
+        &frames(Synth {
+            imu_sign: -1.0,
+            ..good()
+        }),
+    );
     let a = analyze(&log, &quick()).unwrap();
     match a.crosscheck.verdict("imu_yaw_rate").unwrap() {
         Verdict::Fault { description } => assert!(description.contains("sign inverted"), "{description}"),
@@ -198,7 +228,13 @@ fn crosscheck_detects_an_inverted_imu() {
 #[test]
 fn crosscheck_measures_imu_latency() {
     // 4 samples = 0.2 s late.
-    let log = DriveLog::from_frames(meta(), &frames(Synth { imu_delay_samples: 4, ..good() }));
+    let log = DriveLog::from_frames(
+        meta(),
+        &frames(Synth {
+            imu_delay_samples: 4,
+            ..good()
+        }),
+    );
     let a = analyze(&log, &quick()).unwrap();
     let c = a.crosscheck.comparison("imu_wz", "pose_wz").unwrap();
     assert!((c.latency_s - 0.2).abs() < 0.03, "{c:?}");
@@ -208,7 +244,14 @@ fn crosscheck_measures_imu_latency() {
     }
     // No delay: latency ~ 0.
     let a = analyze(&DriveLog::from_frames(meta(), &frames(good())), &quick()).unwrap();
-    assert!(a.crosscheck.comparison("imu_wz", "pose_wz").unwrap().latency_s.abs() < 0.03);
+    assert!(
+        a.crosscheck
+            .comparison("imu_wz", "pose_wz")
+            .unwrap()
+            .latency_s
+            .abs()
+            < 0.03
+    );
 }
 
 #[test]
@@ -216,12 +259,25 @@ fn incomplete_steps_are_excluded_with_reasons() {
     let mut f = frames(good());
     // Step 1: drop window 2. Step 2: keep only 10 samples of window 1. Step 3: a NaN encoder.
     f.retain(|fr| match fr.phase {
-        Phase::Step { step: 1, window: 2, .. } => false,
-        Phase::Step { step: 2, window: 1, k, .. } => k < 10,
+        Phase::Step {
+            step: 1, window: 2, ..
+        } => false,
+        Phase::Step {
+            step: 2,
+            window: 1,
+            k,
+            ..
+        } => k < 10,
         _ => true,
     });
     for fr in f.iter_mut() {
-        if let Phase::Step { step: 3, window: 1, k: 5, .. } = fr.phase {
+        if let Phase::Step {
+            step: 3,
+            window: 1,
+            k: 5,
+            ..
+        } = fr.phase
+        {
             fr.m.enc.left_rad_s = f64::NAN;
         }
     }
@@ -234,7 +290,12 @@ fn incomplete_steps_are_excluded_with_reasons() {
     assert!(reason(2).contains("window 1 has 10 samples"), "{}", reason(2));
     assert!(reason(3).contains("non-finite"), "{}", reason(3));
     // The summary rows carry the exclusions too.
-    let ex: Vec<u32> = a.rows.iter().filter(|r| r.excluded.is_some()).map(|r| r.step).collect();
+    let ex: Vec<u32> = a
+        .rows
+        .iter()
+        .filter(|r| r.excluded.is_some())
+        .map(|r| r.step)
+        .collect();
     assert_eq!(ex, vec![1, 2, 3]);
     // 5 analysed steps x (3 windows + steady) + 3 excluded rows.
     assert_eq!(a.rows.len(), 5 * 4 + 3);
@@ -242,11 +303,20 @@ fn incomplete_steps_are_excluded_with_reasons() {
 
 #[test]
 fn nothing_to_analyse_is_an_error() {
-    let f: Vec<Frame> = frames(good()).into_iter().filter(|fr| !matches!(fr.phase, Phase::Step { window: 2, .. })).collect();
+    let f: Vec<Frame> = frames(good())
+        .into_iter()
+        .filter(|fr| !matches!(fr.phase, Phase::Step { window: 2, .. }))
+        .collect();
     let log = DriveLog::from_frames(meta(), &f);
     match analyze(&log, &quick()) {
-        Err(drive_sim::Error::Analysis(m)) => assert!(m.contains("no complete step") && m.contains("missing window"), "{m}"),
-        other => panic!("expected an analysis error, got {:?}", other.map(|a| a.steps.len())),
+        Err(drive_sim::Error::Analysis(m)) => assert!(
+            m.contains("no complete step") && m.contains("missing window"),
+            "{m}"
+        ),
+        other => panic!(
+            "expected an analysis error, got {:?}",
+            other.map(|a| a.steps.len())
+        ),
     }
 }
 

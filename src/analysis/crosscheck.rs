@@ -129,11 +129,16 @@ pub struct CrossCheck {
 impl CrossCheck {
     /// The verdict on a channel, if checked.
     pub fn verdict(&self, sensor: &str) -> Option<&Verdict> {
-        self.verdicts.iter().find(|v| v.sensor == sensor).map(|v| &v.verdict)
+        self.verdicts
+            .iter()
+            .find(|v| v.sensor == sensor)
+            .map(|v| &v.verdict)
     }
     /// The comparison of `measured` against `reference`, if made.
     pub fn comparison(&self, measured: &str, reference: &str) -> Option<&Comparison> {
-        self.comparisons.iter().find(|c| c.measured == measured && c.reference == reference)
+        self.comparisons
+            .iter()
+            .find(|c| c.measured == measured && c.reference == reference)
     }
 }
 
@@ -154,7 +159,11 @@ fn compare(
     for w in windows {
         let a: Vec<f64> = w.iter().map(measured.1).collect();
         let b: Vec<f64> = w.iter().map(reference.1).collect();
-        let ok: Vec<bool> = a.iter().zip(&b).map(|(x, y)| x.is_finite() && y.is_finite()).collect();
+        let ok: Vec<bool> = a
+            .iter()
+            .zip(&b)
+            .map(|(x, y)| x.is_finite() && y.is_finite())
+            .collect();
         let n = ok.iter().filter(|&&o| o).count();
         if n == 0 {
             continue;
@@ -162,7 +171,10 @@ fn compare(
         my.push(a.iter().zip(&ok).filter(|p| *p.1).map(|p| p.0).sum::<f64>() / n as f64);
         mx.push(b.iter().zip(&ok).filter(|p| *p.1).map(|p| p.0).sum::<f64>() / n as f64);
         let timing = |v: &[f64]| -> Vec<f64> {
-            v.iter().zip(w).map(|(x, s)| if x.is_finite() && s.centered { *x } else { f64::NAN }).collect()
+            v.iter()
+                .zip(w)
+                .map(|(x, s)| if x.is_finite() && s.centered { *x } else { f64::NAN })
+                .collect()
         };
         // Timing from the transient windows only: in steady windows the signals are flat and
         // their within-window variation is sensor noise, which dilutes the correlation peak.
@@ -232,13 +244,25 @@ fn compare(
 fn describe(c: &Comparison) -> String {
     format!(
         "{} = {:.3} x {} {:+.4} (r = {:.3}, {} windows), latency {:+.3} s (r = {:.3})",
-        c.measured, c.fit.slope, c.reference, c.fit.intercept, c.fit.correlation, c.fit.n, c.latency_s, c.latency_correlation
+        c.measured,
+        c.fit.slope,
+        c.reference,
+        c.fit.intercept,
+        c.fit.correlation,
+        c.fit.n,
+        c.latency_s,
+        c.latency_correlation
     )
 }
 
 /// Verdict on a signal that should equal its reference (slope 1, no bias, no latency).
-fn identity_verdict(c: &Comparison, scale_tol: f64, max_bias: Option<f64>, params: &CrossCheckParams) -> Verdict {
-    if !(c.fit.correlation.abs() >= params.min_correlation) {
+fn identity_verdict(
+    c: &Comparison,
+    scale_tol: f64,
+    max_bias: Option<f64>,
+    params: &CrossCheckParams,
+) -> Verdict {
+    if !c.fit.correlation.is_finite() || c.fit.correlation.abs() < params.min_correlation {
         return Verdict::Inconclusive {
             description: format!("|r| below {}: {}", params.min_correlation, describe(c)),
         };
@@ -255,8 +279,13 @@ fn identity_verdict(c: &Comparison, scale_tol: f64, max_bias: Option<f64>, param
             faults.push(format!("bias {:+.4} (tolerance ±{b})", c.fit.intercept));
         }
     }
-    if c.latency_correlation.abs() >= params.min_latency_correlation && c.latency_s.abs() > params.max_latency_s {
-        faults.push(format!("latency {:+.3} s (tolerance ±{} s)", c.latency_s, params.max_latency_s));
+    if c.latency_correlation.abs() >= params.min_latency_correlation
+        && c.latency_s.abs() > params.max_latency_s
+    {
+        faults.push(format!(
+            "latency {:+.3} s (tolerance ±{} s)",
+            c.latency_s, params.max_latency_s
+        ));
     }
     if faults.is_empty() {
         Verdict::Pass
@@ -297,9 +326,12 @@ pub fn cross_check(windows: &[Vec<SampleKinematics>], rate_hz: f64, params: &Cro
                 describe(&c_enc)
             ),
         }
-    } else if !(c_enc.fit.correlation.abs() >= params.min_correlation) {
+    } else if !c_enc.fit.correlation.is_finite() || c_enc.fit.correlation.abs() < params.min_correlation {
         Verdict::Inconclusive {
-            description: format!("pose yaw rate weakly correlated with the encoders: {}", describe(&c_enc)),
+            description: format!(
+                "pose yaw rate weakly correlated with the encoders: {}",
+                describe(&c_enc)
+            ),
         }
     } else {
         Verdict::Pass
@@ -309,7 +341,12 @@ pub fn cross_check(windows: &[Vec<SampleKinematics>], rate_hz: f64, params: &Cro
             description: "reference (pose) yaw rate is itself inverted".to_string(),
         }
     } else {
-        identity_verdict(&c_imu, params.yaw_scale_tolerance, Some(params.max_yaw_bias_rad_s), params)
+        identity_verdict(
+            &c_imu,
+            params.yaw_scale_tolerance,
+            Some(params.max_yaw_bias_rad_s),
+            params,
+        )
     };
     // Encoders: IDD scale on a skid-steer is legitimately off (effective baseline), only the
     // sign and the correlation are checked.
@@ -319,15 +356,21 @@ pub fn cross_check(windows: &[Vec<SampleKinematics>], rate_hz: f64, params: &Cro
             faults.push(format!("forward speed sign inverted: {}", describe(&c_vx)));
         }
         if sign(&c_enc) < 0.0 && sign(&c_imu) > 0.0 {
-            faults.push(format!("yaw sign inverted (left/right swapped?): {}", describe(&c_enc)));
+            faults.push(format!(
+                "yaw sign inverted (left/right swapped?): {}",
+                describe(&c_enc)
+            ));
         }
         if !faults.is_empty() {
             Verdict::Fault {
                 description: faults.join("; "),
             }
-        } else if !(c_vx.fit.correlation.abs() >= params.min_correlation) {
+        } else if !c_vx.fit.correlation.is_finite() || c_vx.fit.correlation.abs() < params.min_correlation {
             Verdict::Inconclusive {
-                description: format!("encoder speed weakly correlated with the pose: {}", describe(&c_vx)),
+                description: format!(
+                    "encoder speed weakly correlated with the pose: {}",
+                    describe(&c_vx)
+                ),
             }
         } else {
             Verdict::Pass

@@ -127,7 +127,11 @@ pub struct SampleKinematics {
 }
 
 /// Estimates every velocity of the samples of one window (in time order).
-pub fn window_kinematics(samples: &[Sample], half_width: usize, idd: &IdealDiffDrive) -> Vec<SampleKinematics> {
+pub fn window_kinematics(
+    samples: &[Sample],
+    half_width: usize,
+    idd: &IdealDiffDrive,
+) -> Vec<SampleKinematics> {
     let t: Vec<f64> = samples.iter().map(|s| s.t_in_step_s).collect();
     let x: Vec<f64> = samples.iter().map(|s| s.m.pose.x_m).collect();
     let y: Vec<f64> = samples.iter().map(|s| s.m.pose.y_m).collect();
@@ -190,7 +194,8 @@ mod tests {
                     x_m: r * (psi.sin() - psi0.sin()) + n,
                     y_m: -r * (psi.cos() - psi0.cos()) - n,
                     // Wrapped to (-pi, pi] as a real sensor reports it.
-                    yaw_rad: (psi + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI,
+                    yaw_rad: (psi + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                        - std::f64::consts::PI,
                     ..Default::default()
                 };
                 Sample {
@@ -238,7 +243,10 @@ mod tests {
     fn window_mean_on_a_circle_and_with_jitter() {
         // Exact on a circle: chords at mid-heading give v sinc(w dt / 2) = v (1 - 2.7e-4).
         let v = window_mean_body_velocity(&circle_samples(2.0, 0.8, 0.0));
-        assert!((v.vx_m_s - 2.0).abs() < 1e-3 && v.vy_m_s.abs() < 1e-9 && (v.wz_rad_s - 0.8).abs() < 1e-9, "{v:?}");
+        assert!(
+            (v.vx_m_s - 2.0).abs() < 1e-3 && v.vy_m_s.abs() < 1e-9 && (v.wz_rad_s - 0.8).abs() < 1e-9,
+            "{v:?}"
+        );
         // Sample-and-hold jitter of the positions (every other sample repeats the previous
         // one) leaves the line fit within 2 % while an end-point difference can be off by a
         // whole sample when the last sample is a held one.
