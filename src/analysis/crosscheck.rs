@@ -4,7 +4,8 @@
 //! For each comparison (a "measured" signal against a "reference"):
 //! * sign, scale and bias from the least-squares line through the per-window means
 //!   (measured = slope · reference + intercept); window means average the sample noise away,
-//!   so the slope is not attenuated by noise in the reference;
+//!   so the slope is not attenuated by noise in the reference. For the accelerometer, through
+//!   the half-window accelerations of the transient windows instead (see [`cross_check`]);
 //! * latency from the cross-correlation of the sample series, centred per window over the pairs
 //!   that overlap at each lag (only the variation inside a window carries timing information),
 //!   pooled over the transient windows (where the signals move), using only samples whose pose
@@ -297,7 +298,17 @@ fn identity_verdict(
 }
 
 /// Cross-checks the sensors over the given windows (each a time-ordered sample series).
-pub fn cross_check(windows: &[Vec<SampleKinematics>], rate_hz: f64, params: &CrossCheckParams) -> CrossCheck {
+///
+/// `accelerations` holds, per transient window, `[imu_ax, imu_ay, pose_ax, pose_ay]` from
+/// [`super::velocity::half_window_acceleration`]: sign, scale and bias of the accelerometer come
+/// from them (window means of steady windows carry no acceleration, only the gravity
+/// projection of the terrain's slope); its latency still comes from the sample series.
+pub fn cross_check(
+    windows: &[Vec<SampleKinematics>],
+    accelerations: &[[f64; 4]],
+    rate_hz: f64,
+    params: &CrossCheckParams,
+) -> CrossCheck {
     let imu_wz: (&str, Getter) = ("imu_wz", |s| s.imu_wz_rad_s);
     let pose_wz: (&str, Getter) = ("pose_wz", |s| s.pose.wz_rad_s);
     let enc_wz: (&str, Getter) = ("encoder_idd_wz", |s| s.enc_body.wz_rad_s);
@@ -311,8 +322,11 @@ pub fn cross_check(windows: &[Vec<SampleKinematics>], rate_hz: f64, params: &Cro
     let c_enc = compare(windows, enc_wz, pose_wz, rate_hz, params);
     let c_imu_enc = compare(windows, imu_wz, enc_wz, rate_hz, params);
     let c_vx = compare(windows, enc_vx, pose_vx, rate_hz, params);
-    let c_ax = compare(windows, imu_ax, pose_ax, rate_hz, params);
-    let c_ay = compare(windows, imu_ay, pose_ay, rate_hz, params);
+    let mut c_ax = compare(windows, imu_ax, pose_ax, rate_hz, params);
+    let mut c_ay = compare(windows, imu_ay, pose_ay, rate_hz, params);
+    let col = |i: usize| accelerations.iter().map(|a| a[i]).collect::<Vec<f64>>();
+    c_ax.fit = linear_fit(&col(2), &col(0));
+    c_ay.fit = linear_fit(&col(3), &col(1));
 
     let sign = |c: &Comparison| c.fit.slope.signum();
     let mut verdicts = Vec::new();

@@ -318,7 +318,15 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         })
         .collect();
     let all_windows: Vec<Vec<SampleKinematics>> = kin.iter().flatten().cloned().collect();
-    let crosscheck = crosscheck::cross_check(&all_windows, meta.rate_hz, &params.crosscheck);
+    let accelerations: Vec<[f64; 4]> = segments
+        .iter()
+        .filter_map(|s| {
+            s.windows
+                .first()
+                .and_then(|w| velocity::half_window_acceleration(w))
+        })
+        .collect();
+    let crosscheck = crosscheck::cross_check(&all_windows, &accelerations, meta.rate_hz, &params.crosscheck);
     let source = params.yaw_rate_source.unwrap_or(crosscheck.yaw_rate_source);
 
     let mut steps = Vec::with_capacity(segments.len());
@@ -420,7 +428,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         let sp = &params.smoother;
         let grid = Grid::over_space(&space, sp.resolution_vx_m_s, sp.resolution_wz_rad_s);
         let cmd_pts = pts(&|s| (s.steady.cmd_body.vx_m_s, s.steady.cmd_body.wz_rad_s));
-        let smoothed = smoother::smooth_fast(
+        let (method, smoothed) = smoother::smooth(
             &grid,
             &sp.covariance,
             &sp.fast,
@@ -430,6 +438,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         Some(TransferFunctions {
             grid,
             covariance: sp.covariance,
+            method,
             names: [
                 "slip_vx_m_s",
                 "slip_vy_m_s",

@@ -439,6 +439,68 @@ pub fn smooth_fast(
     }
 }
 
+/// Which implementation [`smooth`] used.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SmootherMethod {
+    /// [`smooth_exact`].
+    Exact,
+    /// [`smooth_fast`].
+    Fast,
+}
+
+/// Cost model of the choice in [`smooth`]: one kernel evaluation (an `exp`) of the exact
+/// smoother costs about this many multiply-adds of the fast one's convolution (measured by
+/// `benches/smoother.rs`: ~14 ns per evaluation vs ~0.3 ns per multiply-add on the 2-core
+/// development machine).
+pub const EXP_COST_IN_MACS: f64 = 40.0;
+
+/// Smooths with whichever implementation is cheaper: the fast smoother's cost depends on its
+/// lattice (about `(3 + channels) · lattice · taps` multiply-adds, independent of `s` and of
+/// the grid), the exact one's on `s · grid points in U`. With the paper's settings (a few
+/// hundred samples on a 0.1 grid) the exact smoother wins; with 10⁵ samples or a fine grid the
+/// fast one does.
+pub fn smooth(
+    grid: &Grid,
+    cov: &KernelCovariance,
+    fast: &FastParams,
+    points: &[(f64, f64)],
+    channels: &[&[f64]],
+) -> (SmootherMethod, Smoothed) {
+    match choose_method(grid, cov, fast, points.len(), channels.len()) {
+        SmootherMethod::Exact => (SmootherMethod::Exact, smooth_exact(grid, cov, points, channels)),
+        SmootherMethod::Fast => (
+            SmootherMethod::Fast,
+            smooth_fast(grid, cov, fast, points, channels),
+        ),
+    }
+}
+
+/// The cheaper implementation for `s` samples and `n_channels` channels (cost model of [`smooth`]).
+pub fn choose_method(
+    grid: &Grid,
+    cov: &KernelCovariance,
+    fast: &FastParams,
+    s: usize,
+    n_channels: usize,
+) -> SmootherMethod {
+    let inside = grid.inside.iter().filter(|&&b| b).count() as f64;
+    let exact_cost = s as f64 * inside * (1.0 + n_channels as f64 / 4.0) * EXP_COST_IN_MACS;
+    let axis = |v: &[f64], var: f64| {
+        let h = var.sqrt() / fast.bins_per_sigma;
+        let taps = 2.0 * fast.truncation_sigmas * fast.bins_per_sigma + 1.0;
+        ((v[v.len() - 1] - v[0]) / h + 2.0, taps)
+    };
+    let (nx, tx) = axis(&grid.vx_m_s, cov.var_vx);
+    let (nz, tz) = axis(&grid.wz_rad_s, cov.var_wz);
+    let fast_cost = (3.0 + n_channels as f64) * (nz * nx * tx + nz * tz * nx);
+    if exact_cost <= fast_cost {
+        SmootherMethod::Exact
+    } else {
+        SmootherMethod::Fast
+    }
+}
+
 /// Grid and smoothed fields of the slip dimensions and ρ (the paper's transfer functions).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TransferFunctions {
@@ -448,7 +510,9 @@ pub struct TransferFunctions {
     pub covariance: KernelCovariance,
     /// Names of the fields, in the order of `smoothed.values`.
     pub names: Vec<String>,
-    /// The fields (fast smoother) and their error bounds.
+    /// Implementation used.
+    pub method: SmootherMethod,
+    /// The fields (and, for the fast smoother, their error bounds).
     pub smoothed: Smoothed,
 }
 
@@ -481,6 +545,20 @@ mod tests {
             }
         }
         out
+    }
+
+    #[test]
+    fn method_choice_follows_the_cost_model() {
+        let cov = KernelCovariance::default();
+        let fast = FastParams::default();
+        // The paper's setting (100 steps, 0.1 grid, 6 fields): exact. 10^5 samples on 1001^2: fast.
+        let coarse = Grid::over_space(&space(), 0.1, 0.1);
+        assert_eq!(choose_method(&coarse, &cov, &fast, 100, 6), SmootherMethod::Exact);
+        let fine = Grid::with_counts(&space(), 1001, 1001);
+        assert_eq!(
+            choose_method(&fine, &cov, &fast, 100_000, 1),
+            SmootherMethod::Fast
+        );
     }
 
     #[test]

@@ -100,6 +100,42 @@ pub fn window_mean_body_velocity(samples: &[Sample]) -> BodyVelocity {
     BodyVelocity::new(slope(&sx), slope(&sy), slope(&yaw))
 }
 
+/// Mean body acceleration over the middle of a (transient) window, from the pose and from the
+/// IMU, as `[imu_ax, imu_ay, pose_ax, pose_ay]` (m/s²).
+///
+/// The pose side differences the whole-half line-fit velocities of the two halves of the
+/// window (robust to the ICP jitter that ruins a second derivative per sample) and adds the
+/// rotating-frame terms: `ax = Δvx/Δt − wz vy`, `ay = Δvy/Δt + wz vx`. The IMU side is the mean
+/// specific force between the two half-centres. `None` with fewer than 8 samples.
+pub fn half_window_acceleration(samples: &[Sample]) -> Option<[f64; 4]> {
+    let n = samples.len();
+    if n < 8 {
+        return None;
+    }
+    let (a, b) = samples.split_at(n / 2);
+    let (va, vb) = (window_mean_body_velocity(a), window_mean_body_velocity(b));
+    let mean_t = |s: &[Sample]| s.iter().map(|x| x.t_in_step_s).sum::<f64>() / s.len() as f64;
+    let (ta, tb) = (mean_t(a), mean_t(b));
+    let dt = tb - ta;
+    if dt <= 0.0 {
+        return None;
+    }
+    let wz = 0.5 * (va.wz_rad_s + vb.wz_rad_s);
+    let vx = 0.5 * (va.vx_m_s + vb.vx_m_s);
+    let vy = 0.5 * (va.vy_m_s + vb.vy_m_s);
+    let mid: Vec<&Sample> = samples
+        .iter()
+        .filter(|s| s.t_in_step_s >= ta && s.t_in_step_s <= tb)
+        .collect();
+    let m = mid.len().max(1) as f64;
+    Some([
+        mid.iter().map(|s| s.m.imu.ax_m_s2).sum::<f64>() / m,
+        mid.iter().map(|s| s.m.imu.ay_m_s2).sum::<f64>() / m,
+        (vb.vx_m_s - va.vx_m_s) / dt - wz * vy,
+        (vb.vy_m_s - va.vy_m_s) / dt + wz * vx,
+    ])
+}
+
 /// Every velocity estimate of one sample of one window.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SampleKinematics {
