@@ -5,8 +5,10 @@
 //! stream of [`Frame`]s, one per 20 Hz tick, by [`DriveLog::from_frames`]; that one function
 //! decides which samples belong to which step and which attempts were interrupted.
 
+pub mod cdr;
 pub mod csv;
 pub mod mcap;
+pub mod ros_msgs;
 
 use crate::kinematics::{BodyVelocity, WheelSpeeds};
 use serde::{Deserialize, Serialize};
@@ -370,5 +372,14 @@ impl DriveLog {
         }
         let productive = self.steps().len() as f64 * self.meta.step_s();
         (productive / self.duration_s).min(1.0)
+    }
+}
+
+/// Reads a DRIVE log of either kind: a simulated `.mcap` or a measured `.csv` (with its JSON).
+pub fn read_log(path: &std::path::Path) -> crate::Result<DriveLog> {
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("mcap") => mcap::read_mcap(path),
+        Some("csv") => csv::read_measured_csv(path),
+        _ => Err(crate::Error::log(path, "file name", "expected a .mcap (simulated) or .csv (measured) DRIVE log")),
     }
 }
