@@ -236,6 +236,34 @@ fn crosscheck_finds_the_inverted_imus() {
     }
 }
 
+#[test]
+fn terrain_ratio_of_medians() {
+    let run = |n: &str| {
+        analyze(
+            &read_measured_csv(format!("{DIR}/{n}.csv")).unwrap(),
+            &AnalysisParams::default(),
+        )
+        .unwrap()
+    };
+    let (ice, asphalt, gravel) = (run("warthog_ice"), run("warthog_asphalt"), run("warthog_gravel"));
+    let ratio = drive_sim::analysis::rho_median_ratio(&ice, &[&asphalt, &gravel]);
+    // By hand: pool the other two terrains' step rhos, take both medians.
+    let mut pooled: Vec<f64> = asphalt
+        .steps
+        .iter()
+        .chain(&gravel.steps)
+        .map(|s| s.steady_rho.rho)
+        .collect();
+    pooled.sort_by(f64::total_cmp);
+    let mid = pooled.len() / 2; // 200 values: mean of the two middle ones
+    let m_others = 0.5 * (pooled[mid - 1] + pooled[mid]);
+    let m_ice = median(ice.steps.iter().map(|s| s.steady_rho.rho).collect());
+    assert!((ratio - m_ice / m_others).abs() < 1e-12);
+    eprintln!("median rho ice / (asphalt + gravel) = {ratio:.3}");
+    // The paper's finding holds on these files: ice is the least predictable.
+    assert!(ratio > 1.3, "{ratio}");
+}
+
 /// Prints every figure of the report; run with
 /// `cargo test --release --test analysis_measured -- --ignored --nocapture report`.
 #[test]
@@ -259,6 +287,15 @@ fn report() {
             m(s.left_rad_s),
             m(s.right_rad_s),
             m(s.rho)
+        );
+        let al = &s.along_command;
+        println!(
+            "median slip along the command: vx {:.3} m/s, |vy| {:.3} m/s, wz {:.3} rad/s, left {:.3} rad/s, right {:.3} rad/s",
+            m(al.vx_m_s),
+            m(al.vy_abs_m_s),
+            m(al.wz_rad_s),
+            m(al.left_rad_s),
+            m(al.right_rad_s)
         );
         let r = ideal_dd_rmse(&log).unwrap();
         println!(
