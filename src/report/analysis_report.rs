@@ -4,8 +4,8 @@
 
 use super::{
     box_plots, command_space_figure, heat_maps, histograms, risk_map, value_scatter, AxisLabel, BoxPanel,
-    ColourMap, ColourScale, CommandScenario, EnergyLimit, FigureFiles, Grid2, HeatPanel, HistPanel, HtmlReport,
-    KeyFigure, RiskScenario, Samples, ScatterPanel, ValuePoint, CHI2_2DOF_95,
+    ColourMap, ColourScale, CommandScenario, EnergyLimit, FigureFiles, Grid2, HeatPanel, HistPanel,
+    HtmlReport, KeyFigure, RiskScenario, Samples, ScatterPanel, ValuePoint, CHI2_2DOF_95,
 };
 use crate::analysis::{velocity, Analysis, StepResult};
 use crate::error::{Error, Result};
@@ -65,7 +65,8 @@ struct DatasetSummary<'a> {
 }
 
 fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
-    let text = serde_json::to_string_pretty(value).map_err(|e| Error::Report(format!("{}: {e}", path.display())))?;
+    let text =
+        serde_json::to_string_pretty(value).map_err(|e| Error::Report(format!("{}: {e}", path.display())))?;
     std::fs::write(path, text).map_err(|e| Error::io(path, e))
 }
 
@@ -81,7 +82,10 @@ fn transient_accelerations(log: &DriveLog, a: &Analysis) -> (Vec<f64>, Vec<f64>)
     let mut i = 0;
     let s = &log.samples;
     while i < s.len() {
-        let j = i + s[i..].iter().take_while(|x| x.step == s[i].step && x.window == s[i].window).count();
+        let j = i + s[i..]
+            .iter()
+            .take_while(|x| x.step == s[i].step && x.window == s[i].window)
+            .count();
         if s[i].window == 0 {
             for k in velocity::window_kinematics(&s[i..j], a.params.derivative_half_width, &idd) {
                 ax.push(k.pose_acc_m_s2.0);
@@ -139,7 +143,11 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
     let summary_path = dir.join("summary.json");
     write_json(
         &summary_path,
-        &Summary { tool: format!("drive-sim {}", env!("CARGO_PKG_VERSION")), datasets, median_rho_ratios },
+        &Summary {
+            tool: format!("drive-sim {}", env!("CARGO_PKG_VERSION")),
+            datasets,
+            median_rho_ratios,
+        },
     )?;
     let tf: Vec<_> = analyses.iter().map(|a| (&a.dataset, &a.transfer)).collect();
     let tf_path = dir.join("transfer_functions.json");
@@ -149,7 +157,11 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
     let mut figures = Vec::new();
     let mut html = HtmlReport::new(format!(
         "DRIVE analysis: {}",
-        analyses.iter().map(|a| a.dataset.as_str()).collect::<Vec<_>>().join(", ")
+        analyses
+            .iter()
+            .map(|a| a.dataset.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
     ));
     html.section("Key figures");
     html.paragraph(
@@ -157,7 +169,10 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
          differential drive) minus realized. Boxes: quartiles; whiskers: 2.5 and 97.5 %.",
     );
     for ((log, a), _) in items.iter().zip(0..) {
-        html.table(format!("{} ({} on {})", a.dataset, a.robot, a.terrain), &key_figures(log, a));
+        html.table(
+            format!("{} ({} on {})", a.dataset, a.robot, a.terrain),
+            &key_figures(log, a),
+        );
     }
 
     // Command spaces, one figure per robot (U differs).
@@ -177,29 +192,70 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
                 steady_body: a.steps.iter().map(|s| s.steady.realized_body).collect(),
             })
             .collect();
-        let f = command_space_figure(dir, &format!("command_space_{robot}"), &format!("{robot}: U, S and T"), &space, &scenarios)?;
+        let f = command_space_figure(
+            dir,
+            &format!("command_space_{robot}"),
+            &format!("{robot}: U, S and T"),
+            &space,
+            &scenarios,
+        )?;
         html.figure(format!("{robot}: command space U (outline), sampled commands S and reached steady-state velocities T, in the wheel frame W and the body frame B; lateral speed distribution."), &f)?;
         figures.push(f);
     }
 
     // Slip and rho box plots.
     let groups = |f: &dyn Fn(&StepResult) -> f64| -> Vec<Samples> {
-        analyses.iter().map(|a| Samples::new(label(a), steady(a, f))).collect()
+        analyses
+            .iter()
+            .map(|a| Samples::new(label(a), steady(a, f)))
+            .collect()
     };
     let panels = vec![
-        BoxPanel { title: "longitudinal".into(), value: AxisLabel::new("slip vx", "m/s"), groups: groups(&|s| s.steady.slip_body.vx_m_s) },
-        BoxPanel { title: "lateral".into(), value: AxisLabel::new("slip vy", "m/s"), groups: groups(&|s| s.steady.slip_body.vy_m_s) },
-        BoxPanel { title: "angular".into(), value: AxisLabel::new("slip wz", "rad/s"), groups: groups(&|s| s.steady.slip_body.wz_rad_s) },
-        BoxPanel { title: "left wheel".into(), value: AxisLabel::new("slip left", "rad/s"), groups: groups(&|s| s.steady.slip_wheels.left_rad_s) },
-        BoxPanel { title: "right wheel".into(), value: AxisLabel::new("slip right", "rad/s"), groups: groups(&|s| s.steady.slip_wheels.right_rad_s) },
+        BoxPanel {
+            title: "longitudinal".into(),
+            value: AxisLabel::new("slip vx", "m/s"),
+            groups: groups(&|s| s.steady.slip_body.vx_m_s),
+        },
+        BoxPanel {
+            title: "lateral".into(),
+            value: AxisLabel::new("slip vy", "m/s"),
+            groups: groups(&|s| s.steady.slip_body.vy_m_s),
+        },
+        BoxPanel {
+            title: "angular".into(),
+            value: AxisLabel::new("slip wz", "rad/s"),
+            groups: groups(&|s| s.steady.slip_body.wz_rad_s),
+        },
+        BoxPanel {
+            title: "left wheel".into(),
+            value: AxisLabel::new("slip left", "rad/s"),
+            groups: groups(&|s| s.steady.slip_wheels.left_rad_s),
+        },
+        BoxPanel {
+            title: "right wheel".into(),
+            value: AxisLabel::new("slip right", "rad/s"),
+            groups: groups(&|s| s.steady.slip_wheels.right_rad_s),
+        },
     ];
     html.section("Steady-state slip");
-    let f = box_plots(dir, "slip_boxplots", "Steady-state slip (body and wheel frames)", &panels)?;
-    html.figure("Steady-state slip per dataset in the body frame (vx, vy, wz) and the wheel frame (left, right).", &f)?;
+    let f = box_plots(
+        dir,
+        "slip_boxplots",
+        "Steady-state slip (body and wheel frames)",
+        &panels,
+    )?;
+    html.figure(
+        "Steady-state slip per dataset in the body frame (vx, vy, wz) and the wheel frame (left, right).",
+        &f,
+    )?;
     figures.push(f);
 
     html.section("Unpredictability ρ");
-    let rho_panel = [BoxPanel { title: "steady state".into(), value: AxisLabel::new("ρ", ""), groups: groups(&|s| s.steady_rho.rho) }];
+    let rho_panel = [BoxPanel {
+        title: "steady state".into(),
+        value: AxisLabel::new("ρ", ""),
+        groups: groups(&|s| s.steady_rho.rho),
+    }];
     let f = box_plots(dir, "rho_boxplot", "Unpredictability ρ per dataset", &rho_panel)?;
     html.figure("ρ of the steady state of every step.", &f)?;
     figures.push(f);
@@ -210,13 +266,27 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
             points: a
                 .steps
                 .iter()
-                .map(|s| ValuePoint { vx_m_s: s.steady.cmd_body.vx_m_s, wz_rad_s: s.steady.cmd_body.wz_rad_s, value: s.steady_rho.rho })
+                .map(|s| ValuePoint {
+                    vx_m_s: s.steady.cmd_body.vx_m_s,
+                    wz_rad_s: s.steady.cmd_body.wz_rad_s,
+                    value: s.steady_rho.rho,
+                })
                 .collect(),
             command_space: a.nominal.command_space().polygon_body(),
         })
         .collect();
-    let rho_scale = ColourScale { value: AxisLabel::new("ρ", ""), map: ColourMap::Viridis, range: Some((0.0, 1.0)) };
-    let f = value_scatter(dir, "rho_command_space", "ρ over the command space", &scatter, &rho_scale)?;
+    let rho_scale = ColourScale {
+        value: AxisLabel::new("ρ", ""),
+        map: ColourMap::Viridis,
+        range: Some((0.0, 1.0)),
+    };
+    let f = value_scatter(
+        dir,
+        "rho_command_space",
+        "ρ over the command space",
+        &scatter,
+        &rho_scale,
+    )?;
     html.figure("ρ of each step at its commanded (vx, wz).", &f)?;
     figures.push(f);
 
@@ -235,11 +305,22 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
         }
         let scale = ColourScale {
             value: AxisLabel::new(quantity, unit),
-            map: if name == "rho" { ColourMap::Viridis } else { ColourMap::Diverging },
+            map: if name == "rho" {
+                ColourMap::Viridis
+            } else {
+                ColourMap::Diverging
+            },
             range: if name == "rho" { Some((0.0, 1.0)) } else { None },
         };
         let stem = format!("tf_{name}");
-        let f = heat_maps(dir, &stem, &format!("Transfer function: {quantity}"), &panels, &scale, spacing)?;
+        let f = heat_maps(
+            dir,
+            &stem,
+            &format!("Transfer function: {quantity}"),
+            &panels,
+            &scale,
+            spacing,
+        )?;
         html.figure(
             format!("Smoothed steady-state {quantity} over U (kernel Σ = diag({}, {})), contour lines every {} {unit}.",
                 analyses[0].params.smoother.covariance.var_vx, analyses[0].params.smoother.covariance.var_wz, spacing.unwrap_or(0.0)),
@@ -269,11 +350,21 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
     for a in &analyses {
         let l = format!("{} max (IDD over U)", a.robot);
         if !limits.iter().any(|x| x.label == l) {
-            limits.push(EnergyLimit { label: l, energy_j: a.max_kinetic_energy.k_max_j });
+            limits.push(EnergyLimit {
+                label: l,
+                energy_j: a.max_kinetic_energy.k_max_j,
+            });
         }
     }
     if !risk.is_empty() {
-        let f = risk_map(dir, "risk_map", "Risk: likelihood ρ vs severity K_x", &risk, &limits, CHI2_2DOF_95)?;
+        let f = risk_map(
+            dir,
+            "risk_map",
+            "Risk: likelihood ρ vs severity K_x",
+            &risk,
+            &limits,
+            CHI2_2DOF_95,
+        )?;
         html.figure("Median and 95 % ellipse of (ρ, measured kinetic energy) per scenario (solid: translation-dominant, dashed: rotation-dominant); horizontal lines: maximum kinetic energy of each robot over U.", &f)?;
         figures.push(f);
     }
@@ -289,10 +380,32 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
         .collect();
     let limit = analyses.iter().find_map(|a| a.nominal.max_lin_acc_m_s2);
     let panels = vec![
-        HistPanel { title: "longitudinal".into(), value: AxisLabel::new("ax", "m/s²"), limit, series: acc.iter().map(|(l, x, _)| Samples::new(l.clone(), x.clone())).collect() },
-        HistPanel { title: "lateral".into(), value: AxisLabel::new("ay", "m/s²"), limit: None, series: acc.iter().map(|(l, _, y)| Samples::new(l.clone(), y.clone())).collect() },
+        HistPanel {
+            title: "longitudinal".into(),
+            value: AxisLabel::new("ax", "m/s²"),
+            limit,
+            series: acc
+                .iter()
+                .map(|(l, x, _)| Samples::new(l.clone(), x.clone()))
+                .collect(),
+        },
+        HistPanel {
+            title: "lateral".into(),
+            value: AxisLabel::new("ay", "m/s²"),
+            limit: None,
+            series: acc
+                .iter()
+                .map(|(l, _, y)| Samples::new(l.clone(), y.clone()))
+                .collect(),
+        },
     ];
-    let f = histograms(dir, "transient_accelerations", "Body accelerations in the first 2 s of each step", &panels, 40)?;
+    let f = histograms(
+        dir,
+        "transient_accelerations",
+        "Body accelerations in the first 2 s of each step",
+        &panels,
+        40,
+    )?;
     html.figure("Pose-derived body-frame accelerations over the transient window; dashed lines: the user acceleration limit where declared.", &f)?;
     figures.push(f);
 
@@ -303,12 +416,21 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
             .verdicts
             .iter()
             .map(|v| KeyFigure::new(&v.sensor, verdict_text(&v.verdict), ""))
-            .chain(std::iter::once(KeyFigure::new("yaw-rate source used", format!("{:?}: {}", a.yaw_rate_source, a.crosscheck.yaw_rate_reason), "")))
+            .chain(std::iter::once(KeyFigure::new(
+                "yaw-rate source used",
+                format!("{:?}: {}", a.yaw_rate_source, a.crosscheck.yaw_rate_reason),
+                "",
+            )))
             .collect();
         html.table(format!("{}: sensor verdicts", a.dataset), &rows);
     }
     let html_path = html.write(dir)?;
-    Ok(AnalysisReportFiles { summary: summary_path, transfer_functions: tf_path, html: html_path, figures })
+    Ok(AnalysisReportFiles {
+        summary: summary_path,
+        transfer_functions: tf_path,
+        html: html_path,
+        figures,
+    })
 }
 
 fn verdict_text(v: &crate::analysis::crosscheck::Verdict) -> String {
@@ -334,23 +456,61 @@ fn heat_panel(a: &Analysis, name: &str) -> Option<HeatPanel> {
             .map(|idx| Some(tf.smoothed.values[ch][idx]).filter(|v| v.is_finite()))
             .collect(),
     };
-    Some(HeatPanel { title: label(a), grid, command_space: a.nominal.command_space().polygon_body() })
+    Some(HeatPanel {
+        title: label(a),
+        grid,
+        command_space: a.nominal.command_space().polygon_body(),
+    })
 }
 
 fn key_figures(log: &DriveLog, a: &Analysis) -> Vec<KeyFigure> {
     let med = |b: Option<crate::analysis::stats::BoxStats>| b.map_or(f64::NAN, |b| b.median);
     let s = &a.stats;
     vec![
-        KeyFigure::new("steps analysed / excluded", format!("{} / {}", a.steps.len(), a.exclusions.len()), ""),
-        KeyFigure::new("interruptions / time efficiency", format!("{} / {:.1} %", log.interruptions.len(), 100.0 * log.time_efficiency()), ""),
+        KeyFigure::new(
+            "steps analysed / excluded",
+            format!("{} / {}", a.steps.len(), a.exclusions.len()),
+            "",
+        ),
+        KeyFigure::new(
+            "interruptions / time efficiency",
+            format!(
+                "{} / {:.1} %",
+                log.interruptions.len(),
+                100.0 * log.time_efficiency()
+            ),
+            "",
+        ),
         KeyFigure::new("median slip vx", format!("{:.3}", med(s.vx_m_s)), "m/s"),
         KeyFigure::new("median slip vy", format!("{:.3}", med(s.vy_m_s)), "m/s"),
         KeyFigure::new("median slip wz", format!("{:.3}", med(s.wz_rad_s)), "rad/s"),
-        KeyFigure::new("median slip left / right", format!("{:.2} / {:.2}", med(s.left_rad_s), med(s.right_rad_s)), "rad/s"),
+        KeyFigure::new(
+            "median slip left / right",
+            format!("{:.2} / {:.2}", med(s.left_rad_s), med(s.right_rad_s)),
+            "rad/s",
+        ),
         KeyFigure::new("median ρ", format!("{:.3}", med(s.rho)), ""),
-        KeyFigure::new("IDD RMSE vx / vy / wz", format!("{:.3} / {:.3} / {:.3}", a.idd_rmse.vx_m_s, a.idd_rmse.vy_m_s, a.idd_rmse.wz_rad_s), "m/s, m/s, rad/s"),
-        KeyFigure::new("area of T / U (body, wheels)", format!("{:.1} / {:.1}", a.spaces.t_area_pct_body, a.spaces.t_area_pct_wheels), "%"),
-        KeyFigure::new("max kinetic energy over U", format!("{:.0}", a.max_kinetic_energy.k_max_j), "J"),
+        KeyFigure::new(
+            "IDD RMSE vx / vy / wz",
+            format!(
+                "{:.3} / {:.3} / {:.3}",
+                a.idd_rmse.vx_m_s, a.idd_rmse.vy_m_s, a.idd_rmse.wz_rad_s
+            ),
+            "m/s, m/s, rad/s",
+        ),
+        KeyFigure::new(
+            "area of T / U (body, wheels)",
+            format!(
+                "{:.1} / {:.1}",
+                a.spaces.t_area_pct_body, a.spaces.t_area_pct_wheels
+            ),
+            "%",
+        ),
+        KeyFigure::new(
+            "max kinetic energy over U",
+            format!("{:.0}", a.max_kinetic_energy.k_max_j),
+            "J",
+        ),
         KeyFigure::new("yaw-rate source", format!("{:?}", a.yaw_rate_source), ""),
     ]
 }

@@ -1,6 +1,7 @@
 //! The `drive-sim` command line: what each subcommand does, and how it reports progress.
 
-use crate::error::{Error, Result};
+pub mod run;
+
 use crate::robot::{Robot, BUILTIN_ROBOTS};
 use crate::terrain::{Terrain, BUILTIN_TERRAINS};
 use clap::{Parser, Subcommand};
@@ -19,6 +20,8 @@ pub struct Cli {
 /// Subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Runs DRIVE in closed loop on a simulated robot and terrain; writes an MCAP log.
+    Run(run::RunArgs),
     /// Lists the robots (built-in and ./robots/*.toml).
     Robots,
     /// Lists the terrains (built-in and ./terrains/*.toml).
@@ -67,6 +70,15 @@ pub fn main() -> i32 {
 fn dispatch(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         None => Err(anyhow::anyhow!("no demo yet")),
+        Some(Command::Run(a)) => {
+            eprintln!(
+                "drive-sim: running DRIVE: {} on {}, {} steps, seed {}, sampler {}",
+                a.robot, a.terrain, a.steps, a.seed, a.sampler
+            );
+            let r = run::run(&a)?;
+            println!("{}", run::describe(&r));
+            Ok(())
+        }
         Some(Command::Robots) => list_robots(),
         Some(Command::Terrains) => list_terrains(),
         Some(Command::Analyze(a)) => analyze(&a),
@@ -135,7 +147,10 @@ fn analysis_params(args: &AnalyzeArgs) -> anyhow::Result<crate::analysis::Analys
         smoother: SmootherParams {
             resolution_vx_m_s: args.resolution,
             resolution_wz_rad_s: args.resolution,
-            covariance: KernelCovariance { var_vx: args.kernel_variance, var_wz: args.kernel_variance },
+            covariance: KernelCovariance {
+                var_vx: args.kernel_variance,
+                var_wz: args.kernel_variance,
+            },
             ..SmootherParams::default()
         },
         ..AnalysisParams::default()
@@ -151,13 +166,24 @@ fn analyze(args: &AnalyzeArgs) -> anyhow::Result<()> {
     }
     let mut analyses = Vec::new();
     for log in &logs {
-        eprintln!("drive-sim: analysing {} ({} on {}, {} steps)", log.meta.name, log.meta.robot, log.meta.terrain, log.steps().len());
+        eprintln!(
+            "drive-sim: analysing {} ({} on {}, {} steps)",
+            log.meta.name,
+            log.meta.robot,
+            log.meta.terrain,
+            log.steps().len()
+        );
         analyses.push(crate::analysis::analyze(log, &params)?);
     }
     let items: Vec<_> = logs.iter().zip(&analyses).collect();
     let files = crate::report::analysis_report::write_analysis_report(&items, &args.out)?;
     print_analysis_table(&analyses)?;
-    eprintln!("drive-sim: wrote {} and {} figures; report: {}", files.summary.display(), files.figures.len(), files.html.display());
+    eprintln!(
+        "drive-sim: wrote {} and {} figures; report: {}",
+        files.summary.display(),
+        files.figures.len(),
+        files.html.display()
+    );
     Ok(())
 }
 
@@ -167,7 +193,17 @@ fn print_analysis_table(analyses: &[crate::analysis::Analysis]) -> anyhow::Resul
     writeln!(
         out,
         "{:<18} {:>5} {:>4} {:>8} {:>8} {:>8} {:>7} {:>7} {:>6} {:>22} {:>7}  yaw source",
-        "dataset", "steps", "excl", "g_vx", "g_vy", "g_wz", "g_left", "g_right", "rho", "IDD RMSE vx/vy/wz", "T/U %"
+        "dataset",
+        "steps",
+        "excl",
+        "g_vx",
+        "g_vy",
+        "g_wz",
+        "g_left",
+        "g_right",
+        "rho",
+        "IDD RMSE vx/vy/wz",
+        "T/U %"
     )?;
     let med = |b: Option<crate::analysis::stats::BoxStats>| b.map_or(f64::NAN, |b| b.median);
     for a in analyses {
