@@ -30,7 +30,9 @@
 //!
 //! Bound per grid point: `range · [4c² · 1.02 (ε_x E_x + ε_z E_z) + s e^{−(K−2η)²/2}] / D̂`,
 //! returned by [`smooth_fast`]. With the defaults (K = 5, 48 lattice cells per σ), `E/D̂ ≈ 2`
-//! and the bound is about `1e-3 · range` in the interior; the observed error is far smaller.
+//! and the bound is about `1e-3 · range` inside U, up to `2.3e-3 · range` near its border where
+//! `D̂` is smaller (benches/smoother.rs, s = 10⁵ on 1001²); the observed error there was
+//! `3e-6 · range`: the bound is a guarantee, not an estimate.
 
 use crate::kinematics::{BodyVelocity, CommandSpace};
 use rayon::prelude::*;
