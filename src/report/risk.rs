@@ -9,8 +9,8 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::ellipse::ellipse_points;
 use super::style::{
-    canvas_height, finite_extent, note_style, outline_for, render, scenario_colour,
-    title_legend_body, widen, xy_chart, DrawResult, Figure, FigureFiles, LegendEntry, Swatch,
+    canvas_height, finite_extent, note_style, outline_for, render, scenario_colour, title_legend_body, widen,
+    xy_chart, DrawResult, Figure, FigureFiles, LegendEntry, Swatch,
 };
 use crate::{Error, Result};
 
@@ -40,9 +40,12 @@ pub struct EnergyLimit {
     pub energy_j: f64,
 }
 
+/// A scenario with its ellipse outline and colour.
+type Placed<'a> = (&'a RiskScenario, Vec<(f64, f64)>, RGBColor);
+
 struct RiskFig<'a> {
     title: &'a str,
-    ellipses: Vec<(&'a RiskScenario, Vec<(f64, f64)>, RGBColor)>,
+    ellipses: Vec<Placed<'a>>,
     limits: Vec<(&'a EnergyLimit, RGBColor)>,
     x: (f64, f64),
     y: (f64, f64),
@@ -89,7 +92,11 @@ impl Figure for RiskFig<'_> {
         for (s, _, c) in &self.ellipses {
             let p = (s.median_rho, s.median_energy_j);
             ch.draw_series(std::iter::once(Circle::new(p, 6, c.filled())))?;
-            ch.draw_series(std::iter::once(Circle::new(p, 6, outline_for(*c).stroke_width(1))))?;
+            ch.draw_series(std::iter::once(Circle::new(
+                p,
+                6,
+                outline_for(*c).stroke_width(1),
+            )))?;
         }
         Ok(())
     }
