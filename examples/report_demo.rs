@@ -11,8 +11,9 @@ use std::path::PathBuf;
 use drive_sim::kinematics::{BodyVelocity, CommandSpace, IdealDiffDrive, WheelSpeeds};
 use drive_sim::report::{
     box_plots, command_space_figure, heat_maps, histograms, line_bands, risk_map, value_scatter, AxisLabel,
-    BandPoint, BandSeries, BoxPanel, ColourMap, ColourScale, CommandScenario, EnergyLimit, Grid2, HeatPanel,
-    HistPanel, HtmlReport, KeyFigure, RiskScenario, Samples, ScatterPanel, ValuePoint, CHI2_2DOF_95,
+    BandPoint, BandSeries, BoxPanel, ColourMap, ColourScale, CommandScenario, EnergyAxis, EnergyLimit, Grid2,
+    HeatPanel, HistPanel, HtmlReport, KeyFigure, RiskScenario, Samples, ScatterPanel, ValuePoint,
+    CHI2_2DOF_95,
 };
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -340,10 +341,52 @@ fn main() -> drive_sim::Result<()> {
         &scenarios,
         &limits,
         CHI2_2DOF_95,
+        EnergyAxis::Linear,
     )?;
     report
         .section("Risk")
         .figure("Median and 95 % ellipse per scenario.", &f)?;
+    // Both robots on a log energy axis: covariance of (ρ, log10 E). The "Husky" here is the
+    // Warthog data scaled by mass (75/470) and speed squared ((1/5)^2); synthetic.
+    let husky_scale = 75.0 / 470.0 / 25.0;
+    let mut log_scen = vec![];
+    for (robot, k) in [("Warthog", 1.0), ("Husky", husky_scale)] {
+        for (t, r) in terrains.iter().zip(&runs).take(2) {
+            let rh: Vec<f64> = r.iter().map(|s| rho(s.cmd_b, s.body)).collect();
+            let le: Vec<f64> = r.iter().map(|s| (k * energy(s.body)).max(1e-3).log10()).collect();
+            log_scen.push(RiskScenario {
+                label: format!("{robot} {}", t.name),
+                colour_key: t.name.to_string(),
+                median_rho: median(&rh),
+                median_energy_j: 10f64.powf(median(&le)),
+                covariance: covariance(&rh, &le),
+                dashed: robot == "Husky",
+            });
+        }
+    }
+    let log_limits = [
+        EnergyLimit {
+            label: "Warthog max".into(),
+            energy_j: e_max,
+        },
+        EnergyLimit {
+            label: "Husky max".into(),
+            energy_j: e_max * husky_scale,
+        },
+    ];
+    let f = risk_map(
+        &out,
+        "risk_map_log",
+        "Risk: two robots, log severity",
+        &log_scen,
+        &log_limits,
+        CHI2_2DOF_95,
+        EnergyAxis::Log10,
+    )?;
+    report.figure(
+        "Log energy axis; ellipses from the covariance of (ρ, log10 E).",
+        &f,
+    )?;
 
     // 6. Accelerations of the first 2 s.
     let normal = |sd: f64, n: usize, rng: &mut ChaCha8Rng| -> Vec<f64> {

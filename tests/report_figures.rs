@@ -7,8 +7,8 @@ use drive_sim::kinematics::{BodyVelocity, CommandSpace, IdealDiffDrive, WheelSpe
 use drive_sim::report::{
     box_plots, command_space_figure, contour_segments, heat_maps, histograms, line_bands, risk_map,
     scenario_colour, value_scatter, AxisLabel, BandPoint, BandSeries, BoxPanel, ColourMap, ColourScale,
-    CommandScenario, EnergyLimit, FigureFiles, Grid2, HeatPanel, HistPanel, HtmlReport, KeyFigure,
-    RiskScenario, Samples, ScatterPanel, ValuePoint, CHI2_2DOF_95,
+    CommandScenario, EnergyAxis, EnergyLimit, FigureFiles, Grid2, HeatPanel, HistPanel, HtmlReport,
+    KeyFigure, RiskScenario, Samples, ScatterPanel, ValuePoint, CHI2_2DOF_95,
 };
 use drive_sim::Error;
 
@@ -297,7 +297,16 @@ fn risk_map_ellipses_and_limits() {
         label: "Husky max".into(),
         energy_j: 37.5,
     }];
-    let f = risk_map(dir.path(), "risk", "Risk", &scenarios, &limits, CHI2_2DOF_95).unwrap();
+    let f = risk_map(
+        dir.path(),
+        "risk",
+        "Risk",
+        &scenarios,
+        &limits,
+        CHI2_2DOF_95,
+        EnergyAxis::Linear,
+    )
+    .unwrap();
     let svg = check_files(
         &f,
         &["Husky ice, motion 2", "Husky max = 38 J", "kinetic energy [J]"],
@@ -310,10 +319,68 @@ fn risk_map_ellipses_and_limits() {
     }
     let mut bad = scenarios[0].clone();
     bad.covariance = [[1.0, 2.0], [2.0, 1.0]];
-    let e = risk_map(dir.path(), "risk2", "Risk", &[bad], &limits, CHI2_2DOF_95).unwrap_err();
+    let e = risk_map(
+        dir.path(),
+        "risk2",
+        "Risk",
+        &[bad],
+        &limits,
+        CHI2_2DOF_95,
+        EnergyAxis::Linear,
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("positive semi-definite"), "{e}");
-    assert!(risk_map(dir.path(), "risk3", "Risk", &[], &[], CHI2_2DOF_95).is_err());
-    assert!(risk_map(dir.path(), "risk4", "Risk", &scenarios[..1], &[], 0.0).is_err());
+    assert!(risk_map(
+        dir.path(),
+        "risk3",
+        "Risk",
+        &[],
+        &[],
+        CHI2_2DOF_95,
+        EnergyAxis::Linear
+    )
+    .is_err());
+    assert!(risk_map(
+        dir.path(),
+        "risk4",
+        "Risk",
+        &scenarios[..1],
+        &[],
+        0.0,
+        EnergyAxis::Linear
+    )
+    .is_err());
+    // Log axis: covariance of (ρ, log10 E); a zero-energy median cannot be placed.
+    let mut log_sc = vec![
+        sc("Warthog ice", "ice", 0.6, 3000.0, false),
+        sc("Husky ice", "ice", 0.5, 20.0, true),
+    ];
+    for s in &mut log_sc {
+        s.covariance = [[0.004, 0.001], [0.001, 0.04]];
+    }
+    log_sc.push(sc("standing", "mud", 0.9, 0.0, false));
+    let limits = [
+        EnergyLimit {
+            label: "Warthog max".into(),
+            energy_j: 5875.0,
+        },
+        EnergyLimit {
+            label: "Husky max".into(),
+            energy_j: 37.5,
+        },
+    ];
+    let f = risk_map(
+        dir.path(),
+        "risk5",
+        "Risk",
+        &log_sc,
+        &limits,
+        CHI2_2DOF_95,
+        EnergyAxis::Log10,
+    )
+    .unwrap();
+    check_files(&f, &["Warthog max = 5875 J", "Husky max = 38 J", "Husky ice"]);
+    assert_eq!(f.skipped_non_finite, 1);
 }
 
 #[test]

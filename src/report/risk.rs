@@ -3,14 +3,15 @@
 
 use std::path::Path;
 
-use plotters::coord::Shift;
+use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::ellipse::ellipse_points;
 use super::style::{
-    canvas_height, finite_extent, note_style, outline_for, render, scenario_colour, title_legend_body, widen,
-    xy_chart, DrawResult, Figure, FigureFiles, LegendEntry, Swatch,
+    axis_desc_style, canvas_height, finite_extent, fmt_tick, note_style, outline_for, render,
+    scenario_colour, tick_style, title_legend_body, widen, xy_chart, DrawResult, Figure, FigureFiles,
+    LegendEntry, Swatch,
 };
 use crate::{Error, Result};
 
@@ -40,7 +41,19 @@ pub struct EnergyLimit {
     pub energy_j: f64,
 }
 
-/// A scenario with its ellipse outline and colour.
+/// How the severity (kinetic energy) axis is scaled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum EnergyAxis {
+    /// Linear axis in J; [`RiskScenario::covariance`] is of (ρ, E in J).
+    #[default]
+    Linear,
+    /// Logarithmic axis (robots of very different mass on one map: Husky about 40 J, Warthog
+    /// about 6 kJ); [`RiskScenario::covariance`] is then of (ρ, log10(E / 1 J)), and the
+    /// ellipse, drawn around (median ρ, log10 median E), is an ellipse on the log axis.
+    Log10,
+}
+
+/// A scenario with its ellipse outline (in J) and colour.
 type Placed<'a> = (&'a RiskScenario, Vec<(f64, f64)>, RGBColor);
 
 struct RiskFig<'a> {
@@ -49,27 +62,21 @@ struct RiskFig<'a> {
     limits: Vec<(&'a EnergyLimit, RGBColor)>,
     x: (f64, f64),
     y: (f64, f64),
+    axis: EnergyAxis,
     legend: Vec<LegendEntry>,
 }
 
 const W: u32 = 900;
 const H: u32 = 620;
+const X_DESC: &str = "likelihood: unpredictability ρ [-]";
+const Y_DESC: &str = "severity: kinetic energy [J]";
 
-impl Figure for RiskFig<'_> {
-    fn size(&self) -> (u32, u32) {
-        (W, canvas_height(H, W, &self.legend))
-    }
-
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
-        let body = title_legend_body(root, self.title, &self.legend)?;
-        let mut ch = xy_chart(
-            &body,
-            "",
-            self.x,
-            self.y,
-            "likelihood: unpredictability ρ [-]",
-            "severity: kinetic energy [J]",
-        )?;
+impl RiskFig<'_> {
+    /// Draws limits, ellipses and medians on a chart of any y scale.
+    fn draw_content<DB: DrawingBackend, CT: CoordTranslate<From = (f64, f64)>>(
+        &self,
+        ch: &mut ChartContext<'_, DB, CT>,
+    ) -> DrawResult {
         for (l, c) in &self.limits {
             ch.draw_series(std::iter::once(PathElement::new(
                 vec![(self.x.0, l.energy_j), (self.x.1, l.energy_j)],
@@ -102,13 +109,50 @@ impl Figure for RiskFig<'_> {
     }
 }
 
+impl Figure for RiskFig<'_> {
+    fn size(&self) -> (u32, u32) {
+        (W, canvas_height(H, W, &self.legend))
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
+        let body = title_legend_body(root, self.title, &self.legend)?;
+        match self.axis {
+            EnergyAxis::Linear => {
+                let mut ch = xy_chart(&body, "", self.x, self.y, X_DESC, Y_DESC)?;
+                self.draw_content(&mut ch)
+            }
+            EnergyAxis::Log10 => {
+                let mut ch = ChartBuilder::on(&body)
+                    .margin(12)
+                    .margin_right(22)
+                    .x_label_area_size(52)
+                    .y_label_area_size(72)
+                    .build_cartesian_2d(self.x.0..self.x.1, (self.y.0..self.y.1).log_scale())?;
+                ch.configure_mesh()
+                    .light_line_style(WHITE.mix(0.0))
+                    .bold_line_style(BLACK.mix(0.08))
+                    .label_style(tick_style())
+                    .axis_desc_style(axis_desc_style())
+                    .x_desc(X_DESC)
+                    .y_desc(Y_DESC)
+                    .x_labels(7)
+                    .x_label_formatter(&fmt_tick)
+                    .y_label_formatter(&fmt_tick)
+                    .draw()?;
+                self.draw_content(&mut ch)
+            }
+        }
+    }
+}
+
 /// Draws the risk map into `<dir>/<stem>.svg|png`.
 ///
 /// Each scenario: a dot at its median (ρ, kinetic energy) and the confidence ellipse
 /// `(p - m)ᵀ Σ⁻¹ (p - m) = chi2` of its covariance (`chi2` = [`super::CHI2_2DOF_95`] for
-/// 95 %), solid or dashed. Each limit: a horizontal line with its label. Scenarios with a
-/// non-finite median are skipped and counted. Errors if there is nothing to draw, a covariance
-/// is not a valid covariance, or `chi2` is not positive.
+/// 95 %), solid or dashed; with [`EnergyAxis::Log10`] the covariance is of (ρ, log10 E).
+/// Each limit: a horizontal line with its label. Scenarios with a non-finite median (or a
+/// non-positive one on a log axis) are skipped and counted. Errors if there is nothing to
+/// draw, a covariance is not a valid covariance, or `chi2` is not positive.
 pub fn risk_map(
     dir: &Path,
     stem: &str,
@@ -116,22 +160,34 @@ pub fn risk_map(
     scenarios: &[RiskScenario],
     limits: &[EnergyLimit],
     chi2: f64,
+    axis: EnergyAxis,
 ) -> Result<FigureFiles> {
+    let log = axis == EnergyAxis::Log10;
     let mut skipped = 0;
     let mut ellipses = vec![];
     for s in scenarios {
-        if !(s.median_rho.is_finite() && s.median_energy_j.is_finite()) {
+        if !(s.median_rho.is_finite() && s.median_energy_j.is_finite()) || (log && s.median_energy_j <= 0.0) {
             skipped += 1;
             continue;
         }
-        let pts = ellipse_points((s.median_rho, s.median_energy_j), s.covariance, chi2, 120)
+        let centre_y = if log {
+            s.median_energy_j.log10()
+        } else {
+            s.median_energy_j
+        };
+        let mut pts = ellipse_points((s.median_rho, centre_y), s.covariance, chi2, 120)
             .map_err(|e| Error::Report(format!("{stem}: scenario `{}`: {e}", s.label)))?;
+        if log {
+            for p in &mut pts {
+                p.1 = 10f64.powf(p.1);
+            }
+        }
         ellipses.push((s, pts, scenario_colour(&s.colour_key)));
     }
     let lims: Vec<(&EnergyLimit, RGBColor)> = limits
         .iter()
         .filter(|l| {
-            let ok = l.energy_j.is_finite();
+            let ok = l.energy_j.is_finite() && (!log || l.energy_j > 0.0);
             if !ok {
                 skipped += 1;
             }
@@ -144,12 +200,20 @@ pub fn risk_map(
     }
     let xs = ellipses.iter().flat_map(|e| e.1.iter().map(|p| p.0));
     let (x0, x1) = finite_extent(xs.chain([0.0, 1.0])).unwrap_or((0.0, 1.0));
-    let ys = ellipses
+    let ys: Vec<f64> = ellipses
         .iter()
         .flat_map(|e| e.1.iter().map(|p| p.1))
-        .chain(lims.iter().map(|l| l.0.energy_j));
-    let (y0, y1) = finite_extent(ys.chain([0.0])).unwrap_or((0.0, 1.0));
-    let (y0, y1) = widen(y0, y1);
+        .chain(lims.iter().map(|l| l.0.energy_j))
+        .collect();
+    let y = if log {
+        let (lo, hi) = finite_extent(ys.iter().copied().filter(|v| *v > 0.0)).unwrap_or((1.0, 10.0));
+        let (lo, hi) = if hi > lo { (lo, hi) } else { (lo / 10.0, hi * 10.0) };
+        (lo / 1.5, hi * 1.6)
+    } else {
+        let (y0, y1) = finite_extent(ys.iter().copied().chain([0.0])).unwrap_or((0.0, 1.0));
+        let (y0, y1) = widen(y0, y1);
+        (y0 - 0.03 * (y1 - y0), y1 + 0.08 * (y1 - y0))
+    };
     let pad = 0.03 * (x1 - x0);
     let mut legend: Vec<LegendEntry> = vec![];
     for (s, _, c) in &ellipses {
@@ -164,7 +228,8 @@ pub fn risk_map(
             ellipses,
             limits: lims,
             x: (x0 - pad, x1 + pad),
-            y: (y0 - 0.03 * (y1 - y0), y1 + 0.08 * (y1 - y0)),
+            y,
+            axis,
             legend,
         },
         skipped,
