@@ -12,7 +12,7 @@ use drive_sim::kinematics::{BodyVelocity, CommandSpace, IdealDiffDrive, WheelSpe
 use drive_sim::report::{
     box_plots, command_space_figure, heat_maps, histograms, line_bands, risk_map, value_scatter, AxisLabel,
     BandPoint, BandSeries, BoxPanel, ColourMap, ColourScale, CommandScenario, EnergyAxis, EnergyLimit, Grid2,
-    HeatPanel, HistPanel, HtmlReport, KeyFigure, RiskScenario, Samples, ScatterPanel, ValuePoint,
+    HeatPanel, HistPanel, HtmlReport, KeyFigure, LineAxes, RiskScenario, Samples, ScatterPanel, ValuePoint,
     CHI2_2DOF_95,
 };
 use rand::{RngExt, SeedableRng};
@@ -441,8 +441,12 @@ fn main() -> drive_sim::Result<()> {
         &out,
         "error_vs_steps",
         "Calibration error vs number of steps",
-        &AxisLabel::new("number of DRIVE steps", ""),
-        &AxisLabel::new("wheel radius error", "m"),
+        &LineAxes {
+            x: AxisLabel::new("number of DRIVE steps", ""),
+            y: AxisLabel::new("wheel radius error", "m"),
+            log_x: true,
+            log_y: true,
+        },
         &series,
     )?;
     report

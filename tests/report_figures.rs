@@ -8,7 +8,7 @@ use drive_sim::report::{
     box_plots, command_space_figure, contour_segments, heat_maps, histograms, line_bands, risk_map,
     scenario_colour, value_scatter, AxisLabel, BandPoint, BandSeries, BoxPanel, ColourMap, ColourScale,
     CommandScenario, EnergyAxis, EnergyLimit, FigureFiles, Grid2, HeatPanel, HistPanel, HtmlReport,
-    KeyFigure, RiskScenario, Samples, ScatterPanel, ValuePoint, CHI2_2DOF_95,
+    KeyFigure, LineAxes, RiskScenario, Samples, ScatterPanel, ValuePoint, CHI2_2DOF_95,
 };
 use drive_sim::Error;
 
@@ -447,8 +447,11 @@ fn line_bands_and_errors() {
         dir.path(),
         "err",
         "Residual",
-        &AxisLabel::new("number of steps", ""),
-        &AxisLabel::new("residual", "m/s"),
+        &LineAxes {
+            x: AxisLabel::new("number of steps", ""),
+            y: AxisLabel::new("residual", "m/s"),
+            ..Default::default()
+        },
         &series,
     )
     .unwrap();
@@ -463,9 +466,35 @@ fn line_bands_and_errors() {
             high: -1.0,
         }],
     }];
-    let x = AxisLabel::new("x", "");
-    assert!(line_bands(dir.path(), "err2", "t", &x, &x, &inverted).is_err());
-    assert!(line_bands(dir.path(), "err3", "t", &x, &x, &[]).is_err());
+    let x = LineAxes {
+        x: AxisLabel::new("x", ""),
+        y: AxisLabel::new("y", ""),
+        ..Default::default()
+    };
+    assert!(line_bands(dir.path(), "err2", "t", &x, &inverted).is_err());
+    assert!(line_bands(dir.path(), "err3", "t", &x, &[]).is_err());
+    // Log-log: the point at x = 0 and the band reaching 0 cannot be placed.
+    let log = LineAxes {
+        log_x: true,
+        log_y: true,
+        ..x.clone()
+    };
+    let mut s = series[0].clone();
+    s.points.push(BandPoint {
+        x: 0.0,
+        mean: 1.0,
+        low: 0.5,
+        high: 2.0,
+    });
+    s.points.push(BandPoint {
+        x: 5.0,
+        mean: 1.0,
+        low: 0.0,
+        high: 2.0,
+    });
+    let f = line_bands(dir.path(), "err4", "t", &log, &[s]).unwrap();
+    check_files(&f, &["before calibration"]);
+    assert_eq!(f.skipped_non_finite, 3);
 }
 
 #[test]

@@ -43,7 +43,7 @@ pub use ellipse::{ellipse_axes, ellipse_points, EllipseAxes, CHI2_2DOF_95};
 pub use heatmap::{heat_maps, value_scatter, ColourScale, HeatPanel, ScatterPanel, ValuePoint};
 pub use histogram::{histograms, HistPanel};
 pub use html::{HtmlReport, KeyFigure};
-pub use lines::{line_bands, BandPoint, BandSeries};
+pub use lines::{line_bands, BandPoint, BandSeries, LineAxes};
 pub use risk::{risk_map, EnergyAxis, EnergyLimit, RiskScenario};
 pub use style::{scenario_colour, ColourMap, FigureFiles};
 

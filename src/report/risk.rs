@@ -9,9 +9,8 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::ellipse::ellipse_points;
 use super::style::{
-    axis_desc_style, canvas_height, finite_extent, fmt_tick, note_style, outline_for, render,
-    scenario_colour, tick_style, title_legend_body, widen, xy_chart, DrawResult, Figure, FigureFiles,
-    LegendEntry, Swatch,
+    canvas_height, finite_extent, note_style, outline_for, render, scenario_colour, title_legend_body, widen,
+    xy_chart_scaled, DrawResult, Figure, FigureFiles, LegendEntry, ScaledAxis, Swatch,
 };
 use crate::{Error, Result};
 
@@ -116,32 +115,19 @@ impl Figure for RiskFig<'_> {
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
         let body = title_legend_body(root, self.title, &self.legend)?;
-        match self.axis {
-            EnergyAxis::Linear => {
-                let mut ch = xy_chart(&body, "", self.x, self.y, X_DESC, Y_DESC)?;
-                self.draw_content(&mut ch)
-            }
-            EnergyAxis::Log10 => {
-                let mut ch = ChartBuilder::on(&body)
-                    .margin(12)
-                    .margin_right(22)
-                    .x_label_area_size(52)
-                    .y_label_area_size(72)
-                    .build_cartesian_2d(self.x.0..self.x.1, (self.y.0..self.y.1).log_scale())?;
-                ch.configure_mesh()
-                    .light_line_style(WHITE.mix(0.0))
-                    .bold_line_style(BLACK.mix(0.08))
-                    .label_style(tick_style())
-                    .axis_desc_style(axis_desc_style())
-                    .x_desc(X_DESC)
-                    .y_desc(Y_DESC)
-                    .x_labels(7)
-                    .x_label_formatter(&fmt_tick)
-                    .y_label_formatter(&fmt_tick)
-                    .draw()?;
-                self.draw_content(&mut ch)
-            }
-        }
+        let y = match self.axis {
+            EnergyAxis::Linear => ScaledAxis::linear(self.y.0, self.y.1),
+            EnergyAxis::Log10 => ScaledAxis::log(self.y.0, self.y.1),
+        };
+        let mut ch = xy_chart_scaled(
+            &body,
+            "",
+            ScaledAxis::linear(self.x.0, self.x.1),
+            y,
+            X_DESC,
+            Y_DESC,
+        )?;
+        self.draw_content(&mut ch)
     }
 }
 
