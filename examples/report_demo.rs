@@ -12,8 +12,8 @@ use drive_sim::kinematics::{BodyVelocity, CommandSpace, IdealDiffDrive, WheelSpe
 use drive_sim::report::{
     box_plots, command_space_figure, heat_maps, histograms, line_bands, risk_map, value_scatter, AxisLabel,
     BandPoint, BandSeries, BoxPanel, ColourMap, ColourScale, CommandScenario, EnergyAxis, EnergyLimit, Grid2,
-    HeatPanel, HistPanel, HtmlReport, KeyFigure, LineAxes, RiskScenario, Samples, ScatterPanel, ValuePoint,
-    CHI2_2DOF_95,
+    HeatPanel, HistPanel, HtmlReport, KeyFigure, LineAxes, RiskEllipse, RiskScenario, Samples, ScatterPanel,
+    ValuePoint, CHI2_2DOF_95,
 };
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -105,6 +105,10 @@ fn median(v: &[f64]) -> f64 {
     let mut v = v.to_vec();
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
+}
+
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len() as f64
 }
 
 fn covariance(a: &[f64], b: &[f64]) -> [[f64; 2]; 2] {
@@ -321,7 +325,10 @@ fn main() -> drive_sim::Result<()> {
                 colour_key: t.name.to_string(),
                 median_rho: median(&rh),
                 median_energy_j: median(&e),
-                covariance: covariance(&rh, &e),
+                ellipse: Some(RiskEllipse {
+                    centre: (mean(&rh), mean(&e)),
+                    covariance: covariance(&rh, &e),
+                }),
                 dashed,
             });
         }
@@ -359,7 +366,10 @@ fn main() -> drive_sim::Result<()> {
                 colour_key: t.name.to_string(),
                 median_rho: median(&rh),
                 median_energy_j: 10f64.powf(median(&le)),
-                covariance: covariance(&rh, &le),
+                ellipse: Some(RiskEllipse {
+                    centre: (mean(&rh), mean(&le)),
+                    covariance: covariance(&rh, &le),
+                }),
                 dashed: robot == "Husky",
             });
         }

@@ -8,7 +8,7 @@ use drive_sim::report::{
     box_plots, command_space_figure, contour_segments, heat_maps, histograms, line_bands, risk_map,
     scenario_colour, value_scatter, AxisLabel, BandPoint, BandSeries, BoxPanel, ColourMap, ColourScale,
     CommandScenario, EnergyAxis, EnergyLimit, FigureFiles, Grid2, HeatPanel, HistPanel, HtmlReport,
-    KeyFigure, LineAxes, RiskScenario, Samples, ScatterPanel, ValuePoint, CHI2_2DOF_95,
+    KeyFigure, LineAxes, RiskEllipse, RiskScenario, Samples, ScatterPanel, ValuePoint, CHI2_2DOF_95,
 };
 use drive_sim::Error;
 
@@ -284,7 +284,10 @@ fn risk_map_ellipses_and_limits() {
         colour_key: key.into(),
         median_rho: rho,
         median_energy_j: e,
-        covariance: [[0.004, 0.5], [0.5, 400.0]],
+        ellipse: Some(RiskEllipse {
+            centre: (rho, e),
+            covariance: [[0.004, 0.5], [0.5, 400.0]],
+        }),
         dashed,
     };
     let scenarios = [
@@ -318,7 +321,10 @@ fn risk_map_ellipses_and_limits() {
         assert!(svg.contains(&hex), "colour {hex} used");
     }
     let mut bad = scenarios[0].clone();
-    bad.covariance = [[1.0, 2.0], [2.0, 1.0]];
+    bad.ellipse = Some(RiskEllipse {
+        centre: (0.5, 1.0),
+        covariance: [[1.0, 2.0], [2.0, 1.0]],
+    });
     let e = risk_map(
         dir.path(),
         "risk2",
@@ -356,8 +362,15 @@ fn risk_map_ellipses_and_limits() {
         sc("Husky ice", "ice", 0.5, 20.0, true),
     ];
     for s in &mut log_sc {
-        s.covariance = [[0.004, 0.001], [0.001, 0.04]];
+        s.ellipse = Some(RiskEllipse {
+            centre: (s.median_rho, s.median_energy_j.log10()),
+            covariance: [[0.004, 0.001], [0.001, 0.04]],
+        });
     }
+    // A scenario with too few steps for an ellipse: its median alone.
+    let mut lone = sc("Husky sand", "sand", 0.3, 5.0, false);
+    lone.ellipse = None;
+    log_sc.push(lone);
     log_sc.push(sc("standing", "mud", 0.9, 0.0, false));
     let limits = [
         EnergyLimit {

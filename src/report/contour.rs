@@ -12,7 +12,9 @@ use crate::{Error, Result};
 /// Values on a rectilinear grid over the body-frame command space (e.g. a transfer function
 /// or ρ smoothed onto grid points).
 ///
-/// `values[i_vx * wz_rad_s.len() + i_wz]` is the value at `(vx_m_s[i_vx], wz_rad_s[i_wz])`;
+/// `values[i_wz * vx_m_s.len() + i_vx]` is the value at `(vx_m_s[i_vx], wz_rad_s[i_wz])`
+/// (rows of constant yaw rate, vx fastest: the layout of
+/// [`analysis::smoother::Grid`](crate::analysis::smoother::Grid));
 /// `None` marks a grid point without a value (outside U, or too far from any sample).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Grid2 {
@@ -20,7 +22,7 @@ pub struct Grid2 {
     pub vx_m_s: Vec<f64>,
     /// Yaw rate of each grid column, strictly increasing, rad/s.
     pub wz_rad_s: Vec<f64>,
-    /// Row-major values (`vx` major, `wz` minor); `None` = masked.
+    /// Values, `wz` major and `vx` minor; `None` = masked.
     pub values: Vec<Option<f64>>,
 }
 
@@ -31,8 +33,8 @@ impl Grid2 {
     /// Builds a grid by evaluating `f(vx, wz)` at every grid point.
     pub fn from_fn(vx_m_s: Vec<f64>, wz_rad_s: Vec<f64>, mut f: impl FnMut(f64, f64) -> Option<f64>) -> Self {
         let mut values = Vec::with_capacity(vx_m_s.len() * wz_rad_s.len());
-        for &vx in &vx_m_s {
-            for &wz in &wz_rad_s {
+        for &wz in &wz_rad_s {
+            for &vx in &vx_m_s {
                 values.push(f(vx, wz));
             }
         }
@@ -41,6 +43,18 @@ impl Grid2 {
             wz_rad_s,
             values,
         }
+    }
+
+    /// Builds a grid from values in the same layout where NaN marks masked points (the
+    /// convention of the analysis smoother's output). Errors if the length does not match.
+    pub fn from_nan_masked(vx_m_s: Vec<f64>, wz_rad_s: Vec<f64>, values: &[f64]) -> Result<Self> {
+        let g = Self {
+            values: values.iter().map(|v| (!v.is_nan()).then_some(*v)).collect(),
+            vx_m_s,
+            wz_rad_s,
+        };
+        g.validate()?;
+        Ok(g)
     }
 
     /// Checks the shape: axes non-empty, finite, strictly increasing, and one value per point.
@@ -82,7 +96,7 @@ impl Grid2 {
             return None;
         }
         self.values
-            .get(i_vx * self.wz_rad_s.len() + i_wz)
+            .get(i_wz * self.vx_m_s.len() + i_vx)
             .copied()
             .flatten()
             .filter(|v| v.is_finite())
@@ -282,6 +296,18 @@ mod tests {
         };
         assert!(unsorted.validate().is_err());
         assert!(contour_segments(&g, f64::NAN).is_err());
+    }
+
+    #[test]
+    fn layout_and_nan_mask() {
+        let g = Grid2::from_fn(vec![0.0, 1.0, 2.0], vec![10.0, 20.0], |vx, wz| Some(vx + wz));
+        // wz major: second row (wz = 20) starts at index 3.
+        assert_eq!(g.values[3], Some(20.0));
+        assert_eq!(g.get(2, 1), Some(22.0));
+        assert_eq!(g.get(3, 0), None);
+        let m = Grid2::from_nan_masked(vec![0.0, 1.0], vec![0.0], &[f64::NAN, 1.0]).unwrap();
+        assert_eq!(m.values, vec![None, Some(1.0)]);
+        assert!(Grid2::from_nan_masked(vec![0.0, 1.0], vec![0.0], &[1.0]).is_err());
     }
 
     #[test]

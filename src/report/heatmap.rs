@@ -161,9 +161,9 @@ fn clip_convex(p: Vec<(f64, f64)>, clip: &[(f64, f64)]) -> Vec<(f64, f64)> {
 /// The grid with points outside `poly` masked.
 fn masked(grid: &Grid2, poly: &[(f64, f64)]) -> Grid2 {
     let mut g = grid.clone();
-    let nw = g.wz_rad_s.len();
+    let nv = g.vx_m_s.len();
     for (k, v) in g.values.iter_mut().enumerate() {
-        let (i, j) = (k / nw, k % nw);
+        let (i, j) = (k % nv, k / nv);
         let inside = match (grid.vx_m_s.get(i), grid.wz_rad_s.get(j)) {
             (Some(&vx), Some(&wz)) => in_polygon(poly, (vx, wz)),
             _ => false,
@@ -314,7 +314,7 @@ impl Figure for HeatFig<'_> {
             )?;
             let ex = cell_edges(&grid.wz_rad_s);
             let ey = cell_edges(&grid.vx_m_s);
-            let nw = grid.wz_rad_s.len();
+            let nv = grid.vx_m_s.len();
             // U in plot coordinates (wz, vx): cells are clipped to it when it is convex, so
             // that no colour leaks outside the outline.
             let clip: Option<Vec<(f64, f64)>> =
@@ -323,7 +323,7 @@ impl Figure for HeatFig<'_> {
             let mut clipped = vec![];
             for (k, v) in grid.values.iter().enumerate() {
                 let Some(v) = *v else { continue };
-                let (i, j) = (k / nw, k % nw);
+                let (i, j) = (k % nv, k / nv);
                 let (x0, x1, y0, y1) = (ex[j].0, ex[j].1, ey[i].0, ey[i].1);
                 let colour = self.scale.map.at(norm(v, self.range)).filled();
                 let corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)];

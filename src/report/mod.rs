@@ -44,7 +44,7 @@ pub use heatmap::{heat_maps, value_scatter, ColourScale, HeatPanel, ScatterPanel
 pub use histogram::{histograms, HistPanel};
 pub use html::{HtmlReport, KeyFigure};
 pub use lines::{line_bands, BandPoint, BandSeries, LineAxes};
-pub use risk::{risk_map, EnergyAxis, EnergyLimit, RiskScenario};
+pub use risk::{risk_map, EnergyAxis, EnergyLimit, RiskEllipse, RiskScenario};
 pub use style::{scenario_colour, ColourMap, FigureFiles};
 
 /// A quantity and its unit, for an axis or a colour bar (e.g. `longitudinal slip`, `m/s`).

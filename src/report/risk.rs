@@ -25,10 +25,24 @@ pub struct RiskScenario {
     pub median_rho: f64,
     /// Median measured kinetic energy (severity), J.
     pub median_energy_j: f64,
-    /// Covariance of (ρ, energy J): `[[var ρ, cov], [cov, var E]]`.
-    pub covariance: [[f64; 2]; 2],
+    /// The 95 % region of the scenario's distribution; `None` draws the median alone (e.g.
+    /// fewer than 3 steps).
+    pub ellipse: Option<RiskEllipse>,
     /// Dashed ellipse (the paper: dashed for rotation-dominant motion, solid for forward).
     pub dashed: bool,
+}
+
+/// A bivariate normal summary of a scenario: the ellipse `(p - c)ᵀ Σ⁻¹ (p - c) = chi2`.
+///
+/// Both are in the space of the energy axis: (ρ, E in J) for [`EnergyAxis::Linear`],
+/// (ρ, log10(E / 1 J)) for [`EnergyAxis::Log10`]. The centre is the mean of that fit (the
+/// paper's dot is the median, which a skewed distribution puts elsewhere).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RiskEllipse {
+    /// Centre (mean ρ, mean energy or mean log10 energy).
+    pub centre: (f64, f64),
+    /// Covariance `[[var ρ, cov], [cov, var E]]`.
+    pub covariance: [[f64; 2]; 2],
 }
 
 /// A horizontal reference line: a robot's maximum kinetic energy on flat ground.
@@ -43,16 +57,16 @@ pub struct EnergyLimit {
 /// How the severity (kinetic energy) axis is scaled.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum EnergyAxis {
-    /// Linear axis in J; [`RiskScenario::covariance`] is of (ρ, E in J).
+    /// Linear axis in J; [`RiskEllipse`] is in (ρ, E in J).
     #[default]
     Linear,
     /// Logarithmic axis (robots of very different mass on one map: Husky about 40 J, Warthog
-    /// about 6 kJ); [`RiskScenario::covariance`] is then of (ρ, log10(E / 1 J)), and the
-    /// ellipse, drawn around (median ρ, log10 median E), is an ellipse on the log axis.
+    /// about 6 kJ); [`RiskEllipse`] is then in (ρ, log10(E / 1 J)), and is drawn as an
+    /// ellipse on the log axis.
     Log10,
 }
 
-/// A scenario with its ellipse outline (in J) and colour.
+/// A scenario with its ellipse outline (in J; empty without an ellipse) and colour.
 type Placed<'a> = (&'a RiskScenario, Vec<(f64, f64)>, RGBColor);
 
 struct RiskFig<'a> {
@@ -87,7 +101,7 @@ impl RiskFig<'_> {
                 note_style().pos(Pos::new(HPos::Right, VPos::Bottom)),
             )))?;
         }
-        for (s, pts, c) in &self.ellipses {
+        for (s, pts, c) in self.ellipses.iter().filter(|e| !e.1.is_empty()) {
             let style = c.stroke_width(2);
             if s.dashed {
                 ch.draw_series(DashedLineSeries::new(pts.iter().copied(), 8, 6, style))?;
@@ -133,9 +147,9 @@ impl Figure for RiskFig<'_> {
 
 /// Draws the risk map into `<dir>/<stem>.svg|png`.
 ///
-/// Each scenario: a dot at its median (ρ, kinetic energy) and the confidence ellipse
-/// `(p - m)ᵀ Σ⁻¹ (p - m) = chi2` of its covariance (`chi2` = [`super::CHI2_2DOF_95`] for
-/// 95 %), solid or dashed; with [`EnergyAxis::Log10`] the covariance is of (ρ, log10 E).
+/// Each scenario: a dot at its median (ρ, kinetic energy) and, if given, the confidence
+/// ellipse `(p - c)ᵀ Σ⁻¹ (p - c) = chi2` (`chi2` = [`super::CHI2_2DOF_95`] for 95 %), solid
+/// or dashed; with [`EnergyAxis::Log10`] the ellipse is in (ρ, log10 E).
 /// Each limit: a horizontal line with its label. Scenarios with a non-finite median (or a
 /// non-positive one on a log axis) are skipped and counted. Errors if there is nothing to
 /// draw, a covariance is not a valid covariance, or `chi2` is not positive.
@@ -156,13 +170,11 @@ pub fn risk_map(
             skipped += 1;
             continue;
         }
-        let centre_y = if log {
-            s.median_energy_j.log10()
-        } else {
-            s.median_energy_j
+        let mut pts = match &s.ellipse {
+            Some(e) => ellipse_points(e.centre, e.covariance, chi2, 120)
+                .map_err(|err| Error::Report(format!("{stem}: scenario `{}`: {err}", s.label)))?,
+            None => vec![],
         };
-        let mut pts = ellipse_points((s.median_rho, centre_y), s.covariance, chi2, 120)
-            .map_err(|e| Error::Report(format!("{stem}: scenario `{}`: {e}", s.label)))?;
         if log {
             for p in &mut pts {
                 p.1 = 10f64.powf(p.1);
@@ -184,11 +196,13 @@ pub fn risk_map(
     if ellipses.is_empty() && lims.is_empty() {
         return Err(Error::Report(format!("{stem}: no scenario or limit to draw")));
     }
-    let xs = ellipses.iter().flat_map(|e| e.1.iter().map(|p| p.0));
+    let xs = ellipses
+        .iter()
+        .flat_map(|e| e.1.iter().map(|p| p.0).chain([e.0.median_rho]));
     let (x0, x1) = finite_extent(xs.chain([0.0, 1.0])).unwrap_or((0.0, 1.0));
     let ys: Vec<f64> = ellipses
         .iter()
-        .flat_map(|e| e.1.iter().map(|p| p.1))
+        .flat_map(|e| e.1.iter().map(|p| p.1).chain([e.0.median_energy_j]))
         .chain(lims.iter().map(|l| l.0.energy_j))
         .collect();
     let y = if log {
