@@ -188,8 +188,13 @@ pub fn contour_segments(grid: &Grid2, level: f64) -> Result<Vec<ContourSegment>>
             };
             let crossings: Vec<(usize, (f64, f64))> =
                 (0..4).filter_map(|e| cross(e).map(|p| (e, p))).collect();
+            // A level passing exactly through a grid point gives crossings that coincide up
+            // to rounding: drop such degenerate segments.
+            let tiny = 1e-9
+                * ((grid.vx_m_s[i + 1] - grid.vx_m_s[i]).abs()
+                    + (grid.wz_rad_s[j + 1] - grid.wz_rad_s[j]).abs());
             let mut push = |a: (f64, f64), b: (f64, f64)| {
-                if a != b {
+                if (a.0 - b.0).abs() + (a.1 - b.1).abs() > tiny {
                     out.push((a, b));
                 }
             };
@@ -214,6 +219,59 @@ pub fn contour_segments(grid: &Grid2, level: f64) -> Result<Vec<ContourSegment>>
         }
     }
     Ok(out)
+}
+
+/// The iso-line `value = level` as polylines: [`contour_segments`] chained end to end
+/// (closed loops repeat their first point at the end). Points are `(vx_m_s, wz_rad_s)`.
+pub fn contour_polylines(grid: &Grid2, level: f64) -> Result<Vec<Vec<(f64, f64)>>> {
+    let segs = contour_segments(grid, level)?;
+    // Neighbouring cells compute a shared crossing from the same two corner values, possibly
+    // in the other order: match endpoints on a grid far finer than the cells.
+    let span = grid
+        .vx_m_s
+        .iter()
+        .chain(&grid.wz_rad_s)
+        .fold(0.0f64, |m, v| m.max(v.abs()))
+        .max(1.0);
+    let q = 1e-9 * span;
+    let key = |p: (f64, f64)| ((p.0 / q).round() as i64, (p.1 / q).round() as i64);
+    let mut at: std::collections::HashMap<(i64, i64), Vec<usize>> = std::collections::HashMap::new();
+    for (i, (a, b)) in segs.iter().enumerate() {
+        at.entry(key(*a)).or_default().push(i);
+        at.entry(key(*b)).or_default().push(i);
+    }
+    let mut used = vec![false; segs.len()];
+    let mut lines = vec![];
+    // The unused segment touching `p`, oriented to start at `p`.
+    let next = |p: (f64, f64), used: &[bool]| -> Option<(usize, (f64, f64))> {
+        at.get(&key(p))?.iter().find(|&&i| !used[i]).map(|&i| {
+            let (a, b) = segs[i];
+            (i, if key(a) == key(p) { b } else { a })
+        })
+    };
+    for start in 0..segs.len() {
+        if used[start] {
+            continue;
+        }
+        used[start] = true;
+        let (a, b) = segs[start];
+        let mut fwd = vec![a, b];
+        while let Some((i, p)) = next(*fwd.last().unwrap_or(&b), &used) {
+            used[i] = true;
+            fwd.push(p);
+        }
+        let mut back = vec![];
+        let mut head = a;
+        while let Some((i, p)) = next(head, &used) {
+            used[i] = true;
+            back.push(p);
+            head = p;
+        }
+        back.reverse();
+        back.extend(fwd);
+        lines.push(back);
+    }
+    Ok(lines)
 }
 
 #[cfg(test)]
@@ -259,6 +317,23 @@ mod tests {
         // Total length approximates the circumference (chords are slightly shorter).
         let c = 2.0 * std::f64::consts::PI * r;
         assert!(len < c && len > 0.99 * c, "length {len} vs {c}");
+    }
+
+    #[test]
+    fn polylines_chain_the_segments() {
+        // Plane: one open line through all cell columns; circle: one closed loop.
+        let g = Grid2::from_fn(axis(0.03, 1.03, 21), axis(-1.0, 1.0, 11), |vx, _| Some(vx));
+        let l = contour_polylines(&g, 0.5).unwrap();
+        assert_eq!(l.len(), 1);
+        assert_eq!(l[0].len(), 11);
+        let c = Grid2::from_fn(axis(-1.0, 1.0, 41), axis(-1.0, 1.0, 41), |vx, wz| {
+            Some((vx * vx + wz * wz).sqrt())
+        });
+        let segs = contour_segments(&c, 0.5).unwrap().len();
+        let l = contour_polylines(&c, 0.5).unwrap();
+        assert_eq!(l.len(), 1, "one closed loop");
+        assert_eq!(l[0].len(), segs + 1);
+        assert_eq!(l[0].first(), l[0].last());
     }
 
     #[test]

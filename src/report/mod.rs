@@ -38,7 +38,7 @@ mod style;
 
 pub use boxplot::{box_plots, BoxPanel};
 pub use command_space::{command_space_figure, CommandScenario};
-pub use contour::{contour_levels, contour_segments, ContourSegment, Grid2};
+pub use contour::{contour_levels, contour_polylines, contour_segments, ContourSegment, Grid2};
 pub use ellipse::{ellipse_axes, ellipse_points, EllipseAxes, CHI2_2DOF_95};
 pub use heatmap::{heat_maps, value_scatter, ColourScale, HeatPanel, ScatterPanel, ValuePoint};
 pub use histogram::{histograms, HistPanel};
