@@ -549,3 +549,69 @@ fn html_report_is_self_contained() {
     let e = r.figure("x", &missing).expect_err("missing file is an error");
     assert!(e.to_string().contains("/nonexistent/x.svg"), "{e}");
 }
+
+#[test]
+fn extreme_and_degenerate_values_do_not_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let wild = vec![1e300, -1e300, 0.0, f64::MAX, f64::MIN_POSITIVE];
+    let panels = [BoxPanel {
+        title: "wild".into(),
+        value: AxisLabel::new("x", ""),
+        groups: vec![Samples::new("a", wild.clone()), Samples::new("b", vec![0.0; 3])],
+    }];
+    box_plots(dir.path(), "b", "t", &panels).unwrap();
+    let hp = [HistPanel {
+        title: "wild".into(),
+        value: AxisLabel::new("x", ""),
+        limit: Some(f64::INFINITY),
+        series: vec![Samples::new("a", wild.clone())],
+    }];
+    histograms(dir.path(), "h", "t", &hp, 10).unwrap();
+    let series = [BandSeries {
+        label: "a".into(),
+        points: wild
+            .iter()
+            .map(|&v| BandPoint {
+                x: v,
+                mean: v,
+                low: v,
+                high: v,
+            })
+            .collect(),
+    }];
+    let axes = LineAxes {
+        log_y: true,
+        ..Default::default()
+    };
+    line_bands(dir.path(), "l", "t", &axes, &series).unwrap();
+    let f = line_bands(dir.path(), "l2", "t", &LineAxes::default(), &series).unwrap();
+    check_files(&f, &["a"]);
+    let huge = CommandScenario {
+        label: "huge".into(),
+        commands: vec![WheelSpeeds::new(1e300, -f64::MAX)],
+        steady_wheels: vec![WheelSpeeds::new(f64::MAX, 0.0)],
+        steady_body: vec![BodyVelocity::new(f64::MAX, -f64::MAX, 1e300)],
+    };
+    command_space_figure(dir.path(), "c", "t", &husky(), &[huge]).unwrap();
+    let risky = RiskScenario {
+        label: "r".into(),
+        colour_key: "r".into(),
+        median_rho: 0.5,
+        median_energy_j: 1e300,
+        ellipse: Some(RiskEllipse {
+            centre: (0.5, 1e300),
+            covariance: [[1.0, 0.0], [0.0, 1e300]],
+        }),
+        dashed: false,
+    };
+    risk_map(
+        dir.path(),
+        "r",
+        "t",
+        &[risky],
+        &[],
+        CHI2_2DOF_95,
+        EnergyAxis::Linear,
+    )
+    .unwrap();
+}

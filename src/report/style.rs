@@ -27,7 +27,9 @@ pub(crate) const FONT: &str = "sans-serif";
 
 static FONTS: Once = Once::new();
 
-/// Registers DejaVu Sans (from the `dejavu` crate, embedded bytes) as plotters' `sans-serif`.
+/// Registers DejaVu Sans regular and bold (from the `dejavu` crate, embedded bytes; fonts under
+/// the Bitstream Vera licence, DejaVu changes public domain) as plotters' `sans-serif`. Other
+/// styles fall back to regular.
 ///
 /// The bitmap backend rasterizes text with ab_glyph, which has no system font lookup; the SVG
 /// backend also uses the registered metrics to lay out labels.
@@ -37,8 +39,6 @@ pub(crate) fn ensure_fonts() {
         // not user input, and would show as missing text rather than a panic.
         let _ = register_font(FONT, FontStyle::Normal, dejavu::sans::regular());
         let _ = register_font(FONT, FontStyle::Bold, dejavu::sans::bold());
-        let _ = register_font(FONT, FontStyle::Oblique, dejavu::sans::oblique());
-        let _ = register_font(FONT, FontStyle::Italic, dejavu::sans::oblique());
     });
 }
 
@@ -321,6 +321,9 @@ pub(crate) fn widen(lo: f64, hi: f64) -> (f64, f64) {
     if !(lo.is_finite() && hi.is_finite()) {
         return (0.0, 1.0);
     }
+    // Keep spans (and 5 % margins) finite: axis tick generation loops on infinite spans.
+    const LIM: f64 = f64::MAX / 8.0;
+    let (lo, hi) = (lo.clamp(-LIM, LIM), hi.clamp(-LIM, LIM));
     if hi > lo {
         (lo, hi)
     } else {
