@@ -1,7 +1,9 @@
 //! Renders every report figure from synthetic (seeded) data, plus an HTML report embedding
 //! them, to check the figures by eye.
 //!
-//! `cargo run --example report_demo -- [out_dir]` (default `target/report_demo`).
+//! `cargo run --example report_demo -- [out_dir] [--measured]` (default `target/report_demo`).
+//! With `--measured`, also analyses the measured datasets (`../shared/data/measured`) and
+//! writes their report into `<out_dir>/measured`.
 //!
 //! The data are made up to look like the paper's (a Warthog on ice and asphalt); they are not
 //! simulation or measurement results.
@@ -122,9 +124,28 @@ fn covariance(a: &[f64], b: &[f64]) -> [[f64; 2]; 2] {
 }
 
 fn main() -> drive_sim::Result<()> {
-    let out: PathBuf = std::env::args()
-        .nth(1)
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let measured = args.iter().any(|a| a == "--measured");
+    let out: PathBuf = args
+        .iter()
+        .find(|a| !a.starts_with("--"))
         .map_or_else(|| PathBuf::from("target/report_demo"), PathBuf::from);
+    if measured {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/measured");
+        let params = drive_sim::analysis::AnalysisParams::default();
+        let mut analyses = vec![];
+        for f in [
+            "warthog_ice.csv",
+            "warthog_asphalt.csv",
+            "warthog_gravel.csv",
+            "husky_2023.csv",
+        ] {
+            let log = drive_sim::log::csv::read_measured_csv(dir.join(f))?;
+            analyses.push(drive_sim::analysis::analyze(&log, &params)?);
+        }
+        let html = drive_sim::report::analysis_report(&out.join("measured"), "Measured datasets", &analyses)?;
+        println!("wrote {}", html.display());
+    }
     let space = CommandSpace {
         idd: IdealDiffDrive {
             wheel_radius_m: 0.3,
