@@ -172,19 +172,17 @@ const KEYWORD_COLOURS: &[(&str, RGBColor)] = &[
     ("ideal", RGBColor(0, 0, 0)),
 ];
 
-/// Colour-blind-friendly fallback cycle (Tableau 10 without the keyword colours' duplicates
-/// first).
+/// Fallback cycle for labels without a keyword: none of the keyword colours, so that an
+/// unknown terrain never looks like a known one.
 const CYCLE: &[RGBColor] = &[
     RGBColor(214, 39, 40),
-    RGBColor(148, 103, 189),
+    RGBColor(27, 158, 119),
+    RGBColor(117, 112, 179),
+    RGBColor(231, 41, 138),
+    RGBColor(128, 0, 0),
+    RGBColor(0, 0, 128),
+    RGBColor(85, 107, 47),
     RGBColor(227, 119, 194),
-    RGBColor(23, 190, 207),
-    RGBColor(188, 189, 34),
-    RGBColor(31, 119, 180),
-    RGBColor(255, 127, 14),
-    RGBColor(44, 160, 44),
-    RGBColor(140, 86, 75),
-    RGBColor(127, 127, 127),
 ];
 
 /// Colour of the pooled "all" group: white boxes with black outlines, as in the paper.
@@ -717,6 +715,14 @@ mod tests {
         assert_eq!(scenario_colour("Warthog ice"), scenario_colour("ice"));
         assert_eq!(scenario_colour("all"), ALL_COLOUR);
         assert_eq!(scenario_colour("my run"), scenario_colour("my run"));
+        // Unknown labels never take a keyword colour.
+        for l in ["unlabelled", "x", "dataset 7", "husky_2023"] {
+            let c = scenario_colour(l);
+            assert!(
+                KEYWORD_COLOURS.iter().all(|(_, k)| *k != c) || l.contains("husky"),
+                "{l}"
+            );
+        }
         // Two labels whose keyword colours collide get different colours in one figure.
         let c = assign_colours(&["Warthog ice", "Husky ice", "Warthog ice"]);
         assert_ne!(c[0], c[1]);
