@@ -133,7 +133,7 @@ fn main() -> drive_sim::Result<()> {
     if measured {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/measured");
         let params = drive_sim::analysis::AnalysisParams::default();
-        let mut analyses = vec![];
+        let mut logs = vec![];
         for f in [
             "warthog_ice.csv",
             "warthog_asphalt.csv",
@@ -141,9 +141,12 @@ fn main() -> drive_sim::Result<()> {
             "husky_2023.csv",
         ] {
             let log = drive_sim::log::csv::read_measured_csv(dir.join(f))?;
-            analyses.push(drive_sim::analysis::analyze(&log, &params)?);
+            let analysis = drive_sim::analysis::analyze(&log, &params)?;
+            logs.push((log, analysis));
         }
-        let html = drive_sim::report::analysis_report(&out.join("measured"), "Measured datasets", &analyses)?;
+        let items: Vec<_> = logs.iter().map(|(l, a)| (l, a)).collect();
+        let html =
+            drive_sim::report::analysis_report::write_analysis_report(&items, &out.join("measured"))?.html;
         println!("wrote {}", html.display());
     }
     let space = CommandSpace {

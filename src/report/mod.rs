@@ -24,11 +24,11 @@
 //! [`HtmlReport`] assembles sections, key-figure tables and inline SVG figures into one
 //! self-contained `report.html`.
 
+pub mod analysis_report;
 mod boxplot;
 mod command_space;
 pub mod contour;
 pub mod ellipse;
-mod from_analysis;
 mod heatmap;
 mod histogram;
 mod html;
@@ -41,7 +41,6 @@ pub use boxplot::{box_plots, BoxPanel};
 pub use command_space::{command_space_figure, CommandScenario};
 pub use contour::{contour_levels, contour_polylines, contour_segments, ContourSegment, Grid2};
 pub use ellipse::{ellipse_axes, ellipse_points, EllipseAxes, CHI2_2DOF_95};
-pub use from_analysis::{analysis_figures, analysis_report, CaptionedFigure};
 pub use heatmap::{heat_maps, value_scatter, ColourScale, HeatPanel, ScatterPanel, ValuePoint};
 pub use histogram::{histograms, HistPanel};
 pub use html::{HtmlReport, KeyFigure};
