@@ -615,3 +615,22 @@ fn extreme_and_degenerate_values_do_not_panic() {
     )
     .unwrap();
 }
+
+#[test]
+fn histogram_axis_ignores_rare_outliers_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    // 1000 samples in [-1, 1] and 2 outliers at ±100: the axis stays near ±1 and the two
+    // outliers are reported.
+    let mut v: Vec<f64> = (0..1000).map(|i| -1.0 + 2.0 * f64::from(i) / 999.0).collect();
+    v.extend([100.0, -100.0]);
+    let panels = [HistPanel {
+        title: "ax".into(),
+        value: AxisLabel::new("acceleration", "m/s²"),
+        limit: Some(2.0),
+        series: vec![Samples::new("ice", v)],
+    }];
+    let f = histograms(dir.path(), "h", "t", &panels, 20).unwrap();
+    let svg = check_files(&f, &["2 samples beyond the axis"]);
+    // No tick label as far out as ±100 (or ±50).
+    assert!(!svg.contains(">\n100\n<") && !svg.contains(">\n50\n<"));
+}

@@ -180,7 +180,6 @@ const CYCLE: &[RGBColor] = &[
     RGBColor(117, 112, 179),
     RGBColor(231, 41, 138),
     RGBColor(128, 0, 0),
-    RGBColor(0, 0, 128),
     RGBColor(85, 107, 47),
     RGBColor(227, 119, 194),
 ];
