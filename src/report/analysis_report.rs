@@ -552,7 +552,7 @@ fn risk_scenarios(analyses: &[&Analysis], log: bool) -> (Vec<RiskScenario>, Ener
                 colour_key: a.terrain.clone(),
                 median_rho: median(pts.iter().map(|p| p.0)),
                 median_energy_j: 10f64.powf(median(logs.iter().map(|p| p.1))),
-                ellipse: mean_cov(&logs).map(|(centre, covariance)| RiskEllipse { centre, covariance }),
+                ellipse: mean_cov(&logs),
                 dashed: class == MotionClass::Rotation,
             });
         }
@@ -581,7 +581,7 @@ fn median(v: impl Iterator<Item = f64>) -> f64 {
 }
 
 /// Mean and sample covariance of 2-D points; `None` with fewer than 3.
-fn mean_cov(p: &[(f64, f64)]) -> Option<((f64, f64), [[f64; 2]; 2])> {
+fn mean_cov(p: &[(f64, f64)]) -> Option<RiskEllipse> {
     if p.len() < 3 {
         return None;
     }
@@ -597,5 +597,8 @@ fn mean_cov(p: &[(f64, f64)]) -> Option<((f64, f64), [[f64; 2]; 2])> {
         c += (q.1 - m.1).powi(2);
     }
     let d = n - 1.0;
-    Some((m, [[a / d, b / d], [b / d, c / d]]))
+    Some(RiskEllipse {
+        centre: m,
+        covariance: [[a / d, b / d], [b / d, c / d]],
+    })
 }

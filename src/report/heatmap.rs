@@ -327,25 +327,20 @@ impl Figure for HeatFig<'_> {
                 is_convex(poly).then(|| poly.iter().map(|&(vx, wz)| (wz, vx)).collect());
             let mut rects = vec![];
             let mut clipped = vec![];
-            let nw = grid.wz_rad_s.len();
             // Rows of constant vx run along the x (wz) axis: consecutive cells of the same
             // (quantized) colour become one rectangle, which keeps the SVG small.
-            for i in 0..nv {
+            for (i, &(y0, y1)) in ey.iter().enumerate() {
                 let mut run: Option<(usize, usize, RGBColor)> = None;
                 let flush = |run: &mut Option<(usize, usize, RGBColor)>, rects: &mut Vec<_>| {
                     if let Some((j0, j1, c)) = run.take() {
-                        rects.push(Rectangle::new(
-                            [(ex[j0].0, ey[i].0), (ex[j1].1, ey[i].1)],
-                            c.filled(),
-                        ));
+                        rects.push(Rectangle::new([(ex[j0].0, y0), (ex[j1].1, y1)], c.filled()));
                     }
                 };
-                for j in 0..nw {
+                for (j, &(x0, x1)) in ex.iter().enumerate() {
                     let Some(v) = grid.values[j * nv + i] else {
                         flush(&mut run, &mut rects);
                         continue;
                     };
-                    let (x0, x1, y0, y1) = (ex[j].0, ex[j].1, ey[i].0, ey[i].1);
                     let colour = self.scale.map.at(quantize(norm(v, self.range)));
                     let corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)];
                     if let Some(c) = &clip {
