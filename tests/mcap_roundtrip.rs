@@ -204,20 +204,22 @@ fn unfinished_or_failed_logs_never_appear_at_the_final_path() {
     let mut frames = Vec::new();
     run(1, 1, &mut frames);
 
-    // A stale complete log at the path is removed when a new one starts.
+    // A complete log already at the path is kept, byte for byte, while a new run writes its
+    // partial file, and after that run fails: a failed run loses nothing already written.
     let path = dir.path().join("run.mcap");
     write_mcap(&path, &meta, &frames).unwrap();
+    let before = std::fs::read(&path).unwrap();
     let mut w = McapWriter::create(&path, &meta).unwrap();
-    assert!(!path.exists());
     for f in &frames[..50] {
         w.write_frame(f).unwrap();
     }
     drop(w); // e.g. the simulation diverged and the caller returned early
-    assert!(!path.exists());
+    assert_eq!(std::fs::read(&path).unwrap(), before);
     assert!(
         partial_path(&path).exists(),
         "the partial file stays for debugging"
     );
+    std::fs::remove_file(&path).unwrap();
 
     // A bad frame fails the writer for good.
     let mut w = McapWriter::create(&path, &meta).unwrap();

@@ -535,11 +535,8 @@ impl McapWriter {
     pub fn create(path: impl AsRef<Path>, meta: &LogMeta) -> Result<Self> {
         let path = path.as_ref().to_path_buf();
         let partial = partial_path(&path);
-        match std::fs::remove_file(&path) {
-            Ok(()) => {}
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(e) => return Err(Error::io(&path, e)),
-        }
+        // An existing log at `path` stays untouched until `finish` atomically renames the new
+        // one over it: a failed run loses nothing that was already written.
         let file = File::create(&partial).map_err(|e| Error::io(&partial, e))?;
         let enc = FrameEncoder::new(BufWriter::with_capacity(1 << 16, file), meta, &partial)?;
         Ok(Self {
