@@ -16,6 +16,10 @@ use crate::sim::plant::{wrap_angle, Plant};
 use sampler::{Sampler, SamplingContext, StepOutcome};
 use serde::{Deserialize, Serialize};
 
+/// Interrupted attempts of one step (over `max_attempts`, i.e. over drawn commands) after which
+/// the run stops as stuck.
+const MAX_ATTEMPTS_PER_STEP_FACTOR: u32 = 5;
+
 /// Protocol parameters (the paper's defaults).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ProtocolConfig {
@@ -83,6 +87,9 @@ pub struct RunSummary {
     pub interruptions: u32,
     /// Commands given up after `max_attempts` interruptions (a new one was drawn).
     pub abandoned_commands: u32,
+    /// Re-orientations that gave up before reaching the chosen heading (the robot could not
+    /// turn there within `max_reorient_s`); the command restarted from where it stood.
+    pub incomplete_reorientations: u32,
     /// Total protocol time, s.
     pub total_time_s: f64,
     /// Time spent in completed steps, s.
@@ -204,6 +211,16 @@ impl Runner<'_> {
                     AttemptEnd::Interrupted => {
                         self.summary.interruptions += 1;
                         attempt += 1;
+                        if attempt > MAX_ATTEMPTS_PER_STEP_FACTOR * self.cfg.max_attempts {
+                            return Err(Error::Diverged {
+                                step,
+                                time_s: self.plant.time_s(),
+                                message: format!(
+                                    "{attempt} interrupted attempts in one step: the robot cannot keep any command inside the safe area (pose {:?})",
+                                    self.plant.true_pose()
+                                ),
+                            });
+                        }
                         attempts_of_cmd += 1;
                         self.reorient(step, cmd)?;
                         if attempts_of_cmd >= self.cfg.max_attempts {
@@ -308,32 +325,53 @@ impl Runner<'_> {
         let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
         let idd = self.space.idd;
         let max_wz = (0.5 * self.space.max_ang_rad_s).min(1.0);
-        let stuck = |t: f64| t > deadline;
         self.stop(phase, step, deadline)?;
-        // Outside the area (it slid out): drive back towards the centre at a walking pace.
+        // Outside the area (it slid out): drive back towards the centre at a walking pace, to
+        // twice the margin inside.
         let (hx, hy) = self.half_extents();
         let inside = |p: Pose| {
             p.x_m.abs() < hx - 2.0 * self.cfg.border_margin_m
                 && p.y_m.abs() < hy - 2.0 * self.cfg.border_margin_m
         };
-        if !inside(self.plant.true_pose()) {
-            self.turn_to(phase, step, |p| (-p.y_m).atan2(-p.x_m), max_wz, deadline)?;
+        // In the border band where any motion is interrupted at once (or out of the area):
+        // drive straight to the centre, forward or backward, whichever the robot faces, so
+        // that a robot that cannot turn on this ground still gets back.
+        let m = self.cfg.border_margin_m;
+        let in_band = |p: Pose| p.x_m.abs() > hx - m || p.y_m.abs() > hy - m;
+        if in_band(self.plant.true_pose()) {
+            let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
             while !inside(self.plant.true_pose()) {
                 let p = self.plant.true_pose();
                 let err = wrap_angle((-p.y_m).atan2(-p.x_m) - p.yaw_rad);
-                let vx = 0.3 * self.space.max_lin_m_s.min(2.0);
-                let c = idd.wheels_from_body(BodyVelocity::new(vx, 0.0, (2.0 * err).clamp(-max_wz, max_wz)));
+                let (dir, err) = if err.abs() <= std::f64::consts::FRAC_PI_2 {
+                    (1.0, err)
+                } else {
+                    (-1.0, wrap_angle(err + std::f64::consts::PI))
+                };
+                let vx = dir * 0.3 * self.space.max_lin_m_s.min(2.0);
+                // Steer only when the heading runs nearly along the border: on soft ground a
+                // turning skid-steer may not move at all, a straight one does.
+                let wz = if err.abs() > 1.2 {
+                    (2.0 * err).clamp(-max_wz, max_wz)
+                } else {
+                    0.0
+                };
+                let c = idd.wheels_from_body(BodyVelocity::new(vx, 0.0, wz));
                 self.tick(phase, c, step)?;
-                if stuck(self.plant.time_s()) {
-                    return Err(self.stuck_error(step));
+                if self.plant.time_s() > deadline {
+                    self.summary.incomplete_reorientations += 1;
+                    break;
                 }
             }
+            let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
             self.stop(phase, step, deadline)?;
         }
         // Face the heading from which the command's ideal path stays inside longest.
         let p = self.plant.true_pose();
         let heading = self.best_heading(p, cmd);
+        let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
         self.turn_to(phase, step, move |_| heading, max_wz, deadline)?;
+        let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
         self.stop(phase, step, deadline)
     }
 
@@ -405,6 +443,10 @@ impl Runner<'_> {
         }
     }
 
+    /// Turns towards `target(pose)`. In place first; if the yaw stops progressing for
+    /// `STALL_S` (a skid-steer on soft ground may not be able to skid its tyres sideways), as
+    /// an arc turn at walking pace, which needs far less skid. Gives up at `deadline` and
+    /// returns whether the heading was reached: a run continues from where the robot is.
     fn turn_to(
         &mut self,
         phase: Phase,
@@ -412,18 +454,34 @@ impl Runner<'_> {
         target: impl Fn(Pose) -> f64,
         max_wz: f64,
         deadline: f64,
-    ) -> Result<()> {
+    ) -> Result<bool> {
+        const STALL_S: f64 = 3.0;
         let idd = self.space.idd;
+        let mut best_err = f64::INFINITY;
+        let mut last_progress_s = self.plant.time_s();
+        let mut arc = false;
         loop {
             let p = self.plant.true_pose();
             let err = wrap_angle(target(p) - p.yaw_rad);
             if err.abs() < 0.1 {
-                return Ok(());
+                return Ok(true);
             }
-            let c = idd.wheels_from_body(BodyVelocity::new(0.0, 0.0, (1.5 * err).clamp(-max_wz, max_wz)));
+            if err.abs() < best_err - 0.02 {
+                best_err = err.abs();
+                last_progress_s = self.plant.time_s();
+            } else if self.plant.time_s() - last_progress_s > STALL_S {
+                arc = true;
+            }
+            let vx = if arc {
+                0.3 * self.space.max_lin_m_s.min(2.0)
+            } else {
+                0.0
+            };
+            let c = idd.wheels_from_body(BodyVelocity::new(vx, 0.0, (1.5 * err).clamp(-max_wz, max_wz)));
             self.tick(phase, c, step)?;
             if self.plant.time_s() > deadline {
-                return Err(self.stuck_error(step));
+                self.summary.incomplete_reorientations += 1;
+                return Ok(false);
             }
         }
     }
