@@ -5,6 +5,7 @@
 //! calibration ([`calibration`]) → figures and reports ([`report`]). The [`cli`] wires them.
 
 pub mod analysis;
+pub mod cli;
 pub mod config;
 pub mod error;
 pub mod kinematics;
@@ -13,6 +14,7 @@ pub mod protocol;
 pub mod report;
 pub mod robot;
 pub mod sim;
+pub mod sweep;
 pub mod terrain;
 
 pub use error::{Error, Result};

@@ -19,6 +19,9 @@ pub trait Plant {
     fn true_velocity(&self) -> BodyVelocity;
     /// Simulated time since creation, s.
     fn time_s(&self) -> f64;
+    /// Puts the robot at `pose` (on the ground), moving at `velocity` (body frame) with its
+    /// wheels at `wheels`, and the wheel-speed targets at `wheels`: the start of a replayed step.
+    fn reset(&mut self, pose: Pose, velocity: BodyVelocity, wheels: WheelSpeeds);
 }
 
 /// A robot that follows the ideal differential drive exactly, with a first-order lag on the
@@ -115,6 +118,14 @@ impl Plant for IdealPlant {
     }
     fn time_s(&self) -> f64 {
         self.time_s
+    }
+    fn reset(&mut self, pose: Pose, velocity: BodyVelocity, wheels: WheelSpeeds) {
+        // The IDD has no lateral or independent body state: the wheels define the velocity.
+        let _ = velocity;
+        self.pose = pose;
+        self.wheels = wheels;
+        self.cmd = wheels;
+        self.last_velocity = self.idd.body_from_wheels(wheels);
     }
 }
 
