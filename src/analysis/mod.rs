@@ -286,6 +286,9 @@ pub struct Analysis {
     pub stats: SlipStats,
     /// RMSE of the nominal IDD prediction of the steady-state body velocity.
     pub idd_rmse: BodyVelocity,
+    /// Analysed steps whose command lies outside the declared command space U (the log's
+    /// nominal limits do not describe what was commanded).
+    pub commands_outside_u: usize,
     /// U, S, T and the area of T.
     pub spaces: Spaces,
     /// Maximum kinetic energy over U.
@@ -438,6 +441,10 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         },
     };
     let idd_rmse = rms(&steps.iter().map(|s| s.steady.slip_body).collect::<Vec<_>>());
+    let commands_outside_u = steps
+        .iter()
+        .filter(|s| !space.contains_wheels(s.steady.cmd_wheels))
+        .count();
     let pts = |f: &dyn Fn(&StepResult) -> (f64, f64)| steps.iter().map(f).collect::<Vec<(f64, f64)>>();
     let spaces = spaces::spaces(
         &space,
@@ -521,6 +528,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         exclusions,
         stats,
         idd_rmse,
+        commands_outside_u,
         spaces,
         max_kinetic_energy,
         risk,

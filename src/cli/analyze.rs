@@ -96,10 +96,11 @@ fn print_analysis_table(analyses: &[crate::analysis::Analysis]) -> anyhow::Resul
     let mut out = std::io::stdout().lock();
     writeln!(
         out,
-        "{:<20} {:>5} {:>4} {:>7} {:>7} {:>7} {:>7} {:>7} {:>6} {:>20} {:>6} {:>6}  yaw source",
+        "{:<20} {:>5} {:>4} {:>5} {:>7} {:>7} {:>7} {:>7} {:>7} {:>6} {:>20} {:>6} {:>6}  yaw source",
         "dataset",
         "steps",
         "excl",
+        "outU",
         "g_vx",
         "|g_vy|",
         "g_wz",
@@ -115,10 +116,11 @@ fn print_analysis_table(analyses: &[crate::analysis::Analysis]) -> anyhow::Resul
         let s = &a.stats.along_command;
         writeln!(
             out,
-            "{:<20} {:>5} {:>4} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>6.3} {:>6.3}/{:>6.3}/{:>6.3} {:>6.1} {:>6.1}  {:?}",
+            "{:<20} {:>5} {:>4} {:>5} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>6.3} {:>6.3}/{:>6.3}/{:>6.3} {:>6.1} {:>6.1}  {:?}",
             a.dataset,
             a.steps.len(),
             a.exclusions.len(),
+            a.commands_outside_u,
             med(s.vx_m_s),
             med(s.vy_abs_m_s),
             med(s.wz_rad_s),

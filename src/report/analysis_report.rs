@@ -57,6 +57,7 @@ struct DatasetSummary<'a> {
     crosscheck: &'a crate::analysis::crosscheck::CrossCheck,
     stats: &'a crate::analysis::SlipStats,
     idd_rmse: &'a crate::kinematics::BodyVelocity,
+    commands_outside_u: usize,
     t_area_pct_body: f64,
     t_area_pct_wheels: f64,
     lateral_speed: &'a crate::analysis::spaces::LateralSpeed,
@@ -124,6 +125,7 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
             crosscheck: &a.crosscheck,
             stats: &a.stats,
             idd_rmse: &a.idd_rmse,
+            commands_outside_u: a.commands_outside_u,
             t_area_pct_body: a.spaces.t_area_pct_body,
             t_area_pct_wheels: a.spaces.t_area_pct_wheels,
             lateral_speed: &a.spaces.lateral,
@@ -524,6 +526,7 @@ fn key_figures(log: &DriveLog, a: &Analysis) -> Vec<KeyFigure> {
             ),
             "rad/s",
         ),
+        KeyFigure::new("steps commanded outside the declared U", a.commands_outside_u, ""),
         KeyFigure::new("median ρ", format!("{:.3}", med(s.rho)), ""),
         KeyFigure::new(
             "IDD RMSE vx / vy / wz",
