@@ -89,43 +89,36 @@ pub fn analyze(args: &AnalyzeArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The headline figures of each analysed log, one line each.
+/// The headline figures of each analysed log, one line each: median steady-state slips signed
+/// along the command (positive = slower than commanded; |vy| for the lateral one), median ρ,
+/// the ideal differential-drive RMSE, the area of T, the yaw-rate source.
 fn print_analysis_table(analyses: &[crate::analysis::Analysis]) -> anyhow::Result<()> {
     let mut out = std::io::stdout().lock();
     writeln!(
         out,
-        "{:<18} {:>5} {:>4} {:>8} {:>8} {:>8} {:>7} {:>7} {:>6} {:>22} {:>7}  yaw source",
-        "dataset",
-        "steps",
-        "excl",
-        "g_vx",
-        "g_vy",
-        "g_wz",
-        "g_left",
-        "g_right",
-        "rho",
-        "IDD RMSE vx/vy/wz",
-        "T/U %"
+        "{:<20} {:>5} {:>4} {:>7} {:>7} {:>7} {:>7} {:>7} {:>6} {:>20} {:>6} {:>6}  yaw source",
+        "dataset", "steps", "excl", "g_vx", "|g_vy|", "g_wz", "g_left", "g_right", "rho", "IDD RMSE vx/vy/wz", "T/U B%", "T/U W%"
     )?;
     let med = |b: Option<crate::analysis::stats::BoxStats>| b.map_or(f64::NAN, |b| b.median);
     for a in analyses {
-        let s = &a.stats;
+        let s = &a.stats.along_command;
         writeln!(
             out,
-            "{:<18} {:>5} {:>4} {:>8.3} {:>8.3} {:>8.3} {:>7.2} {:>7.2} {:>6.3} {:>6.3}/{:>6.3}/{:>6.3}   {:>7.1}  {:?}",
+            "{:<20} {:>5} {:>4} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>6.3} {:>6.3}/{:>6.3}/{:>6.3} {:>6.1} {:>6.1}  {:?}",
             a.dataset,
             a.steps.len(),
             a.exclusions.len(),
             med(s.vx_m_s),
-            med(s.vy_m_s),
+            med(s.vy_abs_m_s),
             med(s.wz_rad_s),
             med(s.left_rad_s),
             med(s.right_rad_s),
-            med(s.rho),
+            med(a.stats.rho),
             a.idd_rmse.vx_m_s,
             a.idd_rmse.vy_m_s,
             a.idd_rmse.wz_rad_s,
             a.spaces.t_area_pct_body,
+            a.spaces.t_area_pct_wheels,
             a.yaw_rate_source
         )?;
     }
