@@ -45,7 +45,14 @@ fn sweep_runs_resumes_shards_and_merges() {
 
     // Whole sweep in one directory.
     let all = tmp.path().join("all");
-    let out = ok(&drive_sim(&["sweep", m, "--out", all.to_str().unwrap(), "--threads", "2"]));
+    let out = ok(&drive_sim(&[
+        "sweep",
+        m,
+        "--out",
+        all.to_str().unwrap(),
+        "--threads",
+        "2",
+    ]));
     assert!(out.contains("2 done, 0 skipped"), "{out}");
     for terrain in ["asphalt", "ice"] {
         let id = format!("warthog-{terrain}-uniform-wheel-s3");
@@ -63,11 +70,19 @@ fn sweep_runs_resumes_shards_and_merges() {
     }
     // Ice is less predictable than asphalt, even over 5 steps.
     let rho = |t: &str| {
-        read_json(&all.join(format!("warthog-{t}-uniform-wheel-s3")).join("done.json"))["result"]["median_rho"]
+        read_json(
+            &all.join(format!("warthog-{t}-uniform-wheel-s3"))
+                .join("done.json"),
+        )["result"]["median_rho"]
             .as_f64()
             .unwrap()
     };
-    assert!(rho("ice") > rho("asphalt"), "{} vs {}", rho("ice"), rho("asphalt"));
+    assert!(
+        rho("ice") > rho("asphalt"),
+        "{} vs {}",
+        rho("ice"),
+        rho("asphalt")
+    );
 
     // Resume: nothing left to do.
     let out = ok(&drive_sim(&["sweep", m, "--out", all.to_str().unwrap()]));
@@ -77,7 +92,14 @@ fn sweep_runs_resumes_shards_and_merges() {
     let s0 = tmp.path().join("s0");
     let s1 = tmp.path().join("s1");
     for (i, d) in [(0, &s0), (1, &s1)] {
-        let out = ok(&drive_sim(&["sweep", m, "--shard", &format!("{i}/2"), "--out", d.to_str().unwrap()]));
+        let out = ok(&drive_sim(&[
+            "sweep",
+            m,
+            "--shard",
+            &format!("{i}/2"),
+            "--out",
+            d.to_str().unwrap(),
+        ]));
         assert!(out.contains("1 done, 0 skipped"), "{out}");
     }
     assert!(s0.join("warthog-asphalt-uniform-wheel-s3/done.json").exists());
@@ -110,7 +132,10 @@ fn sweep_runs_resumes_shards_and_merges() {
         "--out",
         tmp.path().join("half").to_str().unwrap(),
     ]));
-    assert!(out.contains("1 runs missing: warthog-ice-uniform-wheel-s3"), "{out}");
+    assert!(
+        out.contains("1 runs missing: warthog-ice-uniform-wheel-s3"),
+        "{out}"
+    );
 }
 
 #[test]
@@ -118,17 +143,34 @@ fn sweep_reports_bad_inputs() {
     let tmp = tempfile::tempdir().unwrap();
     let bad = tmp.path().join("bad.toml");
     std::fs::write(&bad, MATRIX.replace("\"ice\"", "\"lava\"")).unwrap();
-    let o = drive_sim(&["sweep", bad.to_str().unwrap(), "--out", tmp.path().join("o").to_str().unwrap()]);
+    let o = drive_sim(&[
+        "sweep",
+        bad.to_str().unwrap(),
+        "--out",
+        tmp.path().join("o").to_str().unwrap(),
+    ]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("lava") && err.contains("terrains[1]"), "{err}");
 
     let noise = tmp.path().join("noise.toml");
     std::fs::write(&noise, MATRIX.replace("noise = \"off\"", "noise = \"loud\"")).unwrap();
-    let o = drive_sim(&["sweep", noise.to_str().unwrap(), "--out", tmp.path().join("n").to_str().unwrap()]);
+    let o = drive_sim(&[
+        "sweep",
+        noise.to_str().unwrap(),
+        "--out",
+        tmp.path().join("n").to_str().unwrap(),
+    ]);
     assert!(!o.status.success());
-    let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
-    assert!(text.contains("options.noise") && text.contains("2 runs failed"), "{text}");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        text.contains("options.noise") && text.contains("2 runs failed"),
+        "{text}"
+    );
 
     let o = drive_sim(&["sweep-merge", tmp.path().join("nothing").to_str().unwrap()]);
     assert!(!o.status.success());

@@ -156,7 +156,13 @@ fn lateral_slip_peaks_at_combined_commands_and_is_larger_on_ice() {
         let rows: Vec<(f64, f64, f64)> = a
             .steps
             .iter()
-            .map(|s| (s.steady.cmd_body.vx_m_s, s.steady.cmd_body.wz_rad_s, s.steady.slip_body.vy_m_s.abs()))
+            .map(|s| {
+                (
+                    s.steady.cmd_body.vx_m_s,
+                    s.steady.cmd_body.wz_rad_s,
+                    s.steady.slip_body.vy_m_s.abs(),
+                )
+            })
             .collect();
         let mut by_c: Vec<(f64, f64)> = rows.iter().map(|r| ((r.0 * r.1).abs(), r.2)).collect();
         by_c.sort_by(|p, q| p.0.total_cmp(&q.0));
@@ -178,7 +184,10 @@ fn lateral_slip_peaks_at_combined_commands_and_is_larger_on_ice() {
         }
         medians.push(median(vy));
     }
-    eprintln!("median |vy|: asphalt {:.3}, ice {:.3} m/s", medians[0], medians[1]);
+    eprintln!(
+        "median |vy|: asphalt {:.3}, ice {:.3} m/s",
+        medians[0], medians[1]
+    );
     assert!(medians[1] >= 1.5 * medians[0], "{medians:?}");
 }
 
@@ -195,7 +204,10 @@ fn ice_is_the_most_unpredictable_terrain() {
         ("grass", warthog_grass()),
     ] {
         let other = m(r);
-        eprintln!("median ρ: ice {ice:.3}, {name} {other:.3} (ratio {:.2})", ice / other);
+        eprintln!(
+            "median ρ: ice {ice:.3}, {name} {other:.3} (ratio {:.2})",
+            ice / other
+        );
         assert!(ice >= 1.3 * other, "ice {ice} vs {name} {other}");
     }
 }
@@ -362,7 +374,10 @@ fn mud_stalls_the_wheels_ice_spins_them() {
 fn transfer_functions_converge_with_150_steps() {
     let truth = asphalt_truth();
     let cov = kernel_for(&robot("warthog"));
-    let extra: Vec<Analysed> = [12, 13].iter().map(|&s| drive("warthog", "asphalt", 150, s)).collect();
+    let extra: Vec<Analysed> = [12, 13]
+        .iter()
+        .map(|&s| drive("warthog", "asphalt", 150, s))
+        .collect();
     let runs: Vec<&Analysed> = std::iter::once(warthog_asphalt()).chain(extra.iter()).collect();
     let checkpoints = [25usize, 50, 100, 150];
     let mean_err: Vec<[f64; 3]> = checkpoints
@@ -388,14 +403,24 @@ fn transfer_functions_converge_with_150_steps() {
         v.iter().cloned().fold(f64::MIN, f64::max) - v.iter().cloned().fold(f64::MAX, f64::min)
     };
     let ranges = [range(|b| b.vx_m_s), range(|b| b.vy_m_s), range(|b| b.wz_rad_s)];
-    eprintln!("truth ranges: vx {:.3} m/s, vy {:.3} m/s, wz {:.3} rad/s", ranges[0], ranges[1], ranges[2]);
+    eprintln!(
+        "truth ranges: vx {:.3} m/s, vy {:.3} m/s, wz {:.3} rad/s",
+        ranges[0], ranges[1], ranges[2]
+    );
     let (e25, e150) = (mean_err[0], mean_err[3]);
     let shrink = [0.9, 0.7, 0.7];
     let tol = [0.2, 0.3, 0.35];
     for k in 0..3 {
-        assert!(e150[k] <= shrink[k] * e25[k], "component {k}: {e150:?} vs {e25:?}");
+        assert!(
+            e150[k] <= shrink[k] * e25[k],
+            "component {k}: {e150:?} vs {e25:?}"
+        );
         assert!(e150[k] <= tol[k], "component {k}: {e150:?}");
-        assert!(e150[k] <= 0.25 * ranges[k], "component {k}: {e150:?} vs range {}", ranges[k]);
+        assert!(
+            e150[k] <= 0.25 * ranges[k],
+            "component {k}: {e150:?} vs range {}",
+            ranges[k]
+        );
     }
 }
 
@@ -408,7 +433,11 @@ fn ground_truth_shows_the_skid_steer_turning_loss() {
     let truth = asphalt_truth();
     let g = &truth.grid;
     let nv = g.vx_m_s.len();
-    let iv = g.vx_m_s.iter().position(|v| v.abs() < 1e-9).expect("grid has vx = 0");
+    let iv = g
+        .vx_m_s
+        .iter()
+        .position(|v| v.abs() < 1e-9)
+        .expect("grid has vx = 0");
     for iw in [0, g.wz_rad_s.len() - 1] {
         let i = iw * nv + iv;
         assert!(g.inside[i]);

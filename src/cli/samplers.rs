@@ -9,14 +9,19 @@ use crate::analysis::smoother::{Grid, KernelCovariance};
 use crate::analysis::{analyze, AnalysisParams, SmootherParams};
 use crate::error::{Error, Result};
 use crate::log::{DriveLog, Frame, LogMeta, Nominal, Origin};
-use crate::protocol::ground_truth::{ground_truth, transfer_error, GroundTruthParams, TransferError, TruthField};
+use crate::protocol::ground_truth::{
+    ground_truth, transfer_error, GroundTruthParams, TransferError, TruthField,
+};
 use crate::protocol::sampler::{make_sampler_for, Sampler, SAMPLERS};
 use crate::protocol::samplers::metrics::{
     acceleration_coverage, command_coverage, log_commanded_energy_j_s, step_commands, time_use,
 };
 use crate::protocol::samplers::REGISTRY;
 use crate::protocol::{run_drive, ProtocolConfig, RunSummary};
-use crate::report::{box_plots, line_bands, AxisLabel, BandPoint, BandSeries, BoxGroup, BoxPanel, HtmlReport, KeyFigure, LineAxes};
+use crate::report::{
+    box_plots, line_bands, AxisLabel, BandPoint, BandSeries, BoxGroup, BoxPanel, HtmlReport, KeyFigure,
+    LineAxes,
+};
 use crate::robot::Robot;
 use crate::sim::{SensorNoise, SimConfig, Simulator};
 use crate::terrain::Terrain;
@@ -341,10 +346,18 @@ pub fn compare(args: &SamplersArgs) -> Result<SamplersReport> {
     let (robot, _) = Robot::resolve(&args.robot)?;
     let (terrain, _) = Terrain::resolve(&args.terrain)?;
     if args.steps == 0 || args.seeds == 0 {
-        return Err(Error::config("<command line>", "--steps/--seeds", "must be at least 1"));
+        return Err(Error::config(
+            "<command line>",
+            "--steps/--seeds",
+            "must be at least 1",
+        ));
     }
     if args.grid_vx < 2 || args.grid_wz < 2 {
-        return Err(Error::config("<command line>", "--grid-vx/--grid-wz", "need at least 2 points per axis"));
+        return Err(Error::config(
+            "<command line>",
+            "--grid-vx/--grid-wz",
+            "need at least 2 points per axis",
+        ));
     }
     let names: Vec<String> = if args.only.is_empty() {
         SAMPLERS.iter().map(|s| s.to_string()).collect()
@@ -385,7 +398,15 @@ pub fn compare(args: &SamplersArgs) -> Result<SamplersReport> {
                 .map(|(m, b)| {
                     let v: Vec<f64> = runs.iter().filter(|r| &r.sampler == n).map(m.2).collect();
                     let (mean, sd) = mean_sd(&v);
-                    (m.0.to_string(), m.1.to_string(), MeanSd { mean, sd, ratio_to_baseline: mean / b })
+                    (
+                        m.0.to_string(),
+                        m.1.to_string(),
+                        MeanSd {
+                            mean,
+                            sd,
+                            ratio_to_baseline: mean / b,
+                        },
+                    )
                 })
                 .collect(),
         })
@@ -435,14 +456,22 @@ pub fn table(report: &SamplersReport) -> String {
             } else {
                 "[-]".into()
             };
-            out.push_str(&format!(" {:>26}", format!("{:.3} ± {:.3} {ratio}", v.mean, v.sd)));
+            out.push_str(&format!(
+                " {:>26}",
+                format!("{:.3} ± {:.3} {ratio}", v.mean, v.sd)
+            ));
         }
         out.push('\n');
     }
     out
 }
 
-fn error_figure(report: &SamplersReport, dir: &Path, stem: &str, which: usize) -> Result<crate::report::FigureFiles> {
+fn error_figure(
+    report: &SamplersReport,
+    dir: &Path,
+    stem: &str,
+    which: usize,
+) -> Result<crate::report::FigureFiles> {
     let (title, unit) = [
         ("longitudinal slip", "m/s"),
         ("lateral slip", "m/s"),
@@ -525,14 +554,20 @@ pub fn write_outputs(report: &SamplersReport, dir: &Path) -> Result<PathBuf> {
                 .map(|s| {
                     BoxGroup::new(
                         s.sampler.clone(),
-                        report.runs.iter().filter(|r| r.sampler == s.sampler).map(m.2).collect(),
+                        report
+                            .runs
+                            .iter()
+                            .filter(|r| r.sampler == s.sampler)
+                            .map(m.2)
+                            .collect(),
                     )
                 })
                 .collect(),
         })
         .collect();
     let f = box_plots(dir, "metrics", "Strategies over seeds", &panels)?;
-    html.section("Metrics over seeds").figure("One box per strategy, over seeds", &f)?;
+    html.section("Metrics over seeds")
+        .figure("One box per strategy, over seeds", &f)?;
     for s in &report.summaries {
         let rows: Vec<KeyFigure> = s
             .metrics

@@ -18,7 +18,11 @@ use serde_json::{json, Value};
 use std::path::Path;
 
 fn option_err(spec: &RunSpec, field: &str, msg: &str) -> Error {
-    Error::config(format!("sweep {}", spec.sweep), format!("options.{field}"), msg.to_string())
+    Error::config(
+        format!("sweep {}", spec.sweep),
+        format!("options.{field}"),
+        msg.to_string(),
+    )
 }
 
 /// The simulator settings of a run from the matrix's options.
@@ -55,12 +59,19 @@ fn num(x: Option<f64>) -> Value {
 pub fn run_one(spec: &RunSpec, dir: &Path) -> Result<Value> {
     let (robot, _) = Robot::resolve(&spec.robot)?;
     let (terrain, _) = Terrain::resolve(&spec.terrain)?;
-    let mut sampler = make_sampler_for(&spec.sampler, spec.seed, &spec.protocol).ok_or_else(|| Error::Unknown {
-        kind: "sampler",
-        name: spec.sampler.clone(),
-        available: crate::protocol::sampler::SAMPLERS.join(", "),
-    })?;
-    let run = simulate_with(&robot, &terrain, sampler.as_mut(), &spec.protocol, sim_config(spec)?)?;
+    let mut sampler =
+        make_sampler_for(&spec.sampler, spec.seed, &spec.protocol).ok_or_else(|| Error::Unknown {
+            kind: "sampler",
+            name: spec.sampler.clone(),
+            available: crate::protocol::sampler::SAMPLERS.join(", "),
+        })?;
+    let run = simulate_with(
+        &robot,
+        &terrain,
+        sampler.as_mut(),
+        &spec.protocol,
+        sim_config(spec)?,
+    )?;
     let a = analyze(&run.log, &super::samplers::analysis_params_without_smoother())?;
     let st = &a.stats;
     let med = |b: Option<crate::analysis::stats::BoxStats>| num(b.map(|b| b.median));
@@ -113,7 +124,10 @@ pub fn sweep(args: &SweepArgs) -> anyhow::Result<()> {
         report.failed()
     );
     if report.failed() > 0 {
-        anyhow::bail!("{} runs failed; rerun the same command to retry them", report.failed());
+        anyhow::bail!(
+            "{} runs failed; rerun the same command to retry them",
+            report.failed()
+        );
     }
     Ok(())
 }
@@ -130,7 +144,11 @@ pub fn sweep_merge(args: &MergeArgs) -> anyhow::Result<()> {
         if merged.missing.is_empty() {
             String::new()
         } else {
-            format!("; {} runs missing: {}", merged.missing.len(), merged.missing.join(", "))
+            format!(
+                "; {} runs missing: {}",
+                merged.missing.len(),
+                merged.missing.join(", ")
+            )
         }
     );
     Ok(())

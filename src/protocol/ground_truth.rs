@@ -60,7 +60,9 @@ fn hold_one<P: Plant>(
     cmd_body: BodyVelocity,
     p: &GroundTruthParams,
 ) -> Result<(BodyVelocity, WheelSpeeds)> {
-    let cmd = space.idd.wheels_from_body(BodyVelocity::new(cmd_body.vx_m_s, 0.0, cmd_body.wz_rad_s));
+    let cmd = space
+        .idd
+        .wheels_from_body(BodyVelocity::new(cmd_body.vx_m_s, 0.0, cmd_body.wz_rad_s));
     plant.command(WheelSpeeds::default());
     plant.advance(p.settle_s)?;
     plant.command(cmd);
@@ -191,13 +193,21 @@ mod tests {
             max_ang_rad_s: 4.0,
         };
         let grid = Grid::with_counts(&space, 5, 5);
-        let t = ground_truth(|| Ok(IdealPlant::new(idd, 0.2)), &space, &grid, &GroundTruthParams::default())
-            .unwrap();
+        let t = ground_truth(
+            || Ok(IdealPlant::new(idd, 0.2)),
+            &space,
+            &grid,
+            &GroundTruthParams::default(),
+        )
+        .unwrap();
         let inside = grid.inside.iter().filter(|b| **b).count();
         assert!(inside > 0);
         for (i, s) in t.slip_body.iter().enumerate() {
             if grid.inside[i] {
-                assert!(s.vx_m_s.abs() < 1e-3 && s.vy_m_s.abs() < 1e-3 && s.wz_rad_s.abs() < 1e-3, "{s:?}");
+                assert!(
+                    s.vx_m_s.abs() < 1e-3 && s.vy_m_s.abs() < 1e-3 && s.wz_rad_s.abs() < 1e-3,
+                    "{s:?}"
+                );
             } else {
                 assert!(s.vx_m_s.is_nan());
             }
