@@ -97,7 +97,18 @@ fn print_analysis_table(analyses: &[crate::analysis::Analysis]) -> anyhow::Resul
     writeln!(
         out,
         "{:<20} {:>5} {:>4} {:>7} {:>7} {:>7} {:>7} {:>7} {:>6} {:>20} {:>6} {:>6}  yaw source",
-        "dataset", "steps", "excl", "g_vx", "|g_vy|", "g_wz", "g_left", "g_right", "rho", "IDD RMSE vx/vy/wz", "T/U B%", "T/U W%"
+        "dataset",
+        "steps",
+        "excl",
+        "g_vx",
+        "|g_vy|",
+        "g_wz",
+        "g_left",
+        "g_right",
+        "rho",
+        "IDD RMSE vx/vy/wz",
+        "T/U B%",
+        "T/U W%"
     )?;
     let med = |b: Option<crate::analysis::stats::BoxStats>| b.map_or(f64::NAN, |b| b.median);
     for a in analyses {

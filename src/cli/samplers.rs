@@ -599,3 +599,81 @@ pub fn samplers(args: &SamplersArgs) -> anyhow::Result<()> {
     eprintln!("drive-sim samplers: wrote {} and samplers.json", html.display());
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(only: &[&str], steps: u32, seeds: u64, out: &Path) -> SamplersArgs {
+        SamplersArgs {
+            robot: "husky".into(),
+            terrain: "asphalt".into(),
+            steps,
+            seeds,
+            only: only.iter().map(|s| s.to_string()).collect(),
+            list: false,
+            noise: "off".into(),
+            grid_vx: 5,
+            grid_wz: 5,
+            out: out.to_path_buf(),
+        }
+    }
+
+    #[test]
+    fn checkpoints_and_mean_sd() {
+        assert_eq!(checkpoints(150), vec![25, 50, 100, 150]);
+        assert_eq!(checkpoints(100), vec![25, 50, 100]);
+        assert_eq!(checkpoints(10), vec![10]);
+        let (m, sd) = mean_sd(&[1.0, 2.0, 3.0, f64::NAN]);
+        assert_eq!(m, 2.0);
+        assert!((sd - 1.0).abs() < 1e-12);
+        assert_eq!(mean_sd(&[4.0]), (4.0, 0.0));
+        assert!(mean_sd(&[]).0.is_nan());
+    }
+
+    #[test]
+    fn bad_options_are_errors() {
+        let d = std::env::temp_dir();
+        let e = compare(&args(&["no-such"], 5, 1, &d)).unwrap_err().to_string();
+        assert!(e.contains("no-such"), "{e}");
+        let e = compare(&args(&[], 0, 1, &d)).unwrap_err().to_string();
+        assert!(e.contains("--steps"), "{e}");
+        let mut a = args(&[], 5, 1, &d);
+        a.grid_wz = 1;
+        assert!(compare(&a).is_err());
+    }
+
+    #[test]
+    fn tiny_comparison_has_a_baseline_and_writes_its_outputs() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = args(&["uniform-wheel", "halton"], 6, 2, dir.path());
+        let r = compare(&a).unwrap();
+        assert_eq!(r.runs.len(), 4);
+        assert_eq!(r.summaries.len(), 2);
+        // The baseline's ratios are 1 wherever its mean is finite and non-zero.
+        for (_, _, v) in &r.summaries[0].metrics {
+            if v.mean.is_finite() && v.mean != 0.0 {
+                assert!((v.ratio_to_baseline - 1.0).abs() < 1e-12);
+            }
+        }
+        for run in &r.runs {
+            assert_eq!(run.error_vs_steps.len(), 1);
+            let e = run.error_vs_steps[0].1;
+            assert!(e.points > 0 && e.vx_m_s.is_finite() && e.wz_rad_s >= 0.0);
+            assert!(run.time_efficiency > 0.0 && run.time_efficiency <= 1.0);
+        }
+        let t = table(&r);
+        assert!(
+            t.contains("uniform-wheel") && t.contains("halton") && t.contains("[1.00]"),
+            "{t}"
+        );
+        write_outputs(&r, dir.path()).unwrap();
+        for f in ["samplers.json", "report.html", "error_wz.svg", "metrics.png"] {
+            assert!(dir.path().join(f).exists(), "{f}");
+        }
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join("samplers.json")).unwrap())
+                .unwrap();
+        assert_eq!(json["runs"].as_array().unwrap().len(), 4);
+    }
+}

@@ -500,12 +500,28 @@ fn key_figures(log: &DriveLog, a: &Analysis) -> Vec<KeyFigure> {
             ),
             "",
         ),
-        KeyFigure::new("median slip vx (along the command)", format!("{:.3}", med(s.along_command.vx_m_s)), "m/s"),
-        KeyFigure::new("median |slip vy|", format!("{:.3}", med(s.along_command.vy_abs_m_s)), "m/s"),
-        KeyFigure::new("median slip wz (along the command)", format!("{:.3}", med(s.along_command.wz_rad_s)), "rad/s"),
+        KeyFigure::new(
+            "median slip vx (along the command)",
+            format!("{:.3}", med(s.along_command.vx_m_s)),
+            "m/s",
+        ),
+        KeyFigure::new(
+            "median |slip vy|",
+            format!("{:.3}", med(s.along_command.vy_abs_m_s)),
+            "m/s",
+        ),
+        KeyFigure::new(
+            "median slip wz (along the command)",
+            format!("{:.3}", med(s.along_command.wz_rad_s)),
+            "rad/s",
+        ),
         KeyFigure::new(
             "median slip left / right (along the command)",
-            format!("{:.2} / {:.2}", med(s.along_command.left_rad_s), med(s.along_command.right_rad_s)),
+            format!(
+                "{:.2} / {:.2}",
+                med(s.along_command.left_rad_s),
+                med(s.along_command.right_rad_s)
+            ),
             "rad/s",
         ),
         KeyFigure::new("median ρ", format!("{:.3}", med(s.rho)), ""),
