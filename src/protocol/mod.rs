@@ -17,9 +17,9 @@ use crate::sim::plant::{wrap_angle, Plant};
 use sampler::{Sampler, SamplingContext, StepOutcome};
 use serde::{Deserialize, Serialize};
 
-/// Interrupted attempts of one step (over `max_attempts`, i.e. over drawn commands) after which
-/// the run stops as stuck.
-const MAX_ATTEMPTS_PER_STEP_FACTOR: u32 = 5;
+/// Interrupted attempts of one step (over all the commands drawn for it) after which the run
+/// stops: the safe area is too small for the commands, or the robot cannot move.
+const MAX_ATTEMPTS_PER_STEP: u32 = 50;
 
 /// Protocol parameters (the paper's defaults).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -212,12 +212,15 @@ impl Runner<'_> {
                     AttemptEnd::Interrupted => {
                         self.summary.interruptions += 1;
                         attempt += 1;
-                        if attempt > MAX_ATTEMPTS_PER_STEP_FACTOR * self.cfg.max_attempts {
+                        if attempt >= MAX_ATTEMPTS_PER_STEP {
                             return Err(Error::Diverged {
                                 step,
                                 time_s: self.plant.time_s(),
                                 message: format!(
-                                    "{attempt} interrupted attempts in one step: the robot cannot keep any command inside the safe area (pose {:?})",
+                                    "{attempt} interrupted attempts in one step: no drawn command fits in the safe area \
+                                     ({} x {} m) from where the robot can be placed (pose {:?})",
+                                    self.robot.safe_area.length_m,
+                                    self.robot.safe_area.width_m,
                                     self.plant.true_pose()
                                 ),
                             });
@@ -319,68 +322,81 @@ impl Runner<'_> {
         sx.abs() > hx - m || sy.abs() > hy - m
     }
 
-    /// Stops the robot, brings it back inside if it is out, and turns it so that `cmd` drives
-    /// towards the centre of the safe area.
+    /// The operator's re-orientation after an interruption: stop; if no heading lets `cmd`
+    /// run a whole step inside the area from where the robot stands (it stopped near the
+    /// border, or slid out), drive it towards the centre until one does; then turn it to the
+    /// heading from which the command stays inside longest (ties: facing the centre with the
+    /// side the command drives towards, the paper's rule).
     fn reorient(&mut self, step: u32, cmd: WheelSpeeds) -> Result<()> {
         let phase = Phase::Reorient { step };
-        let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
-        let idd = self.space.idd;
         let max_wz = (0.5 * self.space.max_ang_rad_s).min(1.0);
+        let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
         self.stop(phase, step, deadline)?;
-        // Outside the area (it slid out): drive back towards the centre at a walking pace, to
-        // twice the margin inside.
-        let (hx, hy) = self.half_extents();
-        let inside = |p: Pose| {
-            p.x_m.abs() < hx - 2.0 * self.cfg.border_margin_m
-                && p.y_m.abs() < hy - 2.0 * self.cfg.border_margin_m
-        };
-        // In the border band where any motion is interrupted at once (or out of the area):
-        // drive straight to the centre, forward or backward, whichever the robot faces, so
-        // that a robot that cannot turn on this ground still gets back.
-        let m = self.cfg.border_margin_m;
-        let in_band = |p: Pose| p.x_m.abs() > hx - m || p.y_m.abs() > hy - m;
-        if in_band(self.plant.true_pose()) {
+        if !self.best_heading(self.plant.true_pose(), cmd).1 {
             let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
-            while !inside(self.plant.true_pose()) {
-                let p = self.plant.true_pose();
-                let err = wrap_angle((-p.y_m).atan2(-p.x_m) - p.yaw_rad);
-                let (dir, err) = if err.abs() <= std::f64::consts::FRAC_PI_2 {
-                    (1.0, err)
-                } else {
-                    (-1.0, wrap_angle(err + std::f64::consts::PI))
-                };
-                let vx = dir * 0.3 * self.space.max_lin_m_s.min(2.0);
-                // Steer only when the heading runs nearly along the border: on soft ground a
-                // turning skid-steer may not move at all, a straight one does.
-                let wz = if err.abs() > 1.2 {
-                    (2.0 * err).clamp(-max_wz, max_wz)
-                } else {
-                    0.0
-                };
-                let c = idd.wheels_from_body(BodyVelocity::new(vx, 0.0, wz));
-                self.tick(phase, c, step)?;
-                if self.plant.time_s() > deadline {
-                    self.summary.incomplete_reorientations += 1;
-                    break;
-                }
-            }
+            self.drive_towards_centre(phase, step, cmd, max_wz, deadline)?;
             let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
             self.stop(phase, step, deadline)?;
         }
-        // Face the heading from which the command's ideal path stays inside longest.
-        let p = self.plant.true_pose();
-        let heading = self.best_heading(p, cmd);
+        let (heading, _) = self.best_heading(self.plant.true_pose(), cmd);
         let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
         self.turn_to(phase, step, move |_| heading, max_wz, deadline)?;
         let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
         self.stop(phase, step, deadline)
     }
 
-    /// The operator's choice of heading before restarting `cmd` from `p`: the one (every 5°)
-    /// whose ideal differential-drive path of a whole step stays longest inside the shrunk safe
-    /// area; among equals, the one closest to facing the centre with the side the command
-    /// drives towards (the paper's rule).
-    fn best_heading(&self, p: Pose, cmd: WheelSpeeds) -> f64 {
+    /// Drives towards the centre of the safe area at a walking pace until `cmd` fits from the
+    /// robot's position (checked every 0.5 s) or it is within 1 m of the centre. It drives
+    /// straight, forward or backward, whichever faces the centre, steering only gently, and
+    /// turns in place first only if the centre is nearly abeam: a skid-steer on soft ground may
+    /// not turn at all, but it can drive straight.
+    fn drive_towards_centre(
+        &mut self,
+        phase: Phase,
+        step: u32,
+        cmd: WheelSpeeds,
+        max_wz: f64,
+        deadline: f64,
+    ) -> Result<()> {
+        let idd = self.space.idd;
+        let check_every = (0.5 * self.cfg.rate_hz).round().max(1.0) as u32;
+        let mut ticks = 0u32;
+        loop {
+            let p = self.plant.true_pose();
+            if p.x_m.hypot(p.y_m) < 1.0 {
+                return Ok(());
+            }
+            if ticks % check_every == 0 && ticks > 0 && self.best_heading(p, cmd).1 {
+                return Ok(());
+            }
+            let err = wrap_angle((-p.y_m).atan2(-p.x_m) - p.yaw_rad);
+            let (dir, err) = if err.abs() <= std::f64::consts::FRAC_PI_2 {
+                (1.0, err)
+            } else {
+                (-1.0, wrap_angle(err + std::f64::consts::PI))
+            };
+            // Nearly abeam (|err| near 90°): driving would run along the border; turn first.
+            let vx = if err.abs() > 1.2 {
+                0.0
+            } else {
+                dir * 0.3 * self.space.max_lin_m_s.min(2.0)
+            };
+            let wz = (1.5 * err).clamp(-max_wz, max_wz);
+            let c = idd.wheels_from_body(BodyVelocity::new(vx, 0.0, wz));
+            self.tick(phase, c, step)?;
+            ticks += 1;
+            if self.plant.time_s() > deadline {
+                self.summary.incomplete_reorientations += 1;
+                return Ok(());
+            }
+        }
+    }
+
+    /// The heading (every 5°) from which the ideal differential-drive path of `cmd` stays
+    /// longest inside the safe area shrunk by the margin and the stopping distance, and whether
+    /// it fits a whole step with time to spare; among equals, the one closest to facing the
+    /// centre with the side the command drives towards.
+    fn best_heading(&self, p: Pose, cmd: WheelSpeeds) -> (f64, bool) {
         let v = self.space.idd.body_from_wheels(cmd);
         let backward = v.vx_m_s < 0.0;
         let to_centre = (-p.y_m).atan2(-p.x_m);
@@ -391,12 +407,14 @@ impl Runner<'_> {
         };
         let (hx, hy) = self.half_extents();
         let m = self.cfg.border_margin_m + v.vx_m_s.powi(2) / (2.0 * self.cfg.operator_decel_m_s2);
-        let horizon_s = self.cfg.window_s * self.cfg.windows_per_step as f64;
+        // One second beyond the step: the real robot lags the ideal path it is planned on.
+        let step_s = self.cfg.window_s * self.cfg.windows_per_step as f64;
+        let horizon_s = step_s + 1.0;
         let dt = 0.1;
         let time_inside = |heading: f64| {
             let (mut x, mut y, mut yaw) = (p.x_m, p.y_m, heading);
             let mut t = 0.0;
-            while t < horizon_s {
+            while t < horizon_s - 1e-9 {
                 x += v.vx_m_s * yaw.cos() * dt;
                 y += v.vx_m_s * yaw.sin() * dt;
                 yaw += v.wz_rad_s * dt;
@@ -416,7 +434,7 @@ impl Runner<'_> {
                 best = (t, off, h);
             }
         }
-        best.2
+        (best.2, best.0 >= step_s + 0.5)
     }
 
     fn stuck_error(&self, step: u32) -> Error {
