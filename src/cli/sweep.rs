@@ -5,6 +5,9 @@
 //! returns them for the merged table: median slips (signed along the command, the magnitude
 //! view), median ρ, the area of T, interruptions, time efficiency, real-time factor.
 //! Matrix `[options]` read here: `noise` (`"typical"` default, or `"off"`), `physics_hz`.
+//! The protocol is the matrix's (defaults plus its `[protocol]` overrides), not
+//! `ProtocolConfig::for_run`: a sweep's runs share one protocol, so the safety operator's
+//! braking assumption does not follow the terrain unless the matrix sets it.
 
 use super::samplers::simulate_with;
 use crate::analysis::analyze;
