@@ -3,6 +3,7 @@
 //! Conventions (ROS REP 103): body frame x forward, y left, z up; yaw counter-clockwise
 //! positive; positive wheel speed drives that side forward. SI units everywhere.
 
+use crate::geometry::{clip_half_plane, ensure_ccw, polygon_area};
 use serde::{Deserialize, Serialize};
 
 /// Wheel speeds of the two sides of a skid-steering robot, in rad/s (the wheel frame W).
@@ -164,49 +165,6 @@ impl CommandSpace {
     pub fn area_wheels(&self) -> f64 {
         polygon_area(&self.polygon_wheels())
     }
-}
-
-/// Clips a convex polygon by the half-plane `a x + c y <= d` (Sutherland–Hodgman).
-fn clip_half_plane(poly: &[(f64, f64)], a: f64, c: f64, d: f64) -> Vec<(f64, f64)> {
-    let f = |p: (f64, f64)| a * p.0 + c * p.1 - d;
-    let mut out = Vec::with_capacity(poly.len() + 1);
-    for i in 0..poly.len() {
-        let p = poly[i];
-        let q = poly[(i + 1) % poly.len()];
-        let (fp, fq) = (f(p), f(q));
-        if fp <= 0.0 {
-            out.push(p);
-        }
-        if (fp < 0.0 && fq > 0.0) || (fp > 0.0 && fq < 0.0) {
-            let t = fp / (fp - fq);
-            out.push((p.0 + t * (q.0 - p.0), p.1 + t * (q.1 - p.1)));
-        }
-    }
-    out
-}
-
-/// Signed area (shoelace); positive for counter-clockwise polygons.
-fn signed_area(poly: &[(f64, f64)]) -> f64 {
-    let n = poly.len();
-    (0..n)
-        .map(|i| {
-            let (p, q) = (poly[i], poly[(i + 1) % n]);
-            p.0 * q.1 - q.0 * p.1
-        })
-        .sum::<f64>()
-        / 2.0
-}
-
-/// Area of a simple polygon.
-pub fn polygon_area(poly: &[(f64, f64)]) -> f64 {
-    signed_area(poly).abs()
-}
-
-fn ensure_ccw(mut poly: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
-    if signed_area(&poly) < 0.0 {
-        poly.reverse();
-    }
-    poly
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@ pub mod analysis;
 pub mod cli;
 pub mod config;
 pub mod error;
+pub mod geometry;
 pub mod kinematics;
 pub mod log;
 pub mod protocol;

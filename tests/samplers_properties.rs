@@ -2,7 +2,8 @@
 //! them: areas of U from its polygons, step densities by Monte Carlo, discrepancy by exact box
 //! areas, and interruptions of the protocol on the ideal plant.
 
-use drive_sim::kinematics::{polygon_area, CommandSpace, WheelSpeeds};
+use drive_sim::geometry::polygon_area;
+use drive_sim::kinematics::{CommandSpace, WheelSpeeds};
 use drive_sim::log::Pose;
 use drive_sim::protocol::sampler::{make_sampler, Sampler, SamplingContext, StepOutcome, SAMPLERS};
 use drive_sim::protocol::{run_drive, ProtocolConfig};

@@ -8,69 +8,11 @@
 //! radius). The hull overestimates a non-convex T; the unclipped hull ratio is reported too.
 
 use super::stats::{quantile_sorted, sorted_finite};
-use crate::kinematics::{polygon_area, CommandSpace};
+use crate::geometry::polygon_area;
+use crate::kinematics::CommandSpace;
 use serde::{Deserialize, Serialize};
 
-/// Convex hull (counter-clockwise, no collinear points) of finite points, Andrew's monotone chain.
-pub fn convex_hull(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
-    let mut p: Vec<(f64, f64)> = points
-        .iter()
-        .copied()
-        .filter(|q| q.0.is_finite() && q.1.is_finite())
-        .collect();
-    p.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
-    p.dedup();
-    if p.len() < 3 {
-        return p;
-    }
-    let cross =
-        |o: (f64, f64), a: (f64, f64), b: (f64, f64)| (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0);
-    let mut lower: Vec<(f64, f64)> = Vec::new();
-    for &q in &p {
-        while lower.len() >= 2 && cross(lower[lower.len() - 2], lower[lower.len() - 1], q) <= 0.0 {
-            lower.pop();
-        }
-        lower.push(q);
-    }
-    let mut upper: Vec<(f64, f64)> = Vec::new();
-    for &q in p.iter().rev() {
-        while upper.len() >= 2 && cross(upper[upper.len() - 2], upper[upper.len() - 1], q) <= 0.0 {
-            upper.pop();
-        }
-        upper.push(q);
-    }
-    lower.pop();
-    upper.pop();
-    lower.extend(upper);
-    lower
-}
-
-/// Intersection of a polygon with a convex counter-clockwise polygon (Sutherland–Hodgman).
-pub fn clip_convex(subject: &[(f64, f64)], clip_ccw: &[(f64, f64)]) -> Vec<(f64, f64)> {
-    let mut out = subject.to_vec();
-    let n = clip_ccw.len();
-    for e in 0..n {
-        if out.is_empty() {
-            break;
-        }
-        let (a, b) = (clip_ccw[e], clip_ccw[(e + 1) % n]);
-        // Inside = left of a->b.
-        let side = |p: (f64, f64)| (b.0 - a.0) * (p.1 - a.1) - (b.1 - a.1) * (p.0 - a.0);
-        let input = std::mem::take(&mut out);
-        for i in 0..input.len() {
-            let (p, q) = (input[i], input[(i + 1) % input.len()]);
-            let (sp, sq) = (side(p), side(q));
-            if sp >= 0.0 {
-                out.push(p);
-            }
-            if (sp >= 0.0) != (sq >= 0.0) {
-                let t = sp / (sp - sq);
-                out.push((p.0 + t * (q.0 - p.0), p.1 + t * (q.1 - p.1)));
-            }
-        }
-    }
-    out
-}
+pub use crate::geometry::{clip_convex, convex_hull};
 
 /// Quantiles of the steady-state lateral speed.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

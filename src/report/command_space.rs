@@ -11,6 +11,7 @@ use super::style::{
     assign_colours, canvas_height, closed, no_data, render, title_legend_body, xy_chart, DrawResult, Figure,
     FigureFiles, LegendEntry, Swatch,
 };
+use crate::geometry::convex_hull;
 use crate::kinematics::{BodyVelocity, CommandSpace, WheelSpeeds};
 use crate::{Error, Result};
 
@@ -39,39 +40,6 @@ struct CommandSpaceFig<'a> {
     scenarios: &'a [CommandScenario],
     colours: Vec<RGBColor>,
     legend: Vec<LegendEntry>,
-}
-
-/// Convex hull (Andrew's monotone chain), counter-clockwise; used to outline T.
-fn convex_hull(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
-    let mut p: Vec<(f64, f64)> = points
-        .iter()
-        .copied()
-        .filter(|q| q.0.is_finite() && q.1.is_finite())
-        .collect();
-    p.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
-    p.dedup();
-    if p.len() < 3 {
-        return p;
-    }
-    let cross =
-        |o: (f64, f64), a: (f64, f64), b: (f64, f64)| (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0);
-    let mut hull: Vec<(f64, f64)> = Vec::with_capacity(2 * p.len());
-    for pass in 0..2 {
-        let start = hull.len();
-        let iter: Box<dyn Iterator<Item = &(f64, f64)>> = if pass == 0 {
-            Box::new(p.iter())
-        } else {
-            Box::new(p.iter().rev())
-        };
-        for &q in iter {
-            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0 {
-                hull.pop();
-            }
-            hull.push(q);
-        }
-        hull.pop();
-    }
-    hull
 }
 
 /// Symmetric range covering the values, at least `min_half` on each side of zero, +8 %.

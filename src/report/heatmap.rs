@@ -123,41 +123,6 @@ fn is_convex(poly: &[(f64, f64)]) -> bool {
     sign != 0.0
 }
 
-/// Clips polygon `p` by the convex polygon `clip` (Sutherland–Hodgman, one half-plane per
-/// edge of `clip`, whichever its orientation).
-fn clip_convex(p: Vec<(f64, f64)>, clip: &[(f64, f64)]) -> Vec<(f64, f64)> {
-    let n = clip.len();
-    // Orientation of the clip polygon: inside is on the left of CCW edges.
-    let area: f64 = (0..n)
-        .map(|i| {
-            let (a, b) = (clip[i], clip[(i + 1) % n]);
-            a.0 * b.1 - b.0 * a.1
-        })
-        .sum();
-    let orient = if area >= 0.0 { 1.0 } else { -1.0 };
-    let mut out = p;
-    for i in 0..n {
-        if out.is_empty() {
-            break;
-        }
-        let (a, b) = (clip[i], clip[(i + 1) % n]);
-        let side = |q: (f64, f64)| orient * ((b.0 - a.0) * (q.1 - a.1) - (b.1 - a.1) * (q.0 - a.0));
-        let input = std::mem::take(&mut out);
-        for k in 0..input.len() {
-            let (p0, p1) = (input[k], input[(k + 1) % input.len()]);
-            let (s0, s1) = (side(p0), side(p1));
-            if s0 >= 0.0 {
-                out.push(p0);
-            }
-            if (s0 >= 0.0) != (s1 >= 0.0) {
-                let t = s0 / (s0 - s1);
-                out.push((p0.0 + t * (p1.0 - p0.0), p0.1 + t * (p1.1 - p0.1)));
-            }
-        }
-    }
-    out
-}
-
 /// The grid with points outside `poly` masked.
 fn masked(grid: &Grid2, poly: &[(f64, f64)]) -> Grid2 {
     let mut g = grid.clone();
@@ -346,7 +311,7 @@ impl Figure for HeatFig<'_> {
                     if let Some(c) = &clip {
                         if !corners.iter().all(|&(x, y)| in_polygon(poly, (y, x))) {
                             flush(&mut run, &mut rects);
-                            let p = clip_convex(corners.to_vec(), c);
+                            let p = crate::geometry::clip_convex(&corners, c);
                             if p.len() >= 3 {
                                 clipped.push(Polygon::new(p, colour.filled()));
                             }
@@ -591,7 +556,7 @@ mod tests {
         let tri = [(0.0, 0.0), (2.0, 0.0), (0.0, 2.0)];
         assert!(is_convex(&tri));
         let sq = vec![(0.5, 0.5), (1.5, 0.5), (1.5, 1.5), (0.5, 1.5)];
-        let p = clip_convex(sq, &tri);
+        let p = crate::geometry::clip_convex(&sq, &tri);
         // The triangle's hypotenuse x + y = 2 cuts the square [0.5, 1.5]² along its
         // diagonal (1.5, 0.5)-(0.5, 1.5), leaving a right triangle of area 0.5.
         let area: f64 = (0..p.len())
@@ -604,7 +569,7 @@ mod tests {
         assert!((area.abs() - 0.5).abs() < 1e-12, "area {area}, {p:?}");
         // Clockwise clip polygon gives the same result.
         let cw: Vec<(f64, f64)> = tri.iter().rev().copied().collect();
-        let q = clip_convex(vec![(0.5, 0.5), (1.5, 0.5), (1.5, 1.5), (0.5, 1.5)], &cw);
+        let q = crate::geometry::clip_convex(&[(0.5, 0.5), (1.5, 0.5), (1.5, 1.5), (0.5, 1.5)], &cw);
         assert_eq!(q.len(), p.len());
         assert!(!is_convex(&[
             (0.0, 0.0),

@@ -1,36 +1,10 @@
 //! Small planar geometry shared by the strategies: convex polygon clipping and areas, and the
 //! bounds of U.
 
-use crate::kinematics::{polygon_area, CommandSpace};
+use crate::geometry::polygon_area;
+use crate::kinematics::CommandSpace;
 
-/// Intersection of two convex polygons (vertices counter-clockwise), by Sutherland–Hodgman
-/// clipping of `subject` with each edge of `clip`. Empty if they do not overlap.
-pub fn convex_intersection(subject: &[(f64, f64)], clip: &[(f64, f64)]) -> Vec<(f64, f64)> {
-    let mut out = subject.to_vec();
-    let n = clip.len();
-    for i in 0..n {
-        if out.is_empty() {
-            break;
-        }
-        let (a, b) = (clip[i], clip[(i + 1) % n]);
-        // Inside = left of the edge a->b (counter-clockwise clip polygon): cross >= 0.
-        let side = |p: (f64, f64)| (b.0 - a.0) * (p.1 - a.1) - (b.1 - a.1) * (p.0 - a.0);
-        let input = std::mem::take(&mut out);
-        for j in 0..input.len() {
-            let p = input[j];
-            let q = input[(j + 1) % input.len()];
-            let (sp, sq) = (side(p), side(q));
-            if sp >= 0.0 {
-                out.push(p);
-            }
-            if (sp >= 0.0) != (sq >= 0.0) {
-                let t = sp / (sp - sq);
-                out.push((p.0 + t * (q.0 - p.0), p.1 + t * (q.1 - p.1)));
-            }
-        }
-    }
-    out
-}
+pub use crate::geometry::clip_convex as convex_intersection;
 
 /// Area of `poly` translated by `d` intersected with `poly` itself: the overlap of U with a copy
 /// shifted by a step `d`. Divided by area(U)², it is the density of the step vector between two

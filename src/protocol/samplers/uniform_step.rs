@@ -16,7 +16,8 @@
 
 use super::geometry::shifted_overlap_area;
 use super::SamplerEntry;
-use crate::kinematics::{polygon_area, WheelSpeeds};
+use crate::geometry::polygon_area;
+use crate::kinematics::WheelSpeeds;
 use crate::protocol::sampler::{uniform_in_wheel_space, Sampler, SamplingContext};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
