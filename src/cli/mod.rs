@@ -3,6 +3,8 @@
 pub mod analyze;
 pub mod demo;
 pub mod run;
+pub mod samplers;
+pub mod sweep;
 
 use crate::robot::{Robot, BUILTIN_ROBOTS};
 use crate::terrain::{Terrain, BUILTIN_TERRAINS};
@@ -33,6 +35,13 @@ pub enum Command {
     /// Analyses DRIVE logs (simulated .mcap or measured .csv): slips, transfer functions, ρ,
     /// risk; writes summary.json, figures and report.html. Several logs are compared.
     Analyze(analyze::AnalyzeArgs),
+    /// Compares the sampling strategies on the same budget with the simulator: transfer-function
+    /// error against the open-loop truth, coverage, interruptions, energy.
+    Samplers(samplers::SamplersArgs),
+    /// Runs a sweep matrix (robots × terrains × samplers × seeds), sharded and resumable.
+    Sweep(crate::sweep::SweepArgs),
+    /// Merges sweep output directories (e.g. one per shard) into merged.json and merged.csv.
+    SweepMerge(crate::sweep::MergeArgs),
 }
 
 /// Runs the command line; returns the process exit code.
@@ -70,6 +79,9 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Robots) => list_robots(),
         Some(Command::Terrains) => list_terrains(),
         Some(Command::Analyze(a)) => analyze::analyze(&a),
+        Some(Command::Samplers(a)) => samplers::samplers(&a),
+        Some(Command::Sweep(a)) => sweep::sweep(&a),
+        Some(Command::SweepMerge(a)) => sweep::sweep_merge(&a),
     }
 }
 

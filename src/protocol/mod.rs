@@ -5,6 +5,7 @@
 //! the safe area, the attempt is interrupted, the robot is stopped and turned to face the centre
 //! (its rear, for a backward command), and the same command restarts from zero elapsed time.
 
+pub mod ground_truth;
 pub mod sampler;
 pub mod samplers;
 
