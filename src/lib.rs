@@ -5,6 +5,7 @@
 //! calibration ([`calibration`]) → figures and reports ([`report`]). The [`cli`] wires them.
 
 pub mod analysis;
+pub mod calibration;
 pub mod config;
 pub mod error;
 pub mod kinematics;
