@@ -1,7 +1,499 @@
-//! Closing the loop with measured data: replay, error metrics, fitting, residual analysis.
+//! Closing the loop with measured data: how far the simulator is from the robot, which effect
+//! the model lacks, and how much adding it closes the gap, on steps the fit never saw.
+//!
+//! [`calibrate`] runs the loop on a [`DriveLog`]:
+//! 1. split the steps into training and held-out sets (seeded, [`fit::split_steps`]);
+//! 2. estimate the noise floor from the whole recording ([`metrics::NoiseFloor`]);
+//! 3. score the IDD and the declared model on the held-out steps (baseline);
+//! 4. fit the terrain / uncertain robot parameters the plant exposes, on the training steps;
+//! 5. residual analysis ([`residual`]) and ranking of candidate effects, each fitted alone on
+//!    the training steps and judged by its held-out error reduction ([`candidates`]);
+//! 6. greedy forward selection: add the best effect if it passes the [`SelectionRule`]
+//!    (reduction > k bootstrap standard errors and > a minimum relative gain), re-rank the
+//!    rest on top of it, repeat; then a joint refit of everything selected, kept only if it
+//!    does not worsen the held-out score;
+//! 7. report everything on the held-out steps: IDD, model before, model after, noise floor.
+//!
+//! Nothing reads what a log says was injected: the effects are found from the data alone.
 
+pub mod candidates;
 pub mod fit;
 pub mod metrics;
 pub mod model;
 pub mod replay;
+pub mod residual;
 pub mod surrogate;
+
+pub use candidates::{CandidateEvidence, EffectCandidate, SelectionRule};
+pub use fit::{FitOptions, FitResult, FittedParam};
+pub use metrics::{ErrorSummary, NoiseFloor};
+pub use model::{IddFactory, KinematicFactory, ModelParams, ParamSpec, PlantFactory};
+pub use replay::{replay_log, ReplayOptions};
+pub use residual::ResidualAnalysis;
+
+use crate::error::{Error, Result};
+use crate::log::{DriveLog, Origin};
+use crate::robot::Robot;
+use crate::terrain::Terrain;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Options of [`calibrate`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationOptions {
+    /// Seed of the train/held-out split and of the bootstrap.
+    pub seed: u64,
+    /// Fraction of the steps used for fitting.
+    pub train_fraction: f64,
+    /// Fit at most this many training steps per cost evaluation (a seeded subset; all when
+    /// `None`): replays are the expensive part.
+    pub max_fit_steps: Option<usize>,
+    /// Budget of the terrain / robot-parameter fit.
+    pub terrain_fit: FitOptions,
+    /// Budget of each candidate-effect fit.
+    pub effect_fit: FitOptions,
+    /// Budget of the final joint refit (0 iterations: skip it).
+    pub final_fit: FitOptions,
+    /// Most effects added.
+    pub max_effects: usize,
+    /// When an effect counts as an improvement.
+    pub rule: SelectionRule,
+    /// Only these candidate effects (all the plant implements when `None`).
+    pub candidates: Option<Vec<String>>,
+    /// Grid resolution of the residual maps (m/s and rad/s).
+    pub grid_step: f64,
+    /// Kernel variance of the residual maps; by robot size when `None` (0.64 for a robot
+    /// faster than 2 m/s as in the paper's Warthog figures, else 0.25 as for the Husky).
+    pub kernel_var: Option<f64>,
+}
+
+impl Default for CalibrationOptions {
+    fn default() -> Self {
+        Self {
+            seed: 0,
+            train_fraction: 0.7,
+            max_fit_steps: None,
+            terrain_fit: FitOptions::default(),
+            effect_fit: FitOptions {
+                max_iters: 40,
+                sd_tolerance: 1e-3,
+            },
+            final_fit: FitOptions {
+                max_iters: 60,
+                sd_tolerance: 1e-3,
+            },
+            max_effects: 3,
+            rule: SelectionRule::default(),
+            candidates: None,
+            grid_step: 0.1,
+            kernel_var: None,
+        }
+    }
+}
+
+/// One row of the before/after table (held-out steps).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TableRow {
+    /// Metric.
+    pub metric: String,
+    /// Unit.
+    pub unit: String,
+    /// Ideal differential drive.
+    pub idd: f64,
+    /// Declared model (robot file + terrain file, no effect).
+    pub sim_before: f64,
+    /// Calibrated model.
+    pub sim_after: f64,
+    /// Noise floor.
+    pub floor: f64,
+}
+
+/// Overall outcome.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationStatus {
+    /// Every optimizer converged.
+    pub converged: bool,
+    /// What happened, in order (optimizer stops, skipped stages, choices made).
+    pub notes: Vec<String>,
+}
+
+/// One round of the greedy selection.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SelectionRound {
+    /// Round index, from 0.
+    pub round: usize,
+    /// Candidates ranked by held-out reduction, best first.
+    pub ranking: Vec<CandidateEvidence>,
+    /// The effect added in this round, if any.
+    pub added: Option<String>,
+}
+
+/// Everything [`calibrate`] found, serializable to JSON.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationReport {
+    /// Dataset name.
+    pub dataset: String,
+    /// File it was read from, when measured.
+    pub source_file: Option<String>,
+    /// Plant used as the model.
+    pub model_kind: String,
+    /// Options used.
+    pub options: CalibrationOptions,
+    /// Outcome.
+    pub status: CalibrationStatus,
+    /// Training steps.
+    pub train_steps: Vec<u32>,
+    /// Held-out steps (every figure of the table is computed on them).
+    pub heldout_steps: Vec<u32>,
+    /// Before/after table on the held-out steps.
+    pub table: Vec<TableRow>,
+    /// Noise floor estimate.
+    pub floor: NoiseFloor,
+    /// Held-out error of the IDD.
+    pub idd: ErrorSummary,
+    /// Held-out error of the declared model.
+    pub before: ErrorSummary,
+    /// Held-out error after terrain calibration only.
+    pub after_terrain: ErrorSummary,
+    /// Held-out error of the final model.
+    pub after: ErrorSummary,
+    /// Held-out score reduction before → after, and its bootstrap standard error.
+    pub total_reduction: f64,
+    /// Bootstrap standard error of `total_reduction`.
+    pub total_reduction_se: f64,
+    /// Terrain / robot-parameter fit.
+    pub terrain_fit: Option<FitResult>,
+    /// Selection rounds; the first one's ranking is the ranked list of candidate effects
+    /// against the terrain-calibrated model.
+    pub rounds: Vec<SelectionRound>,
+    /// Effects in the final model with their fitted values (`effect.<name>`).
+    pub effects: Vec<FittedParam>,
+    /// Effects the plant implements but that were not evaluated (no known search box).
+    pub not_evaluated: Vec<String>,
+    /// Model before.
+    pub model_before: ModelParams,
+    /// Model after.
+    pub model_after: ModelParams,
+    /// Residual of the terrain-calibrated model (before effects), held-out steps.
+    pub residual_before: ResidualAnalysis,
+    /// Residual of the final model, held-out steps.
+    pub residual_after: ResidualAnalysis,
+    /// A command line that reproduces this report.
+    pub reproduce: String,
+}
+
+/// The robot and terrain a log declares: the robot file named by the log with the operators'
+/// nominal wheel radius, baseline and wheel-speed limit, and the terrain file of the same name
+/// (the returned notes say when a terrain had to be assumed).
+pub fn models_for_log(log: &DriveLog) -> Result<(Robot, Terrain, Vec<String>)> {
+    let (mut robot, _) = Robot::resolve(&log.meta.robot)?;
+    let n = &log.meta.nominal;
+    robot.wheels.radius_m = n.wheel_radius_m;
+    robot.wheels.baseline_m = n.baseline_m;
+    robot.powertrain.max_wheel_rad_s = n.max_wheel_rad_s;
+    let mut notes = Vec::new();
+    let terrain = match Terrain::resolve(&log.meta.terrain) {
+        Ok((t, _)) => t,
+        Err(_) => {
+            notes.push(format!(
+                "terrain `{}` has no terrain file: started from `asphalt`",
+                log.meta.terrain
+            ));
+            Terrain::resolve("asphalt")?.0
+        }
+    };
+    Ok((robot, terrain, notes))
+}
+
+fn table(idd: &ErrorSummary, before: &ErrorSummary, after: &ErrorSummary, floor: &ErrorSummary) -> Vec<TableRow> {
+    idd.rows()
+        .into_iter()
+        .zip(before.rows())
+        .zip(after.rows())
+        .zip(floor.rows())
+        .map(|(((i, b), a), f)| TableRow {
+            metric: i.metric,
+            unit: i.unit,
+            idd: i.value,
+            sim_before: b.value,
+            sim_after: a.value,
+            floor: f.value,
+        })
+        .collect()
+}
+
+/// Runs the calibration loop (see the module doc) of the plant `factory` builds, starting
+/// from `robot` and `terrain`, on `log`.
+pub fn calibrate(
+    log: &DriveLog,
+    robot: &Robot,
+    terrain: &Terrain,
+    factory: &dyn PlantFactory,
+    opts: &CalibrationOptions,
+) -> Result<CalibrationReport> {
+    if !(opts.train_fraction > 0.0 && opts.train_fraction < 1.0) {
+        return Err(Error::Analysis(format!(
+            "train fraction must be in (0, 1), got {}",
+            opts.train_fraction
+        )));
+    }
+    let slices = replay::step_slices(log);
+    let steps: Vec<u32> = slices.iter().map(|s| s.step).collect();
+    if steps.len() < 4 {
+        return Err(Error::Analysis(format!(
+            "calibration needs at least 4 completed steps, `{}` has {}",
+            log.meta.name,
+            steps.len()
+        )));
+    }
+    let mut notes = Vec::new();
+    let mut converged = true;
+    let (train_ids, test_ids) = fit::split_steps(&steps, opts.train_fraction, opts.seed);
+    let rate = log.meta.rate_hz;
+    let all = fit::StepSet::new(&slices, &steps, rate)?;
+    let floor = NoiseFloor::estimate(&all.features)?;
+    let fit_ids: Vec<u32> = match opts.max_fit_steps {
+        Some(k) if k < train_ids.len() => {
+            let (mut sub, _) = fit::split_steps(&train_ids, k as f64 / train_ids.len() as f64, opts.seed ^ 0x5eed);
+            sub.truncate(k.max(1));
+            notes.push(format!("cost evaluated on {} of {} training steps", sub.len(), train_ids.len()));
+            sub
+        }
+        _ => train_ids.clone(),
+    };
+    let train = fit::StepSet::new(&slices, &fit_ids, rate)?;
+    let test = fit::StepSet::new(&slices, &test_ids, rate)?;
+
+    let declared = ModelParams::new(robot.clone(), terrain.clone());
+    let summary = |p: &ModelParams, f: &dyn PlantFactory| -> Result<(ErrorSummary, Vec<metrics::StepErrors>)> {
+        let e = test.errors(f, p)?;
+        Ok((ErrorSummary::pool(&e, &floor), e))
+    };
+    let (idd, _) = summary(&declared, &IddFactory)?;
+    let (before, before_errors) = summary(&declared, factory)?;
+
+    // Terrain / robot parameters.
+    let specs = factory.calibration_params(&declared);
+    let (mut current, terrain_fit) = if specs.is_empty() {
+        notes.push(format!("the {} model exposes no terrain parameter: terrain fit skipped", factory.name()));
+        (declared.clone(), None)
+    } else {
+        let (m, r) = fit::fit(&train, factory, &declared, &specs, &floor, &opts.terrain_fit)?;
+        if !r.converged {
+            converged = false;
+            notes.push(format!("terrain fit: {}", r.status));
+        }
+        (m, Some(r))
+    };
+    let (after_terrain, _) = summary(&current, factory)?;
+    let sim_feats = |p: &ModelParams| -> Result<Vec<metrics::StepFeatures>> {
+        let replayed = replay::replay_steps(&test.steps, factory, p, rate)?;
+        replayed
+            .iter()
+            .zip(&test.steps)
+            .map(|(r, s)| metrics::step_features(s.step, r))
+            .collect()
+    };
+    let space = robot.command_space();
+    let kernel_var = opts
+        .kernel_var
+        .unwrap_or(if robot.limits.max_lin_m_s > 2.0 { 0.64 } else { 0.25 });
+    let residual_before = residual::analyse(
+        &sim_feats(&current)?,
+        &test.features,
+        robot.idd(),
+        &space,
+        opts.grid_step,
+        kernel_var,
+    );
+
+    // Candidate effects, greedy forward selection.
+    let max_cmd = log
+        .samples
+        .iter()
+        .map(|s| s.m.cmd.left_rad_s.abs().max(s.m.cmd.right_rad_s.abs()))
+        .fold(0.0, f64::max);
+    let (mut pool, not_evaluated) = candidates::default_candidates(&factory.effect_names(), max_cmd);
+    if let Some(only) = &opts.candidates {
+        pool.retain(|c| only.contains(&c.name));
+    }
+    let mut rounds = Vec::new();
+    let mut selected: Vec<EffectCandidate> = Vec::new();
+    for round in 0..opts.max_effects {
+        if pool.is_empty() {
+            break;
+        }
+        let ranked = candidates::evaluate_candidates(
+            &train,
+            &test,
+            factory,
+            &current,
+            &floor,
+            &pool,
+            &opts.effect_fit,
+            &SelectionRule {
+                seed: opts.rule.seed ^ opts.seed ^ round as u64,
+                ..opts.rule
+            },
+        )?;
+        for (ev, _) in &ranked {
+            if !ev.converged {
+                notes.push(format!("round {round}, {}: {}", ev.effect, ev.fit_status));
+            }
+        }
+        let added = match ranked.first() {
+            Some((ev, model)) if ev.significant => {
+                current = model.clone();
+                let name = ev.effect.clone();
+                if let Some(i) = pool.iter().position(|c| c.name == name) {
+                    selected.push(pool.remove(i));
+                }
+                Some(name)
+            }
+            _ => None,
+        };
+        let stop = added.is_none();
+        rounds.push(SelectionRound {
+            round,
+            ranking: ranked.into_iter().map(|(e, _)| e).collect(),
+            added,
+        });
+        if stop {
+            break;
+        }
+    }
+
+    // Joint refit of everything selected (and the terrain parameters), kept if not worse.
+    if !selected.is_empty() && opts.final_fit.max_iters > 0 {
+        let mut joint = specs.clone();
+        joint.extend(selected.iter().flat_map(|c| c.params.iter().filter(|p| !p.discrete).cloned()));
+        let (m, r) = fit::fit(&train, factory, &current, &joint, &floor, &opts.final_fit)?;
+        let old = fit::mean_score(&test.errors(factory, &current)?, &floor);
+        let new = fit::mean_score(&test.errors(factory, &m)?, &floor);
+        if new <= old {
+            current = m;
+            notes.push(format!("joint refit: held-out score {old:.3} -> {new:.3}"));
+        } else {
+            notes.push(format!("joint refit discarded: held-out score {old:.3} -> {new:.3}"));
+        }
+        if !r.converged {
+            notes.push(format!("joint refit: {}", r.status));
+        }
+    }
+    if rounds.iter().flat_map(|r| &r.ranking).any(|e| !e.converged) {
+        converged = false;
+    }
+
+    let (after, after_errors) = summary(&current, factory)?;
+    let diffs = candidates::paired_diffs(&before_errors, &after_errors, &floor);
+    let total_reduction = before.score - after.score;
+    let total_reduction_se = candidates::bootstrap_se(&diffs, opts.rule.bootstrap_samples, opts.seed);
+    let residual_after = residual::analyse(
+        &sim_feats(&current)?,
+        &test.features,
+        robot.idd(),
+        &space,
+        opts.grid_step,
+        kernel_var,
+    );
+    let effects = current
+        .effects
+        .iter()
+        .map(|(k, v)| {
+            let name = format!("effect.{k}");
+            let spec = selected.iter().flat_map(|c| &c.params).find(|p| p.name == name);
+            FittedParam {
+                name,
+                initial: None,
+                value: *v,
+                lower: spec.map_or(f64::NAN, |s| s.lower),
+                upper: spec.map_or(f64::NAN, |s| s.upper),
+                at_bound: spec.is_some_and(|s| {
+                    let c = (*v - s.lower) / (s.upper - s.lower);
+                    !s.discrete && !(0.005..=0.995).contains(&c)
+                }),
+            }
+        })
+        .collect();
+    let source_file = match &log.meta.origin {
+        Origin::Measured { file } => Some(file.clone()),
+        _ => None,
+    };
+    let reproduce = format!(
+        "drive-sim calibrate {} --out <DIR> --seed {}",
+        source_file.as_deref().unwrap_or(&log.meta.name),
+        opts.seed
+    );
+    Ok(CalibrationReport {
+        dataset: log.meta.name.clone(),
+        source_file,
+        model_kind: factory.name(),
+        options: opts.clone(),
+        status: CalibrationStatus { converged, notes },
+        train_steps: train_ids,
+        heldout_steps: test_ids,
+        table: table(&idd, &before, &after, &ErrorSummary::floor(&floor)),
+        floor,
+        idd,
+        before,
+        after_terrain,
+        after,
+        total_reduction,
+        total_reduction_se,
+        terrain_fit,
+        rounds,
+        effects,
+        not_evaluated,
+        model_before: declared,
+        model_after: current,
+        residual_before,
+        residual_after,
+        reproduce,
+    })
+}
+
+/// The calibrated terrain as a terrain TOML file, with a header saying where it comes from.
+pub fn fitted_terrain_toml(report: &CalibrationReport) -> Result<String> {
+    let body = toml::to_string(&report.model_after.terrain)
+        .map_err(|e| Error::Analysis(format!("cannot serialize the fitted terrain: {e}")))?;
+    Ok(format!(
+        "# Fitted to `{}` by drive-sim calibrate ({} model, seed {}).\n\
+         # Held-out score {:.3} (declared model {:.3}, 1 = noise floor); held-out steady vx RMSE\n\
+         # {:.4} m/s (floor {:.4}), wz RMSE {:.4} rad/s (floor {:.4}), on {} held-out steps.\n\
+         # Effects in the calibrated model (not part of the terrain): {}.\n{}",
+        report.dataset,
+        report.model_kind,
+        report.options.seed,
+        report.after.score,
+        report.before.score,
+        report.after.steady_vx_m_s,
+        report.floor.steady[0],
+        report.after.steady_wz_rad_s,
+        report.floor.steady[2],
+        report.heldout_steps.len(),
+        if report.effects.is_empty() {
+            "none".to_string()
+        } else {
+            report
+                .effects
+                .iter()
+                .map(|e| format!("{}={:.4}", e.name, e.value))
+                .collect::<Vec<_>>()
+                .join(", ")
+        },
+        body
+    ))
+}
+
+/// Writes `calibration.json` and `<dataset>_fitted_terrain.toml` into `dir` (created if
+/// needed); returns the paths written.
+pub fn write_report(report: &CalibrationReport, dir: &Path) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let json_path = dir.join("calibration.json");
+    let json = serde_json::to_string_pretty(report)
+        .map_err(|e| Error::Analysis(format!("cannot serialize the report: {e}")))?;
+    std::fs::write(&json_path, json).map_err(|e| Error::io(&json_path, e))?;
+    let toml_path = dir.join(format!("{}_fitted_terrain.toml", report.dataset));
+    std::fs::write(&toml_path, fitted_terrain_toml(report)?).map_err(|e| Error::io(&toml_path, e))?;
+    Ok(vec![json_path, toml_path])
+}

@@ -211,10 +211,11 @@ impl PlantFactory for KinematicFactory {
     }
     fn calibration_params(&self, params: &ModelParams) -> Vec<ParamSpec> {
         let b = params.robot.wheels.baseline_m;
-        // Skid-steer effective baselines are reported up to ~2x the geometric one; never
-        // narrower than 0.7x.
+        // Skid-steer effective baselines are reported up to ~2x the geometric one; the robot
+        // file's validation caps the baseline at 1.5x the body width. Never narrower than 0.7x.
+        let upper = (2.5 * b).min(1.5 * params.robot.body.width_m);
         vec![
-            ParamSpec::new("robot.wheels.baseline_m", 0.7 * b, 2.5 * b),
+            ParamSpec::new("robot.wheels.baseline_m", 0.7 * b, upper.max(b)),
             ParamSpec::new("robot.powertrain.time_constant_s", 0.02, 1.5),
         ]
     }
