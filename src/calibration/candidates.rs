@@ -31,12 +31,14 @@ pub fn default_candidates(effect_names: &[String], max_cmd_rad_s: f64) -> (Vec<E
     let mut out = Vec::new();
     let mut known: Vec<&str> = Vec::new();
     let wmax = max_cmd_rad_s.max(1e-3);
-    let singles: [(&str, f64, f64, f64); 10] = [
+    let singles: [(&str, f64, f64, f64); 11] = [
         ("wheel_speed_saturation_rad_s", 0.2 * wmax, wmax, wmax),
         ("wheel_radius_scale", 0.7, 1.3, 1.0),
         ("dead_time_s", 0.0, 0.6, 0.0),
         ("time_constant_scale", 0.2, 5.0, 1.0),
         ("turning_resistance_scale", 0.2, 5.0, 1.0),
+        // Tyre lateral relaxation length: from off to about two tyre diameters.
+        ("suspension_torsion_m", 0.0, 1.2, 0.0),
         ("imu_yaw_rate_scale", 0.5, 1.5, 1.0),
         ("imu_yaw_rate_bias_rad_s", -0.2, 0.2, 0.0),
         ("pose_latency_s", 0.0, 0.5, 0.0),
@@ -215,7 +217,7 @@ mod tests {
 
     #[test]
     fn candidates_follow_the_plant() {
-        let names: Vec<String> = ["dead_time_s", "motor_gain_left", "motor_gain_right", "suspension_torsion_k"]
+        let names: Vec<String> = ["dead_time_s", "motor_gain_left", "motor_gain_right", "suspension_stiffness"]
             .iter()
             .map(|s| s.to_string())
             .collect();
@@ -223,6 +225,6 @@ mod tests {
         let n: Vec<&str> = c.iter().map(|c| c.name.as_str()).collect();
         assert_eq!(n, ["dead_time_s", "motor_gain"]);
         assert_eq!(c[1].params.len(), 2);
-        assert_eq!(unknown, ["suspension_torsion_k"]);
+        assert_eq!(unknown, ["suspension_stiffness"]);
     }
 }

@@ -9,8 +9,11 @@
 //!
 //! **Noise floor.** What no deterministic model can predict. For a steady-state channel, the
 //! two steady windows of a step see the same command; if each window mean is the true steady
-//! value plus an independent error of variance σ², then `E[(w1 - w2)²] = 2σ²`, and σ is the
-//! RMSE of a perfect model. We take `σ² = mean over steps of (w1 - w2)² / 2`. It also absorbs
+//! value plus an independent error of standard deviation σ, then `w1 - w2` has standard
+//! deviation `√2 σ`, and σ is the RMSE of a perfect model. We estimate it robustly,
+//! `σ = 1.4826 · median |w1 - w2| / √2` (the MAD estimate, exact for Gaussian errors), because
+//! measured logs have a few steps where the lidar pose jumps between windows, and a mean of
+//! squares would let those few set the floor of all steps. It also absorbs
 //! slow real fluctuations (terrain changing under the robot), which a step-constant model cannot
 //! follow either; it overstates the floor when windows 1 and 2 are not yet steady (long
 //! transients on ice), which the report shows as a floor close to the errors. Per-sample
@@ -172,8 +175,8 @@ pub struct NoiseFloor {
 impl NoiseFloor {
     /// Estimates the floor from the measured features.
     pub fn estimate(measured: &[StepFeatures]) -> Result<Self> {
-        let mut steady = [0.0; 6];
-        let mut pose = [0.0; 2];
+        let mut steady: [Vec<f64>; 6] = Default::default();
+        let mut pose: [Vec<f64>; 2] = Default::default();
         let mut n_pairs = 0usize;
         let mut scatter = [0.0; 4];
         let mut n_scatter = 0usize;
@@ -182,11 +185,14 @@ impl NoiseFloor {
         for f in measured {
             if f.steady.len() >= 2 {
                 for c in 0..6 {
-                    steady[c] += (f.steady[0][c] - f.steady[1][c]).powi(2) / 2.0;
+                    steady[c].push((f.steady[0][c] - f.steady[1][c]).abs());
                 }
                 let (d1, d2) = (f.displacement[1], f.displacement[2.min(f.displacement.len() - 1)]);
-                pose[0] += ((d1[0] - d2[0]).powi(2) + (d1[1] - d2[1]).powi(2)) / 2.0;
-                pose[1] += wrap_angle(d1[2] - d2[2]).powi(2) / 2.0;
+                // Translation: a 2-D difference; its norm's median relates to σ differently
+                // from a 1-D one, so use each axis as a sample of the 1-D difference.
+                pose[0].push((d1[0] - d2[0]).abs());
+                pose[0].push((d1[1] - d2[1]).abs());
+                pose[1].push(wrap_angle(d1[2] - d2[2]).abs());
                 n_pairs += 1;
             }
             for w in 1..=f.steady.len() as u32 {
@@ -210,9 +216,12 @@ impl NoiseFloor {
         }
         let series = scatter.map(|s| (s / n_scatter as f64).sqrt().max(MIN_FLOOR));
         let (steady, pose) = if n_pairs > 0 {
+            let sigma = |d: &Vec<f64>| (mad_sigma(d) / std::f64::consts::SQRT_2).max(MIN_FLOOR);
+            let per_axis = sigma(&pose[0]);
             (
-                steady.map(|s| (s / n_pairs as f64).sqrt().max(MIN_FLOOR)),
-                pose.map(|s| (s / n_pairs as f64).sqrt().max(MIN_FLOOR)),
+                [0, 1, 2, 3, 4, 5].map(|c| sigma(&steady[c])),
+                // A 2-D error of σ per axis has RMS norm √2 σ.
+                [(per_axis * std::f64::consts::SQRT_2).max(MIN_FLOOR), sigma(&pose[1])],
             )
         } else {
             // White-noise fallback: a window mean of n samples.
@@ -230,6 +239,18 @@ impl NoiseFloor {
             steps_used: n_pairs,
         })
     }
+}
+
+/// Standard deviation from absolute deviations about zero: 1.4826 · median(|d|).
+fn mad_sigma(abs_dev: &[f64]) -> f64 {
+    let mut v: Vec<f64> = abs_dev.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    let med = if n % 2 == 1 { v[n / 2] } else { (v[n / 2 - 1] + v[n / 2]) / 2.0 };
+    1.4826 * med
 }
 
 /// Sums of squared errors of one replayed step against the recording.
@@ -510,10 +531,15 @@ mod tests {
 
     #[test]
     fn floor_and_errors_by_hand() {
-        // Window-2 encoders differ by 0.2 rad/s: σ² = 0.2² / 2 -> σ = 0.1414.
+        // Window-2 encoders differ by 0.2 rad/s: median |d| = 0.2, σ = 1.4826 · 0.2 / √2.
         let meas = step_features(0, &step(1.0, 0.0, 3.0, 0.2)).unwrap();
         let floor = NoiseFloor::estimate(std::slice::from_ref(&meas)).unwrap();
-        assert!((floor.steady[3] - 0.2 / 2f64.sqrt()).abs() < 1e-9, "{floor:?}");
+        assert!((floor.steady[3] - 1.4826 * 0.2 / 2f64.sqrt()).abs() < 1e-9, "{floor:?}");
+        // The median ignores one outlying step among three.
+        let calm = step_features(0, &step(1.0, 0.0, 3.0, 0.1)).unwrap();
+        let wild = step_features(0, &step(1.0, 0.0, 3.0, 5.0)).unwrap();
+        let f3 = NoiseFloor::estimate(&[meas.clone(), calm, wild]).unwrap();
+        assert!((f3.steady[3] - 1.4826 * 0.2 / 2f64.sqrt()).abs() < 1e-9, "{f3:?}");
         // Velocity channels are exact: clamped to the minimum floor.
         assert_eq!(floor.steady[0], MIN_FLOOR);
         // A replay 0.1 m/s slower: steady vx RMSE 0.1; wheel errors 0 in window 1, 0.2 in 2.
