@@ -6,6 +6,7 @@
 
 pub mod analysis;
 pub mod calibration;
+pub mod cli;
 pub mod config;
 pub mod error;
 pub mod kinematics;

@@ -107,14 +107,10 @@ pub fn run_drive(
         space: robot.command_space(),
         cfg,
         sink,
-        t0: plant_time0(),
+        t0: 0.0,
         summary: RunSummary::default(),
     }
     .run(sampler)
-}
-
-fn plant_time0() -> f64 {
-    0.0
 }
 
 struct Runner<'a> {
@@ -476,5 +472,64 @@ mod tests {
         let (c, _, _) = run_ideal(5, 10);
         assert_eq!(a, b);
         assert_ne!(a, c);
+    }
+
+    /// A plant whose state turns to NaN after `fail_at_s`: the run must stop with an error
+    /// naming the step and the time, not panic and not return a summary.
+    struct Exploding {
+        inner: IdealPlant,
+        fail_at_s: f64,
+    }
+
+    impl Plant for Exploding {
+        fn command(&mut self, cmd: WheelSpeeds) {
+            self.inner.command(cmd)
+        }
+        fn advance(&mut self, dt_s: f64) -> Result<()> {
+            self.inner.advance(dt_s)
+        }
+        fn measure(&mut self) -> Measurement {
+            self.inner.measure()
+        }
+        fn true_pose(&self) -> Pose {
+            let mut p = self.inner.true_pose();
+            if self.inner.time_s() > self.fail_at_s {
+                p.z_m = f64::NAN;
+            }
+            p
+        }
+        fn true_velocity(&self) -> BodyVelocity {
+            self.inner.true_velocity()
+        }
+        fn time_s(&self) -> f64 {
+            self.inner.time_s()
+        }
+        fn reset(&mut self, pose: Pose, velocity: BodyVelocity, wheels: WheelSpeeds) {
+            self.inner.reset(pose, velocity, wheels)
+        }
+    }
+
+    #[test]
+    fn divergence_names_step_and_time() {
+        let (robot, _) = Robot::resolve("warthog").unwrap();
+        // 1 s of settling, then 6 s steps: the first tick past 14.02 s (14.05 s) falls in step 2 (13..19 s).
+        let mut plant = Exploding {
+            inner: IdealPlant::new(robot.idd(), 0.1),
+            fail_at_s: 14.02,
+        };
+        let mut sampler = sampler::UniformWheel::new(1);
+        let cfg = ProtocolConfig {
+            steps: 10,
+            ..Default::default()
+        };
+        let mut frames = Vec::new();
+        let err = run_drive(&mut plant, &robot, &mut sampler, &cfg, &mut frames).unwrap_err();
+        match err {
+            Error::Diverged { step, time_s, .. } => {
+                assert_eq!(step, 2);
+                assert!((time_s - 14.05).abs() < 1e-6, "{time_s}");
+            }
+            e => panic!("unexpected error {e}"),
+        }
     }
 }
