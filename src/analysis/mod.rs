@@ -1,1 +1,456 @@
 //! The slip and unpredictability pipeline.
+//!
+//! [`analyze`] takes any [`DriveLog`] (simulated or measured: it cannot tell) and returns an
+//! [`Analysis`]: segmentation with explicit exclusions ([`segment`]), realized velocities
+//! ([`velocity`]), the sensor cross-check that picks the yaw-rate source ([`crosscheck`]), slips
+//! in both frames ([`slip`]), ρ ([`rho`]), the spaces U/S/T ([`spaces`]), the kernel-smoothed
+//! transfer functions ([`smoother`]), the risk scenarios ([`risk`]) and the box-plot statistics
+//! ([`stats`]). Every result type is serde-serializable; NaN values serialize as `null`.
+
+pub mod crosscheck;
+pub mod rho;
+pub mod risk;
+pub mod segment;
+pub mod slip;
+pub mod smoother;
+pub mod spaces;
+pub mod stats;
+pub mod velocity;
+
+use crate::kinematics::{BodyVelocity, WheelSpeeds};
+use crate::log::{DriveLog, Nominal, Origin};
+use crate::{Error, Result};
+use crosscheck::{CrossCheck, CrossCheckParams, YawRateSource};
+use rho::{MassProperties, Rho};
+use risk::{MaxKineticEnergy, RiskScenario};
+use segment::Exclusion;
+use serde::{Deserialize, Serialize};
+use slip::SlipRecord;
+use smoother::{FastParams, Grid, KernelCovariance, TransferFunctions};
+use spaces::Spaces;
+use stats::BoxStats;
+use velocity::SampleKinematics;
+
+/// Transfer-function (kernel smoother) settings.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SmootherParams {
+    /// Compute the transfer functions at all.
+    pub enabled: bool,
+    /// Grid resolution along vx, m/s (paper: 0.1).
+    pub resolution_vx_m_s: f64,
+    /// Grid resolution along wz, rad/s (paper: 0.1).
+    pub resolution_wz_rad_s: f64,
+    /// Kernel covariance (paper: 0.64 I for the Warthog figures).
+    pub covariance: KernelCovariance,
+    /// Fast-smoother accuracy settings.
+    pub fast: FastParams,
+}
+
+impl Default for SmootherParams {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            resolution_vx_m_s: 0.1,
+            resolution_wz_rad_s: 0.1,
+            covariance: KernelCovariance::default(),
+            fast: FastParams::default(),
+        }
+    }
+}
+
+/// Parameters of [`analyze`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct AnalysisParams {
+    /// Half width (samples) of the local-line derivative of the pose (see [`velocity`]).
+    pub derivative_half_width: usize,
+    /// Minimum samples per window; `None` = 3/4 of the declared samples per window.
+    pub min_samples_per_window: Option<usize>,
+    /// Cross-check tolerances.
+    pub crosscheck: CrossCheckParams,
+    /// Force the yaw-rate source instead of the cross-check's choice.
+    pub yaw_rate_source: Option<YawRateSource>,
+    /// Transfer functions.
+    pub smoother: SmootherParams,
+}
+
+impl Default for AnalysisParams {
+    fn default() -> Self {
+        Self {
+            derivative_half_width: 3,
+            min_samples_per_window: None,
+            crosscheck: CrossCheckParams::default(),
+            yaw_rate_source: None,
+            smoother: SmootherParams::default(),
+        }
+    }
+}
+
+/// Slips and ρ of one window.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct WindowResult {
+    /// Window index (0 transient).
+    pub window: u32,
+    /// Samples in the window.
+    pub n_samples: usize,
+    /// Velocities and slips (window means).
+    pub slip: SlipRecord,
+    /// ρ and its terms.
+    pub rho: Rho,
+}
+
+/// Results of one analysed step.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StepResult {
+    /// Step index.
+    pub step: u32,
+    /// Every window.
+    pub windows: Vec<WindowResult>,
+    /// Steady state: mean of the steady windows (1..) of realized velocities.
+    pub steady: SlipRecord,
+    /// ρ of the steady state.
+    pub steady_rho: Rho,
+}
+
+/// Box-plot statistics of the steady-state slips and ρ over the analysed steps.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SlipStats {
+    /// Longitudinal slip, m/s.
+    pub vx_m_s: Option<BoxStats>,
+    /// Lateral slip, m/s.
+    pub vy_m_s: Option<BoxStats>,
+    /// Angular slip, rad/s.
+    pub wz_rad_s: Option<BoxStats>,
+    /// Left wheel slip, rad/s.
+    pub left_rad_s: Option<BoxStats>,
+    /// Right wheel slip, rad/s.
+    pub right_rad_s: Option<BoxStats>,
+    /// ρ.
+    pub rho: Option<BoxStats>,
+    /// Realized weighted energy K_x, J.
+    pub k_x_j: Option<BoxStats>,
+}
+
+/// One flat row per step and window (and one per step's steady state, `window = None`), for
+/// `summary.json`. Excluded steps get one row with NaN numbers and the reason.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SummaryRow {
+    /// Step index.
+    pub step: u32,
+    /// Window index, `None` for the steady state.
+    pub window: Option<u32>,
+    /// Commanded left wheel speed, rad/s.
+    pub cmd_left_rad_s: f64,
+    /// Commanded right wheel speed, rad/s.
+    pub cmd_right_rad_s: f64,
+    /// Commanded vx (nominal IDD), m/s.
+    pub cmd_vx_m_s: f64,
+    /// Commanded wz (nominal IDD), rad/s.
+    pub cmd_wz_rad_s: f64,
+    /// Realized left wheel speed (encoder), rad/s.
+    pub left_rad_s: f64,
+    /// Realized right wheel speed (encoder), rad/s.
+    pub right_rad_s: f64,
+    /// Realized vx, m/s.
+    pub vx_m_s: f64,
+    /// Realized vy, m/s.
+    pub vy_m_s: f64,
+    /// Realized wz, rad/s.
+    pub wz_rad_s: f64,
+    /// Body slip vx, m/s.
+    pub slip_vx_m_s: f64,
+    /// Body slip vy, m/s.
+    pub slip_vy_m_s: f64,
+    /// Body slip wz, rad/s.
+    pub slip_wz_rad_s: f64,
+    /// Wheel slip left, rad/s.
+    pub slip_left_rad_s: f64,
+    /// Wheel slip right, rad/s.
+    pub slip_right_rad_s: f64,
+    /// ρ.
+    pub rho: f64,
+    /// Commanded energy K_u, J.
+    pub k_u_j: f64,
+    /// Weighted realized energy K_x, J.
+    pub k_x_j: f64,
+    /// Why the step is excluded, if it is.
+    pub excluded: Option<String>,
+}
+
+impl SummaryRow {
+    fn from_record(step: u32, window: Option<u32>, s: &SlipRecord, r: &Rho) -> Self {
+        Self {
+            step,
+            window,
+            cmd_left_rad_s: s.cmd_wheels.left_rad_s,
+            cmd_right_rad_s: s.cmd_wheels.right_rad_s,
+            cmd_vx_m_s: s.cmd_body.vx_m_s,
+            cmd_wz_rad_s: s.cmd_body.wz_rad_s,
+            left_rad_s: s.realized_wheels.left_rad_s,
+            right_rad_s: s.realized_wheels.right_rad_s,
+            vx_m_s: s.realized_body.vx_m_s,
+            vy_m_s: s.realized_body.vy_m_s,
+            wz_rad_s: s.realized_body.wz_rad_s,
+            slip_vx_m_s: s.slip_body.vx_m_s,
+            slip_vy_m_s: s.slip_body.vy_m_s,
+            slip_wz_rad_s: s.slip_body.wz_rad_s,
+            slip_left_rad_s: s.slip_wheels.left_rad_s,
+            slip_right_rad_s: s.slip_wheels.right_rad_s,
+            rho: r.rho,
+            k_u_j: r.k_u_j,
+            k_x_j: r.k_x_j,
+            excluded: None,
+        }
+    }
+    fn excluded(e: &Exclusion) -> Self {
+        let n = f64::NAN;
+        Self {
+            step: e.step,
+            window: None,
+            cmd_left_rad_s: n,
+            cmd_right_rad_s: n,
+            cmd_vx_m_s: n,
+            cmd_wz_rad_s: n,
+            left_rad_s: n,
+            right_rad_s: n,
+            vx_m_s: n,
+            vy_m_s: n,
+            wz_rad_s: n,
+            slip_vx_m_s: n,
+            slip_vy_m_s: n,
+            slip_wz_rad_s: n,
+            slip_left_rad_s: n,
+            slip_right_rad_s: n,
+            rho: n,
+            k_u_j: n,
+            k_x_j: n,
+            excluded: Some(e.reason.clone()),
+        }
+    }
+}
+
+/// Everything the pipeline computes on one log.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Analysis {
+    /// Dataset name.
+    pub dataset: String,
+    /// Robot name.
+    pub robot: String,
+    /// Terrain name.
+    pub terrain: String,
+    /// Where the log came from.
+    pub origin: Origin,
+    /// Nominal parameters used (IDD, U, mass, footprint).
+    pub nominal: Nominal,
+    /// Mass and yaw inertia used by ρ.
+    pub mass: MassProperties,
+    /// Parameters used.
+    pub params: AnalysisParams,
+    /// Sensor cross-check.
+    pub crosscheck: CrossCheck,
+    /// Yaw-rate source actually used (the cross-check's choice unless overridden).
+    pub yaw_rate_source: YawRateSource,
+    /// Analysed steps.
+    pub steps: Vec<StepResult>,
+    /// Excluded steps and why.
+    pub exclusions: Vec<Exclusion>,
+    /// Steady-state statistics.
+    pub stats: SlipStats,
+    /// RMSE of the nominal IDD prediction of the steady-state body velocity.
+    pub idd_rmse: BodyVelocity,
+    /// U, S, T and the area of T.
+    pub spaces: Spaces,
+    /// Maximum kinetic energy over U.
+    pub max_kinetic_energy: MaxKineticEnergy,
+    /// Risk scenarios (translation, rotation).
+    pub risk: Vec<RiskScenario>,
+    /// Smoothed steady-state slips and ρ over U (fields: vx, vy, wz, left, right, rho).
+    pub transfer: Option<TransferFunctions>,
+    /// Flat rows for summary.json.
+    pub rows: Vec<SummaryRow>,
+}
+
+fn mean_of(xs: impl Iterator<Item = f64>) -> f64 {
+    let (s, n) = xs.fold((0.0, 0usize), |a, x| (a.0 + x, a.1 + 1));
+    if n == 0 {
+        f64::NAN
+    } else {
+        s / n as f64
+    }
+}
+
+/// Root mean square of each component.
+pub fn rms(v: &[BodyVelocity]) -> BodyVelocity {
+    let r = |f: fn(&BodyVelocity) -> f64| mean_of(v.iter().map(|b| f(b).powi(2))).sqrt();
+    BodyVelocity::new(r(|b| b.vx_m_s), r(|b| b.vy_m_s), r(|b| b.wz_rad_s))
+}
+
+/// Runs the whole pipeline on a log.
+pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
+    let meta = &log.meta;
+    let idd = meta.nominal.idd();
+    let space = meta.nominal.command_space();
+    let mass = MassProperties::from_nominal(&meta.nominal);
+    let min_samples = params
+        .min_samples_per_window
+        .unwrap_or_else(|| (meta.samples_per_window as usize * 3).div_ceil(4))
+        .max(2);
+    let (segments, exclusions) = segment::segment(log, min_samples);
+    if segments.is_empty() {
+        let why: Vec<String> = exclusions.iter().take(3).map(|e| format!("step {}: {}", e.step, e.reason)).collect();
+        return Err(Error::Analysis(format!(
+            "{}: no complete step to analyse ({} excluded; {})",
+            meta.name,
+            exclusions.len(),
+            why.join("; ")
+        )));
+    }
+    let kin: Vec<Vec<Vec<SampleKinematics>>> = segments
+        .iter()
+        .map(|s| s.windows.iter().map(|w| velocity::window_kinematics(w, params.derivative_half_width, &idd)).collect())
+        .collect();
+    let all_windows: Vec<Vec<SampleKinematics>> = kin.iter().flatten().cloned().collect();
+    let crosscheck = crosscheck::cross_check(&all_windows, meta.rate_hz, &params.crosscheck);
+    let source = params.yaw_rate_source.unwrap_or(crosscheck.yaw_rate_source);
+
+    let mut steps = Vec::with_capacity(segments.len());
+    for (seg, wins) in segments.iter().zip(&kin) {
+        // The held command: the last sample's (the transient window starts with the previous
+        // step's command for a few samples).
+        let cmd = wins.last().and_then(|w| w.last()).map(|s| s.cmd).unwrap_or_default();
+        let mut windows = Vec::with_capacity(wins.len());
+        for (w, k) in wins.iter().enumerate() {
+            let wheels = WheelSpeeds::new(
+                mean_of(k.iter().map(|s| s.enc.left_rad_s)),
+                mean_of(k.iter().map(|s| s.enc.right_rad_s)),
+            );
+            let wz = match source {
+                YawRateSource::Imu => mean_of(k.iter().map(|s| s.imu_wz_rad_s)),
+                YawRateSource::Pose => mean_of(k.iter().map(|s| s.pose.wz_rad_s)),
+            };
+            let body = BodyVelocity::new(
+                mean_of(k.iter().map(|s| s.pose.vx_m_s)),
+                mean_of(k.iter().map(|s| s.pose.vy_m_s)),
+                wz,
+            );
+            let rec = slip::slip(&idd, cmd, wheels, body);
+            windows.push(WindowResult {
+                window: seg.windows[w].first().map_or(w as u32, |s| s.window),
+                n_samples: k.len(),
+                slip: rec,
+                rho: rho::rho(&mass, rec.cmd_body, rec.realized_body),
+            });
+        }
+        let steady: Vec<&WindowResult> = windows.iter().filter(|w| w.window >= 1).collect();
+        let wheels = WheelSpeeds::new(
+            mean_of(steady.iter().map(|w| w.slip.realized_wheels.left_rad_s)),
+            mean_of(steady.iter().map(|w| w.slip.realized_wheels.right_rad_s)),
+        );
+        let body = BodyVelocity::new(
+            mean_of(steady.iter().map(|w| w.slip.realized_body.vx_m_s)),
+            mean_of(steady.iter().map(|w| w.slip.realized_body.vy_m_s)),
+            mean_of(steady.iter().map(|w| w.slip.realized_body.wz_rad_s)),
+        );
+        let rec = slip::slip(&idd, cmd, wheels, body);
+        steps.push(StepResult {
+            step: seg.step,
+            windows,
+            steady_rho: rho::rho(&mass, rec.cmd_body, rec.realized_body),
+            steady: rec,
+        });
+    }
+
+    let col = |f: &dyn Fn(&StepResult) -> f64| steps.iter().map(f).collect::<Vec<f64>>();
+    let g_vx = col(&|s| s.steady.slip_body.vx_m_s);
+    let g_vy = col(&|s| s.steady.slip_body.vy_m_s);
+    let g_wz = col(&|s| s.steady.slip_body.wz_rad_s);
+    let g_l = col(&|s| s.steady.slip_wheels.left_rad_s);
+    let g_r = col(&|s| s.steady.slip_wheels.right_rad_s);
+    let rhos = col(&|s| s.steady_rho.rho);
+    let stats = SlipStats {
+        vx_m_s: BoxStats::from_values(&g_vx),
+        vy_m_s: BoxStats::from_values(&g_vy),
+        wz_rad_s: BoxStats::from_values(&g_wz),
+        left_rad_s: BoxStats::from_values(&g_l),
+        right_rad_s: BoxStats::from_values(&g_r),
+        rho: BoxStats::from_values(&rhos),
+        k_x_j: BoxStats::from_values(&col(&|s| s.steady_rho.k_x_j)),
+    };
+    let idd_rmse = rms(&steps.iter().map(|s| s.steady.slip_body).collect::<Vec<_>>());
+    let pts = |f: &dyn Fn(&StepResult) -> (f64, f64)| steps.iter().map(f).collect::<Vec<(f64, f64)>>();
+    let spaces = spaces::spaces(
+        &space,
+        pts(&|s| (s.steady.cmd_body.vx_m_s, s.steady.cmd_body.wz_rad_s)),
+        pts(&|s| (s.steady.cmd_wheels.left_rad_s, s.steady.cmd_wheels.right_rad_s)),
+        pts(&|s| (s.steady.realized_body.vx_m_s, s.steady.realized_body.wz_rad_s)),
+        pts(&|s| (s.steady.realized_wheels.left_rad_s, s.steady.realized_wheels.right_rad_s)),
+        &col(&|s| s.steady.realized_body.vy_m_s),
+    );
+    let max_kinetic_energy = risk::max_kinetic_energy(&space, &mass);
+    let risk = risk::scenarios(
+        &meta.robot,
+        &meta.terrain,
+        &steps
+            .iter()
+            .map(|s| (s.steady_rho.rho, s.steady_rho.k_x_j, s.steady_rho.k_ut_j, s.steady_rho.k_urot_j))
+            .collect::<Vec<_>>(),
+    );
+    let transfer = if params.smoother.enabled {
+        let sp = &params.smoother;
+        let grid = Grid::over_space(&space, sp.resolution_vx_m_s, sp.resolution_wz_rad_s);
+        let cmd_pts = pts(&|s| (s.steady.cmd_body.vx_m_s, s.steady.cmd_body.wz_rad_s));
+        let smoothed = smoother::smooth_fast(&grid, &sp.covariance, &sp.fast, &cmd_pts, &[&g_vx, &g_vy, &g_wz, &g_l, &g_r, &rhos]);
+        Some(TransferFunctions {
+            grid,
+            covariance: sp.covariance,
+            names: ["slip_vx_m_s", "slip_vy_m_s", "slip_wz_rad_s", "slip_left_rad_s", "slip_right_rad_s", "rho"]
+                .map(String::from)
+                .to_vec(),
+            smoothed,
+        })
+    } else {
+        None
+    };
+    let mut rows = Vec::new();
+    for s in &steps {
+        for w in &s.windows {
+            rows.push(SummaryRow::from_record(s.step, Some(w.window), &w.slip, &w.rho));
+        }
+        rows.push(SummaryRow::from_record(s.step, None, &s.steady, &s.steady_rho));
+    }
+    rows.extend(exclusions.iter().map(SummaryRow::excluded));
+    rows.sort_by_key(|r| (r.step, r.window.map_or(u32::MAX, |w| w)));
+    Ok(Analysis {
+        dataset: meta.name.clone(),
+        robot: meta.robot.clone(),
+        terrain: meta.terrain.clone(),
+        origin: meta.origin.clone(),
+        nominal: meta.nominal.clone(),
+        mass,
+        params: *params,
+        crosscheck,
+        yaw_rate_source: source,
+        steps,
+        exclusions,
+        stats,
+        idd_rmse,
+        spaces,
+        max_kinetic_energy,
+        risk,
+        transfer,
+        rows,
+    })
+}
+
+/// RMSE of the nominal ideal-differential-drive prediction of the steady-state body velocity
+/// (vx, vy, wz) against the realized one, over the analysed steps (default parameters, no
+/// transfer functions). This is the RMS of the steady-state body slip.
+pub fn ideal_dd_rmse(log: &DriveLog) -> Result<BodyVelocity> {
+    let params = AnalysisParams {
+        smoother: SmootherParams {
+            enabled: false,
+            ..SmootherParams::default()
+        },
+        ..AnalysisParams::default()
+    };
+    Ok(analyze(log, &params)?.idd_rmse)
+}

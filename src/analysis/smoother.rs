@@ -1,0 +1,492 @@
+//! Gaussian kernel smoother over the command space (paper eq. 9–10, with the GUIDE's erratum:
+//! `k_i ∝ exp(-½ dᵀ Σ⁻¹ d)`, `d = u_i − ū`, Σ diagonal).
+//!
+//! Each grid point ū of a uniform (vx, wz) grid gets `ḡ(ū) = Σ k_i g_i / Σ k_i`. Two
+//! implementations:
+//!
+//! * [`smooth_exact`]: the definition, one kernel evaluation per (sample, grid point),
+//!   O(s · grid). The reference.
+//! * [`smooth_fast`]: linear (bilinear) binning of the samples onto a fine lattice whose spacing
+//!   divides the grid spacing, then a separable Gaussian convolution truncated at `K σ`
+//!   evaluated only at the grid points. O(s + lattice · taps). Σ diagonal makes the kernel
+//!   separable: `k = g_x(dx) g_z(dz)`.
+//!
+//! # Error bound of the fast smoother (derivation)
+//! The fast path computes, for every grid point, `Σ k̃_i` and `Σ k̃_i g_i` where `k̃_i` is the
+//! bilinear interpolation, at `u_i`, of the truncated kernel sampled on the lattice nodes. With
+//! `δ_i = k̃_i − k_i` (all `k̃_i ≥ 0`):
+//! `ĝ_fast − ĝ = Σ δ_i (g_i − ĝ) / Σ k̃_i`, hence `|ĝ_fast − ĝ| ≤ range(g) · Σ|δ_i| / D̃`.
+//! * Binning: for a sample in a lattice cell of size `h_x × h_z`, the bilinear interpolation
+//!   error is at most `h_x²/8 · max|∂²k/∂x²| + h_z²/8 · max|∂²k/∂z²|` over the cell. For the
+//!   Gaussian `∂²g/∂x² = (q²−1) g / σ²` (q = x/σ), and over one cell `g` varies by at most a
+//!   factor `c = exp(η (K + η) + η²/2)` (η = h/σ), and `(|q|+η)² + 1 ≤ 2 (q² + 1)`. So
+//!   `|δ_i| ≤ 2 c² [ε_x (1 + q_x²) + ε_z (1 + q_z²)] k_i` with `ε = h² / (8 σ²)`.
+//!   The sums `E_x = Σ k_i (1 + q_x²)`, `E_z` are computed by the same convolution with the
+//!   kernels `(1 + q_x²) g_x g_z` and `g_x (1 + q_z²) g_z` (×1.01 for their own binning error).
+//! * Truncation: a sample whose cell is not inside the `K σ` box loses at most
+//!   `exp(−(K − η)²/2)` of weight; at most `s` samples do.
+//!
+//! Bound per grid point: `range · [2c² (ε_x 1.01 E_x + ε_z 1.01 E_z) + s e^{−(K−η)²/2}] / D̃`.
+//! [`smooth_fast`] returns it; the lattice is chosen with `h ≤ σ / bins_per_sigma`. With the
+//! defaults (K = 6, 64 bins per σ) `E/D̃ ≈ 2` so the bound is about `1.3e-4 · range`.
+
+use crate::kinematics::{BodyVelocity, CommandSpace};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Diagonal kernel covariance Σ = diag(σ_vx², σ_wz²).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct KernelCovariance {
+    /// Variance along vx, (m/s)².
+    pub var_vx: f64,
+    /// Variance along wz, (rad/s)².
+    pub var_wz: f64,
+}
+
+impl Default for KernelCovariance {
+    /// The paper's Warthog figures: Σ = 0.64 I.
+    fn default() -> Self {
+        Self {
+            var_vx: 0.64,
+            var_wz: 0.64,
+        }
+    }
+}
+
+/// Parameters of the fast smoother.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FastParams {
+    /// Kernel truncated beyond this many standard deviations along each axis.
+    pub truncation_sigmas: f64,
+    /// Lattice spacing is at most σ / this.
+    pub bins_per_sigma: f64,
+}
+
+impl Default for FastParams {
+    fn default() -> Self {
+        Self {
+            truncation_sigmas: 6.0,
+            bins_per_sigma: 64.0,
+        }
+    }
+}
+
+/// A uniform grid over (vx, wz); points outside U are masked. Index = `iwz * nvx + ivx`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Grid {
+    /// Grid abscissae along vx, m/s (uniform, increasing).
+    pub vx_m_s: Vec<f64>,
+    /// Grid ordinates along wz, rad/s (uniform, increasing).
+    pub wz_rad_s: Vec<f64>,
+    /// True where the grid point lies in U.
+    pub inside: Vec<bool>,
+}
+
+fn axis(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    if n <= 1 {
+        return vec![lo];
+    }
+    (0..n).map(|i| lo + (hi - lo) * i as f64 / (n - 1) as f64).collect()
+}
+
+impl Grid {
+    /// Grid over U's bounding box (in B) with the given resolutions, starting at the box's
+    /// lower corner.
+    pub fn over_space(space: &CommandSpace, res_vx_m_s: f64, res_wz_rad_s: f64) -> Self {
+        let poly = space.polygon_body();
+        let (lo_v, hi_v) = poly.iter().fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.0), a.1.max(p.0)));
+        let (lo_w, hi_w) = poly.iter().fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.1), a.1.max(p.1)));
+        let nv = ((hi_v - lo_v) / res_vx_m_s + 1e-9).floor() as usize + 1;
+        let nw = ((hi_w - lo_w) / res_wz_rad_s + 1e-9).floor() as usize + 1;
+        let vx: Vec<f64> = (0..nv).map(|i| lo_v + i as f64 * res_vx_m_s).collect();
+        let wz: Vec<f64> = (0..nw).map(|i| lo_w + i as f64 * res_wz_rad_s).collect();
+        Self::with_axes(space, vx, wz)
+    }
+    /// `nvx × nwz` grid spanning U's bounding box (used by the benches: 101², 1001²).
+    pub fn with_counts(space: &CommandSpace, nvx: usize, nwz: usize) -> Self {
+        let poly = space.polygon_body();
+        let (lo_v, hi_v) = poly.iter().fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.0), a.1.max(p.0)));
+        let (lo_w, hi_w) = poly.iter().fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.1), a.1.max(p.1)));
+        Self::with_axes(space, axis(lo_v, hi_v, nvx), axis(lo_w, hi_w, nwz))
+    }
+    /// Grid on given axes, masked by U.
+    pub fn with_axes(space: &CommandSpace, vx_m_s: Vec<f64>, wz_rad_s: Vec<f64>) -> Self {
+        let mut inside = Vec::with_capacity(vx_m_s.len() * wz_rad_s.len());
+        for &w in &wz_rad_s {
+            for &v in &vx_m_s {
+                inside.push(space.contains_body(BodyVelocity::new(v, 0.0, w)));
+            }
+        }
+        Self {
+            vx_m_s,
+            wz_rad_s,
+            inside,
+        }
+    }
+    /// The rows `rows` (along wz) of this grid: a slab with the same spacing, for timing the
+    /// exact smoother on a part of a large grid.
+    pub fn slab(&self, rows: std::ops::Range<usize>) -> Self {
+        let n = self.vx_m_s.len();
+        Self {
+            vx_m_s: self.vx_m_s.clone(),
+            wz_rad_s: self.wz_rad_s[rows.clone()].to_vec(),
+            inside: self.inside[rows.start * n..rows.end * n].to_vec(),
+        }
+    }
+    /// Number of grid points.
+    pub fn len(&self) -> usize {
+        self.inside.len()
+    }
+    /// True if the grid has no point.
+    pub fn is_empty(&self) -> bool {
+        self.inside.is_empty()
+    }
+    fn step(v: &[f64]) -> f64 {
+        if v.len() > 1 {
+            (v[v.len() - 1] - v[0]) / (v.len() - 1) as f64
+        } else {
+            1.0
+        }
+    }
+}
+
+/// Smoothed values of one or several channels on a grid.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Smoothed {
+    /// Per channel, per grid point: the smoothed value (NaN outside U or with no weight).
+    pub values: Vec<Vec<f64>>,
+    /// Per grid point: Σ k_i (kernel without its normalization constant, which cancels).
+    pub weight_sum: Vec<f64>,
+    /// Fast smoother only: per channel, per grid point, the guaranteed bound on
+    /// |fast − exact| (see the module doc).
+    pub error_bound: Option<Vec<Vec<f64>>>,
+}
+
+fn check_inputs(points: &[(f64, f64)], channels: &[&[f64]]) {
+    for c in channels {
+        assert_eq!(c.len(), points.len(), "every channel needs one value per point");
+    }
+}
+
+/// Reference smoother: `Σ k_i g_i / Σ k_i` by direct summation at every grid point in U.
+/// Points whose value is not finite are skipped (in every channel).
+pub fn smooth_exact(grid: &Grid, cov: &KernelCovariance, points: &[(f64, f64)], channels: &[&[f64]]) -> Smoothed {
+    check_inputs(points, channels);
+    let keep: Vec<usize> = (0..points.len())
+        .filter(|&i| points[i].0.is_finite() && points[i].1.is_finite() && channels.iter().all(|c| c[i].is_finite()))
+        .collect();
+    let (ivx, iwz) = (0.5 / cov.var_vx, 0.5 / cov.var_wz);
+    let nv = grid.vx_m_s.len();
+    let nc = channels.len();
+    let per_point: Vec<(f64, Vec<f64>)> = (0..grid.len())
+        .into_par_iter()
+        .map(|g| {
+            if !grid.inside[g] {
+                return (0.0, vec![f64::NAN; nc]);
+            }
+            let (gv, gw) = (grid.vx_m_s[g % nv], grid.wz_rad_s[g / nv]);
+            let mut d = 0.0;
+            let mut n = vec![0.0; nc];
+            for &i in &keep {
+                let (dv, dw) = (points[i].0 - gv, points[i].1 - gw);
+                let k = (-(dv * dv * ivx + dw * dw * iwz)).exp();
+                d += k;
+                for (c, ch) in channels.iter().enumerate() {
+                    n[c] += k * ch[i];
+                }
+            }
+            let v = n.iter().map(|x| if d > 0.0 { x / d } else { f64::NAN }).collect();
+            (d, v)
+        })
+        .collect();
+    let mut values = vec![Vec::with_capacity(grid.len()); nc];
+    let mut weight_sum = Vec::with_capacity(grid.len());
+    for (d, v) in per_point {
+        weight_sum.push(d);
+        for c in 0..nc {
+            values[c].push(v[c]);
+        }
+    }
+    Smoothed {
+        values,
+        weight_sum,
+        error_bound: None,
+    }
+}
+
+/// One lattice axis: spacing h = grid step / m, nodes from `origin`, `n` nodes; grid point i is
+/// lattice node `first + i * m`.
+struct LatticeAxis {
+    origin: f64,
+    h: f64,
+    n: usize,
+    first: usize,
+    m: usize,
+    taps: Vec<f64>,
+    taps_q2: Vec<f64>,
+    half: usize,
+}
+
+impl LatticeAxis {
+    fn new(grid_axis: &[f64], sigma: f64, fast: &FastParams) -> Self {
+        let step = Grid::step(grid_axis);
+        let target = sigma / fast.bins_per_sigma;
+        let m = (step / target).ceil().max(1.0) as usize;
+        let h = step / m as f64;
+        let half = (fast.truncation_sigmas * sigma / h).floor() as usize;
+        let first = half;
+        let n = (grid_axis.len() - 1) * m + 1 + 2 * half;
+        let origin = grid_axis[0] - half as f64 * h;
+        let taps: Vec<f64> = (0..=2 * half)
+            .map(|k| {
+                let q = (k as f64 - half as f64) * h / sigma;
+                (-0.5 * q * q).exp()
+            })
+            .collect();
+        let taps_q2 = (0..=2 * half)
+            .map(|k| {
+                let q = (k as f64 - half as f64) * h / sigma;
+                (1.0 + q * q) * taps[k]
+            })
+            .collect();
+        Self {
+            origin,
+            h,
+            n,
+            first,
+            m,
+            taps,
+            taps_q2,
+            half,
+        }
+    }
+    /// Lower node and fractional position of `u`, or None if its cell is off the lattice.
+    fn locate(&self, u: f64) -> Option<(usize, f64)> {
+        let f = (u - self.origin) / self.h;
+        if !(f >= 0.0) || f >= (self.n - 1) as f64 {
+            return None;
+        }
+        let i = f.floor() as usize;
+        Some((i, f - i as f64))
+    }
+}
+
+/// Fast smoother: bilinear binning + truncated separable Gaussian convolution, with a
+/// per-point error bound against [`smooth_exact`] (derivation in the module doc).
+pub fn smooth_fast(
+    grid: &Grid,
+    cov: &KernelCovariance,
+    fast: &FastParams,
+    points: &[(f64, f64)],
+    channels: &[&[f64]],
+) -> Smoothed {
+    check_inputs(points, channels);
+    let (sx, sz) = (cov.var_vx.sqrt(), cov.var_wz.sqrt());
+    let ax = LatticeAxis::new(&grid.vx_m_s, sx, fast);
+    let az = LatticeAxis::new(&grid.wz_rad_s, sz, fast);
+    let nc = channels.len();
+    // Lattice layers: 0 = weight, 1..=nc = weighted values.
+    let nl = nc + 1;
+    let mut lat = vec![vec![0.0f64; ax.n * az.n]; nl];
+    let mut ranges = vec![(f64::MAX, f64::MIN); nc];
+    let mut s_total = 0usize;
+    for (i, p) in points.iter().enumerate() {
+        if !(p.0.is_finite() && p.1.is_finite() && channels.iter().all(|c| c[i].is_finite())) {
+            continue;
+        }
+        s_total += 1;
+        for c in 0..nc {
+            let v = channels[c][i];
+            ranges[c] = (ranges[c].0.min(v), ranges[c].1.max(v));
+        }
+        // Samples whose cell is off the lattice are farther than K σ from every grid point:
+        // dropped, and covered by the truncation term of the bound.
+        let (Some((ix, tx)), Some((iz, tz))) = (ax.locate(p.0), az.locate(p.1)) else {
+            continue;
+        };
+        let w = [
+            (iz * ax.n + ix, (1.0 - tx) * (1.0 - tz)),
+            (iz * ax.n + ix + 1, tx * (1.0 - tz)),
+            ((iz + 1) * ax.n + ix, (1.0 - tx) * tz),
+            ((iz + 1) * ax.n + ix + 1, tx * tz),
+        ];
+        for (node, wt) in w {
+            lat[0][node] += wt;
+            for c in 0..nc {
+                lat[c + 1][node] += wt * channels[c][i];
+            }
+        }
+    }
+    let row_has_mass: Vec<bool> = (0..az.n).map(|r| lat[0][r * ax.n..(r + 1) * ax.n].iter().any(|&v| v != 0.0)).collect();
+    let nvx = grid.vx_m_s.len();
+    let nwz = grid.wz_rad_s.len();
+    // Pass along x, only at the grid columns: A[r][i] = Σ_k taps[k] L[r][first + i m + k - half].
+    let pass_x = |layer: &[f64], taps: &[f64]| -> Vec<f64> {
+        let mut out = vec![0.0; az.n * nvx];
+        out.par_chunks_mut(nvx).enumerate().for_each(|(r, orow)| {
+            if !row_has_mass[r] {
+                return;
+            }
+            let row = &layer[r * ax.n..(r + 1) * ax.n];
+            for (i, o) in orow.iter_mut().enumerate() {
+                let start = ax.first + i * ax.m - ax.half;
+                let seg = &row[start..start + taps.len()];
+                *o = seg.iter().zip(taps).map(|(a, b)| a * b).sum();
+            }
+        });
+        out
+    };
+    // Pass along z at the grid rows: out[j][i] = Σ_k taps[k] A[first + j m + k - half][i].
+    let pass_z = |a: &[f64], taps: &[f64]| -> Vec<f64> {
+        let mut out = vec![0.0; nwz * nvx];
+        out.par_chunks_mut(nvx).enumerate().for_each(|(j, orow)| {
+            let start = az.first + j * az.m - az.half;
+            for (k, &t) in taps.iter().enumerate() {
+                let r = start + k;
+                if !row_has_mass[r] {
+                    continue;
+                }
+                let arow = &a[r * nvx..(r + 1) * nvx];
+                for (o, v) in orow.iter_mut().zip(arow) {
+                    *o += t * v;
+                }
+            }
+        });
+        out
+    };
+    let d_x = pass_x(&lat[0], &ax.taps);
+    let d = pass_z(&d_x, &az.taps);
+    let e_x = pass_z(&pass_x(&lat[0], &ax.taps_q2), &az.taps);
+    let e_z = pass_z(&d_x, &az.taps_q2);
+    let eta_x = ax.h / sx;
+    let eta_z = az.h / sz;
+    let k = fast.truncation_sigmas;
+    let c_x = (eta_x * (k + eta_x) + 0.5 * eta_x * eta_x).exp();
+    let c_z = (eta_z * (k + eta_z) + 0.5 * eta_z * eta_z).exp();
+    let c2 = (c_x * c_z).powi(2);
+    let (eps_x, eps_z) = (eta_x * eta_x / 8.0, eta_z * eta_z / 8.0);
+    let trunc = s_total as f64 * (-0.5 * (k - eta_x.max(eta_z)).powi(2)).exp();
+    let mut values = Vec::with_capacity(nc);
+    let mut bounds = Vec::with_capacity(nc);
+    let rel: Vec<f64> = (0..grid.len())
+        .map(|g| {
+            if d[g] > 0.0 {
+                (2.0 * c2 * 1.01 * (eps_x * e_x[g] + eps_z * e_z[g]) + trunc) / d[g]
+            } else {
+                f64::INFINITY
+            }
+        })
+        .collect();
+    for c in 0..nc {
+        let n = pass_z(&pass_x(&lat[c + 1], &ax.taps), &az.taps);
+        let range = if ranges[c].1 >= ranges[c].0 { ranges[c].1 - ranges[c].0 } else { 0.0 };
+        values.push(
+            (0..grid.len())
+                .map(|g| if grid.inside[g] && d[g] > 0.0 { n[g] / d[g] } else { f64::NAN })
+                .collect::<Vec<f64>>(),
+        );
+        bounds.push((0..grid.len()).map(|g| range * rel[g]).collect::<Vec<f64>>());
+    }
+    Smoothed {
+        values,
+        weight_sum: d,
+        error_bound: Some(bounds),
+    }
+}
+
+/// Grid and smoothed fields of the slip dimensions and ρ (the paper's transfer functions).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TransferFunctions {
+    /// The grid (over U's bounding box in B, masked by U).
+    pub grid: Grid,
+    /// Kernel covariance used.
+    pub covariance: KernelCovariance,
+    /// Names of the fields, in the order of `smoothed.values`.
+    pub names: Vec<String>,
+    /// The fields (fast smoother) and their error bounds.
+    pub smoothed: Smoothed,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::IdealDiffDrive;
+    use rand::{RngExt, SeedableRng};
+
+    fn space() -> CommandSpace {
+        CommandSpace {
+            idd: IdealDiffDrive {
+                wheel_radius_m: 0.3,
+                baseline_m: 1.08,
+            },
+            max_wheel_rad_s: 16.6667,
+            max_lin_m_s: 5.0,
+            max_ang_rad_s: 4.0,
+        }
+    }
+
+    fn samples(n: usize, seed: u64) -> Vec<(f64, f64)> {
+        let s = space();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut out = Vec::new();
+        while out.len() < n {
+            let p = (rng.random_range(-5.0..5.0), rng.random_range(-4.0..4.0));
+            if s.contains_body(BodyVelocity::new(p.0, 0.0, p.1)) {
+                out.push(p);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn constant_is_reproduced_exactly() {
+        let grid = Grid::over_space(&space(), 0.1, 0.1);
+        let pts = samples(200, 1);
+        let c = vec![0.7; pts.len()];
+        let cov = KernelCovariance::default();
+        for sm in [smooth_exact(&grid, &cov, &pts, &[&c]), smooth_fast(&grid, &cov, &FastParams::default(), &pts, &[&c])] {
+            for (g, v) in sm.values[0].iter().enumerate() {
+                if grid.inside[g] {
+                    assert!((v - 0.7).abs() < 1e-12, "{v}");
+                } else {
+                    assert!(v.is_nan());
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn linear_is_nearly_linear_inside_and_fast_matches_exact() {
+        // g = 0.3 vx - 0.2 wz + 1. A kernel smoother reproduces a linear function exactly where
+        // the samples are symmetric about the grid point; with uniform samples in U the bias
+        // is the local asymmetry times the slope. Check it is small deep inside U.
+        let space = space();
+        let grid = Grid::over_space(&space, 0.1, 0.1);
+        let pts = samples(3000, 2);
+        let g: Vec<f64> = pts.iter().map(|p| 0.3 * p.0 - 0.2 * p.1 + 1.0).collect();
+        let cov = KernelCovariance::default();
+        let ex = smooth_exact(&grid, &cov, &pts, &[&g]);
+        let fa = smooth_fast(&grid, &cov, &FastParams::default(), &pts, &[&g]);
+        let nv = grid.vx_m_s.len();
+        let range = g.iter().cloned().fold(f64::MIN, f64::max) - g.iter().cloned().fold(f64::MAX, f64::min);
+        let mut max_diff: f64 = 0.0;
+        for i in 0..grid.len() {
+            if !grid.inside[i] {
+                continue;
+            }
+            let (v, w) = (grid.vx_m_s[i % nv], grid.wz_rad_s[i / nv]);
+            let diff = (ex.values[0][i] - fa.values[0][i]).abs();
+            let bound = fa.error_bound.as_ref().unwrap()[0][i];
+            assert!(diff <= bound, "diff {diff} above bound {bound} at ({v}, {w})");
+            max_diff = max_diff.max(diff);
+            if v.abs() < 1.5 && w.abs() < 1.5 {
+                let truth = 0.3 * v - 0.2 * w + 1.0;
+                assert!((ex.values[0][i] - truth).abs() < 0.1, "{} vs {truth}", ex.values[0][i]);
+            }
+        }
+        assert!(max_diff <= 1e-3 * range, "{max_diff}");
+        // Weight sums agree too.
+        let i0 = grid.inside.iter().position(|&b| b).unwrap();
+        assert!((ex.weight_sum[i0] - fa.weight_sum[i0]).abs() / ex.weight_sum[i0] < 1e-3);
+    }
+}
