@@ -48,6 +48,9 @@ pub enum Error {
     /// An analysis that cannot be done on the data given (e.g. no complete step).
     #[error("analysis: {0}")]
     Analysis(String),
+    /// A figure or report that cannot be produced from the data given (e.g. no series at all).
+    #[error("report: {0}")]
+    Report(String),
     /// Input/output failure on a path.
     #[error("{path}: {source}")]
     Io {
