@@ -6,7 +6,9 @@
 //! `calibrate` must find the flip from the residual alone where it is, and not where it is not.
 //! Run with `--nocapture` to see each dataset's before/after table.
 
-use drive_sim::calibration::{calibrate, models_for_log, write_report, CalibrationOptions, CalibrationReport, KinematicFactory};
+use drive_sim::calibration::{
+    calibrate, models_for_log, write_report, CalibrationOptions, CalibrationReport, KinematicFactory,
+};
 use drive_sim::log::csv::read_measured_csv;
 use drive_sim::log::DriveLog;
 
@@ -16,7 +18,10 @@ const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured
 /// the window / its duration), over the steady windows.
 fn imu_vs_lidar_slope(log: &DriveLog) -> f64 {
     let (mut sxy, mut sxx) = (0.0, 0.0);
-    for w in log.samples.chunk_by(|a, b| (a.step, a.window) == (b.step, b.window)) {
+    for w in log
+        .samples
+        .chunk_by(|a, b| (a.step, a.window) == (b.step, b.window))
+    {
         if w[0].window == 0 || w.len() < 2 {
             continue;
         }
@@ -37,8 +42,19 @@ fn run(name: &str) -> (DriveLog, CalibrationReport) {
     let t0 = std::time::Instant::now();
     let log = read_measured_csv(format!("{DATA}/{name}.csv")).unwrap();
     let (robot, terrain, _) = models_for_log(&log).unwrap();
-    let r = calibrate(&log, &robot, &terrain, &KinematicFactory, &CalibrationOptions::default()).unwrap();
-    eprintln!("== {name}: {:.1} s, status {:?}", t0.elapsed().as_secs_f64(), r.status);
+    let r = calibrate(
+        &log,
+        &robot,
+        &terrain,
+        &KinematicFactory,
+        &CalibrationOptions::default(),
+    )
+    .unwrap();
+    eprintln!(
+        "== {name}: {:.1} s, status {:?}",
+        t0.elapsed().as_secs_f64(),
+        r.status
+    );
     for row in &r.table {
         eprintln!(
             "{:26} {:>5}  IDD {:9.4}  before {:9.4}  after {:9.4}  floor {:8.4}",
@@ -46,7 +62,10 @@ fn run(name: &str) -> (DriveLog, CalibrationReport) {
         );
     }
     for p in r.terrain_fit.iter().flat_map(|f| &f.params) {
-        eprintln!("  fitted {} = {:.4} (was {:?}, at bound: {})", p.name, p.value, p.initial, p.at_bound);
+        eprintln!(
+            "  fitted {} = {:.4} (was {:?}, at bound: {})",
+            p.name, p.value, p.initial, p.at_bound
+        );
     }
     for e in r.rounds[0].ranking.iter().take(4) {
         eprintln!(
@@ -55,20 +74,36 @@ fn run(name: &str) -> (DriveLog, CalibrationReport) {
             e.reduction,
             e.reduction_se,
             e.share,
-            e.params.iter().map(|p| (p.name.as_str(), p.value)).collect::<Vec<_>>()
+            e.params
+                .iter()
+                .map(|p| (p.name.as_str(), p.value))
+                .collect::<Vec<_>>()
         );
     }
-    eprintln!("  effects {:?}", r.effects.iter().map(|e| (e.name.as_str(), e.value)).collect::<Vec<_>>());
+    eprintln!(
+        "  effects {:?}",
+        r.effects
+            .iter()
+            .map(|e| (e.name.as_str(), e.value))
+            .collect::<Vec<_>>()
+    );
     (log, r)
 }
 
 fn has_flip(r: &CalibrationReport) -> bool {
-    r.effects.iter().any(|e| e.name == "effect.imu_yaw_rate_sign_flip" && e.value == 1.0)
+    r.effects
+        .iter()
+        .any(|e| e.name == "effect.imu_yaw_rate_sign_flip" && e.value == 1.0)
 }
 
 fn common_checks(r: &CalibrationReport) {
     // Calibration never makes the held-out score worse, and beats the IDD on steady yaw rate.
-    assert!(r.after.score <= r.before.score, "{} -> {}", r.before.score, r.after.score);
+    assert!(
+        r.after.score <= r.before.score,
+        "{} -> {}",
+        r.before.score,
+        r.after.score
+    );
     assert!(r.after.steady_wz_rad_s < r.idd.steady_wz_rad_s);
     // Held-out and training steps are disjoint and cover the log.
     assert!(r.train_steps.iter().all(|s| !r.heldout_steps.contains(s)));
@@ -103,6 +138,10 @@ fn asphalt_and_husky_imu_sign_is_not_flipped() {
 fn report_is_written_as_json_and_terrain_toml() {
     let (_, r) = run("warthog_ice");
     let dir = tempfile::tempdir().unwrap();
+    // CALIB_OUT=<dir> keeps a copy of the report for inspection.
+    if let Ok(keep) = std::env::var("CALIB_OUT") {
+        write_report(&r, std::path::Path::new(&keep)).unwrap();
+    }
     let paths = write_report(&r, dir.path()).unwrap();
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&paths[0]).unwrap()).unwrap();
     assert_eq!(json["dataset"], "warthog_ice");
@@ -112,4 +151,13 @@ fn report_is_written_as_json_and_terrain_toml() {
     assert!(text.starts_with("# Fitted to `warthog_ice` by drive-sim calibrate"));
     let t: drive_sim::terrain::Terrain = toml::from_str(&text).unwrap();
     assert_eq!(t, r.model_after.terrain);
+    // Figures (SVG + PNG) and the HTML page exist and are not empty.
+    let html = paths.last().unwrap();
+    assert!(html.ends_with("report.html"));
+    let page = std::fs::read_to_string(html).unwrap();
+    assert!(page.contains("imu_yaw_rate_sign_flip") && page.contains("<svg"));
+    for p in &paths {
+        assert!(std::fs::metadata(p).unwrap().len() > 0, "{p:?}");
+    }
+    assert!(paths.iter().any(|p| p.ends_with("residual_map_wz.png")));
 }

@@ -7,7 +7,9 @@
 //! and without the effect. Sized for CI: 30 steps, small optimizer budgets.
 
 use drive_sim::calibration::surrogate::{KinematicEffects, KinematicNoise, KinematicPlant};
-use drive_sim::calibration::{calibrate, CalibrationOptions, CalibrationReport, FitOptions, KinematicFactory};
+use drive_sim::calibration::{
+    calibrate, CalibrationOptions, CalibrationReport, FitOptions, KinematicFactory,
+};
 use drive_sim::log::{DriveLog, LogMeta, Nominal, Origin};
 use drive_sim::protocol::sampler::UniformWheel;
 use drive_sim::protocol::{run_drive, ProtocolConfig};
@@ -36,7 +38,14 @@ fn synthetic_log(effects: &[(&str, f64)], seed: u64) -> (DriveLog, Robot) {
         ..ProtocolConfig::default()
     };
     let mut frames = Vec::new();
-    run_drive(&mut plant, &robot, &mut UniformWheel::new(seed), &cfg, &mut frames).unwrap();
+    run_drive(
+        &mut plant,
+        &robot,
+        &mut UniformWheel::new(seed),
+        &cfg,
+        &mut frames,
+    )
+    .unwrap();
     let meta = LogMeta {
         name: "synthetic".into(),
         robot: robot.name.clone(),
@@ -93,7 +102,10 @@ fn run(effects: &[(&str, f64)], seed: u64) -> CalibrationReport {
             .take(3)
             .map(|e| (e.effect.as_str(), e.reduction, e.reduction_se))
             .collect::<Vec<_>>(),
-        r.effects.iter().map(|e| (e.name.as_str(), e.value)).collect::<Vec<_>>(),
+        r.effects
+            .iter()
+            .map(|e| (e.name.as_str(), e.value))
+            .collect::<Vec<_>>(),
         r.idd.score,
         r.before.score,
         r.after.score
@@ -126,7 +138,12 @@ fn assert_near_floor(r: &CalibrationReport) {
         r.effects,
         r.status
     );
-    assert!(r.before.score > 3.0 * r.after.score, "{} -> {}", r.before.score, r.after.score);
+    assert!(
+        r.before.score > 3.0 * r.after.score,
+        "{} -> {}",
+        r.before.score,
+        r.after.score
+    );
 }
 
 #[test]
@@ -134,8 +151,16 @@ fn weak_left_motor_is_found_and_measured() {
     let r = run(&[("motor_gain_left", 0.8)], 11);
     assert_eq!(first_ranked(&r), "motor_gain", "{:#?}", r.rounds[0].ranking);
     assert!(r.rounds[0].ranking[0].significant);
-    assert!((effect(&r, "motor_gain_left") - 0.8).abs() < 0.03, "{:?}", r.effects);
-    assert!((effect(&r, "motor_gain_right") - 1.0).abs() < 0.03, "{:?}", r.effects);
+    assert!(
+        (effect(&r, "motor_gain_left") - 0.8).abs() < 0.03,
+        "{:?}",
+        r.effects
+    );
+    assert!(
+        (effect(&r, "motor_gain_right") - 1.0).abs() < 0.03,
+        "{:?}",
+        r.effects
+    );
     assert_near_floor(&r);
     // The residual of the uncalibrated model shows the left side, not the right.
     let s = &r.residual_before.sides;
@@ -153,7 +178,12 @@ fn dead_time_is_found_and_measured() {
 #[test]
 fn flipped_imu_sign_is_found() {
     let r = run(&[("imu_yaw_rate_sign_flip", 1.0)], 13);
-    assert_eq!(first_ranked(&r), "imu_yaw_rate_sign_flip", "{:#?}", r.rounds[0].ranking);
+    assert_eq!(
+        first_ranked(&r),
+        "imu_yaw_rate_sign_flip",
+        "{:#?}",
+        r.rounds[0].ranking
+    );
     assert_eq!(effect(&r, "imu_yaw_rate_sign_flip"), 1.0);
     assert_near_floor(&r);
 }
@@ -161,7 +191,12 @@ fn flipped_imu_sign_is_found() {
 #[test]
 fn nothing_injected_nothing_added() {
     let r = run(&[], 14);
-    assert!(r.effects.is_empty(), "{:?}\n{:#?}", r.effects, r.rounds[0].ranking);
+    assert!(
+        r.effects.is_empty(),
+        "{:?}\n{:#?}",
+        r.effects,
+        r.rounds[0].ranking
+    );
     assert_eq!(r.rounds.len(), 1);
     assert!(r.rounds[0].added.is_none());
     // The declared model is already at the floor.

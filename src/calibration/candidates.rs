@@ -22,7 +22,10 @@ pub struct EffectCandidate {
 /// Search boxes of the known effects. `max_cmd_rad_s` is the largest commanded wheel speed of
 /// the log (a saturation is searched below it). Effects the plant implements but that have no
 /// known box are returned by name in the second list (reported as not evaluated).
-pub fn default_candidates(effect_names: &[String], max_cmd_rad_s: f64) -> (Vec<EffectCandidate>, Vec<String>) {
+pub fn default_candidates(
+    effect_names: &[String],
+    max_cmd_rad_s: f64,
+) -> (Vec<EffectCandidate>, Vec<String>) {
     let has = |n: &str| effect_names.iter().any(|e| e == n);
     let one = |n: &str, lo: f64, hi: f64, start: f64| EffectCandidate {
         name: n.to_string(),
@@ -217,10 +220,15 @@ mod tests {
 
     #[test]
     fn candidates_follow_the_plant() {
-        let names: Vec<String> = ["dead_time_s", "motor_gain_left", "motor_gain_right", "suspension_stiffness"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
+        let names: Vec<String> = [
+            "dead_time_s",
+            "motor_gain_left",
+            "motor_gain_right",
+            "suspension_stiffness",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
         let (c, unknown) = default_candidates(&names, 10.0);
         let n: Vec<&str> = c.iter().map(|c| c.name.as_str()).collect();
         assert_eq!(n, ["dead_time_s", "motor_gain"]);

@@ -216,7 +216,9 @@ pub fn fit(
 ) -> Result<(ModelParams, FitResult)> {
     let initial_score = data.score(factory, base, floor)?;
     let (discrete, continuous): (Vec<&ParamSpec>, Vec<&ParamSpec>) = specs.iter().partition(|s| s.discrete);
-    let mut best: Option<(f64, Vec<f64>, Vec<(&ParamSpec, f64)>)> = None;
+    // (cost, continuous coordinates, discrete values) of the best combination so far.
+    type Best<'s> = (f64, Vec<f64>, Vec<(&'s ParamSpec, f64)>);
+    let mut best: Option<Best<'_>> = None;
     let mut evaluations = 0;
     let mut converged = true;
     let mut status = Vec::new();

@@ -66,7 +66,11 @@ pub struct StepFeatures {
 fn relative(p: &Pose, q: &Pose) -> [f64; 3] {
     let (dx, dy) = (q.x_m - p.x_m, q.y_m - p.y_m);
     let (s, c) = p.yaw_rad.sin_cos();
-    [c * dx + s * dy, -s * dx + c * dy, wrap_angle(q.yaw_rad - p.yaw_rad)]
+    [
+        c * dx + s * dy,
+        -s * dx + c * dy,
+        wrap_angle(q.yaw_rad - p.yaw_rad),
+    ]
 }
 
 /// Body-frame velocity between two poses `dt_s` apart: the displacement is rotated into the
@@ -103,10 +107,7 @@ pub fn step_features(step: u32, samples: &[Sample]) -> Result<StepFeatures> {
                 let d = relative(&w[a].m.pose, &w[b].m.pose);
                 // Into the frame of sample i.
                 let yaw_i = wrap_angle(w[i].m.pose.yaw_rad - w[a].m.pose.yaw_rad);
-                (
-                    (yaw_i.cos() * d[0] + yaw_i.sin() * d[1]) / dt,
-                    d[2] / dt,
-                )
+                ((yaw_i.cos() * d[0] + yaw_i.sin() * d[1]) / dt, d[2] / dt)
             } else {
                 (0.0, 0.0)
             };
@@ -184,8 +185,8 @@ impl NoiseFloor {
         let mut n_windows = 0usize;
         for f in measured {
             if f.steady.len() >= 2 {
-                for c in 0..6 {
-                    steady[c].push((f.steady[0][c] - f.steady[1][c]).abs());
+                for (c, d) in steady.iter_mut().enumerate() {
+                    d.push((f.steady[0][c] - f.steady[1][c]).abs());
                 }
                 let (d1, d2) = (f.displacement[1], f.displacement[2.min(f.displacement.len() - 1)]);
                 // Translation: a 2-D difference; its norm's median relates to σ differently
@@ -202,9 +203,9 @@ impl NoiseFloor {
                 }
                 n_windows += 1;
                 n_per_window += idx.len();
-                for c in 0..4 {
+                for (c, sc) in scatter.iter_mut().enumerate() {
                     let mean = idx.iter().map(|&i| f.series[i][c]).sum::<f64>() / idx.len() as f64;
-                    scatter[c] += idx.iter().map(|&i| (f.series[i][c] - mean).powi(2)).sum::<f64>();
+                    *sc += idx.iter().map(|&i| (f.series[i][c] - mean).powi(2)).sum::<f64>();
                 }
                 n_scatter += idx.len() - 1;
             }
@@ -221,7 +222,10 @@ impl NoiseFloor {
             (
                 [0, 1, 2, 3, 4, 5].map(|c| sigma(&steady[c])),
                 // A 2-D error of σ per axis has RMS norm √2 σ.
-                [(per_axis * std::f64::consts::SQRT_2).max(MIN_FLOOR), sigma(&pose[1])],
+                [
+                    (per_axis * std::f64::consts::SQRT_2).max(MIN_FLOOR),
+                    sigma(&pose[1]),
+                ],
             )
         } else {
             // White-noise fallback: a window mean of n samples.
@@ -249,7 +253,11 @@ fn mad_sigma(abs_dev: &[f64]) -> f64 {
     }
     v.sort_by(f64::total_cmp);
     let n = v.len();
-    let med = if n % 2 == 1 { v[n / 2] } else { (v[n / 2 - 1] + v[n / 2]) / 2.0 };
+    let med = if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        (v[n / 2 - 1] + v[n / 2]) / 2.0
+    };
     1.4826 * med
 }
 
@@ -391,11 +399,11 @@ impl ErrorSummary {
         let mut ps = [0.0; 2];
         let (mut ns, mut nt, mut nw) = (0usize, 0usize, 0usize);
         for e in errors {
-            for c in 0..6 {
-                ss[c] += e.steady_sq[c];
+            for (acc, v) in ss.iter_mut().zip(&e.steady_sq) {
+                *acc += v;
             }
-            for c in 0..4 {
-                ts[c] += e.transient_sq[c];
+            for (acc, v) in ts.iter_mut().zip(&e.transient_sq) {
+                *acc += v;
             }
             ps[0] += e.pose_sq[0];
             ps[1] += e.pose_sq[1];
@@ -526,7 +534,11 @@ mod tests {
         assert!((f.displacement[1][0] - 2.0 * yaw.sin()).abs() < 1e-9);
         assert!((f.displacement[1][2] - yaw).abs() < 1e-9);
         // Central differences inside the window: vx within chord error of 0.8.
-        assert!(f.series.iter().all(|s| (s[0] - 0.8).abs() < 5e-3), "{:?}", f.series[50]);
+        assert!(
+            f.series.iter().all(|s| (s[0] - 0.8).abs() < 5e-3),
+            "{:?}",
+            f.series[50]
+        );
     }
 
     #[test]
@@ -534,7 +546,10 @@ mod tests {
         // Window-2 encoders differ by 0.2 rad/s: median |d| = 0.2, σ = 1.4826 · 0.2 / √2.
         let meas = step_features(0, &step(1.0, 0.0, 3.0, 0.2)).unwrap();
         let floor = NoiseFloor::estimate(std::slice::from_ref(&meas)).unwrap();
-        assert!((floor.steady[3] - 1.4826 * 0.2 / 2f64.sqrt()).abs() < 1e-9, "{floor:?}");
+        assert!(
+            (floor.steady[3] - 1.4826 * 0.2 / 2f64.sqrt()).abs() < 1e-9,
+            "{floor:?}"
+        );
         // The median ignores one outlying step among three.
         let calm = step_features(0, &step(1.0, 0.0, 3.0, 0.1)).unwrap();
         let wild = step_features(0, &step(1.0, 0.0, 3.0, 5.0)).unwrap();

@@ -17,6 +17,7 @@
 //! Nothing reads what a log says was injected: the effects are found from the data alone.
 
 pub mod candidates;
+pub mod figures;
 pub mod fit;
 pub mod metrics;
 pub mod model;
@@ -129,6 +130,17 @@ pub struct SelectionRound {
     pub added: Option<String>,
 }
 
+/// Per held-out step scores (same step order as `heldout_steps`), for distributions.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StepScores {
+    /// IDD.
+    pub idd: Vec<f64>,
+    /// Declared model.
+    pub before: Vec<f64>,
+    /// Final model.
+    pub after: Vec<f64>,
+}
+
 /// Everything [`calibrate`] found, serializable to JSON.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CalibrationReport {
@@ -158,6 +170,8 @@ pub struct CalibrationReport {
     pub after_terrain: ErrorSummary,
     /// Held-out error of the final model.
     pub after: ErrorSummary,
+    /// Per-step held-out scores.
+    pub step_scores: StepScores,
     /// Held-out score reduction before → after, and its bootstrap standard error.
     pub total_reduction: f64,
     /// Bootstrap standard error of `total_reduction`.
@@ -206,7 +220,12 @@ pub fn models_for_log(log: &DriveLog) -> Result<(Robot, Terrain, Vec<String>)> {
     Ok((robot, terrain, notes))
 }
 
-fn table(idd: &ErrorSummary, before: &ErrorSummary, after: &ErrorSummary, floor: &ErrorSummary) -> Vec<TableRow> {
+fn table(
+    idd: &ErrorSummary,
+    before: &ErrorSummary,
+    after: &ErrorSummary,
+    floor: &ErrorSummary,
+) -> Vec<TableRow> {
     idd.rows()
         .into_iter()
         .zip(before.rows())
@@ -255,9 +274,14 @@ pub fn calibrate(
     let floor = NoiseFloor::estimate(&all.features)?;
     let fit_ids: Vec<u32> = match opts.max_fit_steps {
         Some(k) if k < train_ids.len() => {
-            let (mut sub, _) = fit::split_steps(&train_ids, k as f64 / train_ids.len() as f64, opts.seed ^ 0x5eed);
+            let (mut sub, _) =
+                fit::split_steps(&train_ids, k as f64 / train_ids.len() as f64, opts.seed ^ 0x5eed);
             sub.truncate(k.max(1));
-            notes.push(format!("cost evaluated on {} of {} training steps", sub.len(), train_ids.len()));
+            notes.push(format!(
+                "cost evaluated on {} of {} training steps",
+                sub.len(),
+                train_ids.len()
+            ));
             sub
         }
         _ => train_ids.clone(),
@@ -266,17 +290,21 @@ pub fn calibrate(
     let test = fit::StepSet::new(&slices, &test_ids, rate)?;
 
     let declared = ModelParams::new(robot.clone(), terrain.clone());
-    let summary = |p: &ModelParams, f: &dyn PlantFactory| -> Result<(ErrorSummary, Vec<metrics::StepErrors>)> {
-        let e = test.errors(f, p)?;
-        Ok((ErrorSummary::pool(&e, &floor), e))
-    };
-    let (idd, _) = summary(&declared, &IddFactory)?;
+    let summary =
+        |p: &ModelParams, f: &dyn PlantFactory| -> Result<(ErrorSummary, Vec<metrics::StepErrors>)> {
+            let e = test.errors(f, p)?;
+            Ok((ErrorSummary::pool(&e, &floor), e))
+        };
+    let (idd, idd_errors) = summary(&declared, &IddFactory)?;
     let (before, before_errors) = summary(&declared, factory)?;
 
     // Terrain / robot parameters.
     let specs = factory.calibration_params(&declared);
     let (mut current, terrain_fit) = if specs.is_empty() {
-        notes.push(format!("the {} model exposes no terrain parameter: terrain fit skipped", factory.name()));
+        notes.push(format!(
+            "the {} model exposes no terrain parameter: terrain fit skipped",
+            factory.name()
+        ));
         (declared.clone(), None)
     } else {
         let (m, r) = fit::fit(&train, factory, &declared, &specs, &floor, &opts.terrain_fit)?;
@@ -296,9 +324,11 @@ pub fn calibrate(
             .collect()
     };
     let space = robot.command_space();
-    let kernel_var = opts
-        .kernel_var
-        .unwrap_or(if robot.limits.max_lin_m_s > 2.0 { 0.64 } else { 0.25 });
+    let kernel_var = opts.kernel_var.unwrap_or(if robot.limits.max_lin_m_s > 2.0 {
+        0.64
+    } else {
+        0.25
+    });
     let residual_before = residual::analyse(
         &sim_feats(&current)?,
         &test.features,
@@ -359,13 +389,19 @@ pub fn calibrate(
             // absorbed of the effect before it was in the model goes back. Kept if not worse
             // on the held-out steps.
             let mut joint = specs.clone();
-            joint.extend(selected.iter().flat_map(|c| c.params.iter().filter(|p| !p.discrete).cloned()));
+            joint.extend(
+                selected
+                    .iter()
+                    .flat_map(|c| c.params.iter().filter(|p| !p.discrete).cloned()),
+            );
             let (m, r) = fit::fit(&train, factory, &current, &joint, &floor, &opts.final_fit)?;
             let old = fit::mean_score(&test.errors(factory, &current)?, &floor);
             let new = fit::mean_score(&test.errors(factory, &m)?, &floor);
             if new <= old {
                 current = m;
-                notes.push(format!("round {round}, joint refit: held-out score {old:.3} -> {new:.3}"));
+                notes.push(format!(
+                    "round {round}, joint refit: held-out score {old:.3} -> {new:.3}"
+                ));
             } else {
                 notes.push(format!(
                     "round {round}, joint refit discarded: held-out score {old:.3} -> {new:.3}"
@@ -391,6 +427,11 @@ pub fn calibrate(
     }
 
     let (after, after_errors) = summary(&current, factory)?;
+    let step_scores = StepScores {
+        idd: idd_errors.iter().map(|e| e.score(&floor)).collect(),
+        before: before_errors.iter().map(|e| e.score(&floor)).collect(),
+        after: after_errors.iter().map(|e| e.score(&floor)).collect(),
+    };
     let diffs = candidates::paired_diffs(&before_errors, &after_errors, &floor);
     let total_reduction = before.score - after.score;
     let total_reduction_se = candidates::bootstrap_se(&diffs, opts.rule.bootstrap_samples, opts.seed);
@@ -444,6 +485,7 @@ pub fn calibrate(
         before,
         after_terrain,
         after,
+        step_scores,
         total_reduction,
         total_reduction_se,
         terrain_fit,
@@ -491,8 +533,9 @@ pub fn fitted_terrain_toml(report: &CalibrationReport) -> Result<String> {
     ))
 }
 
-/// Writes `calibration.json` and `<dataset>_fitted_terrain.toml` into `dir` (created if
-/// needed); returns the paths written.
+/// Writes into `dir` (created if needed): `calibration.json` (the whole report),
+/// `<dataset>_fitted_terrain.toml`, the figures (SVG + PNG) and `report.html`; returns the
+/// paths written.
 pub fn write_report(report: &CalibrationReport, dir: &Path) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let json_path = dir.join("calibration.json");
@@ -501,5 +544,13 @@ pub fn write_report(report: &CalibrationReport, dir: &Path) -> Result<Vec<PathBu
     std::fs::write(&json_path, json).map_err(|e| Error::io(&json_path, e))?;
     let toml_path = dir.join(format!("{}_fitted_terrain.toml", report.dataset));
     std::fs::write(&toml_path, fitted_terrain_toml(report)?).map_err(|e| Error::io(&toml_path, e))?;
-    Ok(vec![json_path, toml_path])
+    let figures = figures::write_figures(report, dir)?;
+    let html = figures::write_html(report, &figures, dir)?;
+    let mut paths = vec![json_path, toml_path];
+    for (_, f) in figures {
+        paths.push(f.svg);
+        paths.push(f.png);
+    }
+    paths.push(html);
+    Ok(paths)
 }

@@ -57,7 +57,9 @@ impl ModelParams {
     /// terrain invalid (named in the error).
     pub fn set(&mut self, name: &str, value: f64) -> Result<()> {
         if !value.is_finite() {
-            return Err(Error::Analysis(format!("parameter `{name}`: non-finite value {value}")));
+            return Err(Error::Analysis(format!(
+                "parameter `{name}`: non-finite value {value}"
+            )));
         }
         if let Some(effect) = name.strip_prefix("effect.") {
             self.effects.insert(effect.to_string(), value);
@@ -90,9 +92,7 @@ where
     let mut root = serde_json::to_value(obj).map_err(|e| err(e.to_string()))?;
     let mut v = &mut root;
     for part in path.split('.') {
-        v = v
-            .get_mut(part)
-            .ok_or_else(|| err("no such field".to_string()))?;
+        v = v.get_mut(part).ok_or_else(|| err("no such field".to_string()))?;
     }
     if !v.is_number() {
         return Err(err("not a numeric field".to_string()));
@@ -106,7 +106,8 @@ where
         serde_json::Value::from(value)
     };
     let out: T = serde_json::from_value(root).map_err(|e| err(e.to_string()))?;
-    out.validate().map_err(|(field, m)| err(format!("{field}: {m}")))?;
+    out.validate()
+        .map_err(|(field, m)| err(format!("{field}: {m}")))?;
     Ok(out)
 }
 
@@ -238,7 +239,10 @@ mod tests {
         assert_eq!(p.terrain.friction.peak_longitudinal, 0.93);
         assert_eq!(p.get("terrain.friction.peak_longitudinal").unwrap(), Some(0.93));
         // Cross-field validation: peak below sliding friction is refused.
-        let e = p.set("terrain.friction.peak_longitudinal", 0.1).unwrap_err().to_string();
+        let e = p
+            .set("terrain.friction.peak_longitudinal", 0.1)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("sliding_longitudinal"), "{e}");
         p.set("robot.wheels.baseline_m", 1.5).unwrap();
         assert_eq!(p.robot.wheels.baseline_m, 1.5);

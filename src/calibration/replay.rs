@@ -89,9 +89,7 @@ pub fn replay_step(plant: &mut dyn Plant, step: StepSlice<'_>, rate_hz: f64) -> 
             _ => 1.0 / rate_hz,
         };
         plant.advance(dt).map_err(|e| match e {
-            Error::Diverged {
-                message, time_s, ..
-            } => Error::Diverged {
+            Error::Diverged { message, time_s, .. } => Error::Diverged {
                 step: step.step,
                 time_s,
                 message,

@@ -2,7 +2,8 @@
 //! time within a step, left versus right, and against each measured channel.
 
 use super::metrics::{StepFeatures, SERIES_CHANNELS, STEADY_CHANNELS};
-use crate::kinematics::{BodyVelocity, CommandSpace, IdealDiffDrive};
+use crate::analysis::smoother::{smooth_exact, Grid, KernelCovariance};
+use crate::kinematics::{CommandSpace, IdealDiffDrive};
 use serde::{Deserialize, Serialize};
 
 /// The steady residual of one step at its command.
@@ -11,12 +12,13 @@ pub struct ResidualPoint {
     /// Step index.
     pub step: u32,
     /// Commanded body velocity (declared IDD of the mean steady command).
-    pub cmd: BodyVelocity,
+    pub cmd: crate::kinematics::BodyVelocity,
     /// Recording minus replay of each [`STEADY_CHANNELS`], mean over the steady windows.
     pub residual: [f64; 6],
 }
 
-/// A residual channel smoothed over the command space (body frame) with a Gaussian kernel.
+/// A residual channel smoothed over the command space (body frame) with the Gaussian kernel
+/// smoother of [`crate::analysis::smoother`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ResidualMap {
     /// Residual channel (one of [`STEADY_CHANNELS`]).
@@ -119,19 +121,6 @@ fn slope(x: &[f64], y: &[f64]) -> f64 {
     x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum::<f64>() / sxx
 }
 
-/// Nadaraya-Watson Gaussian kernel smoother with isotropic variance `var` (the GUIDE's kernel
-/// with a diagonal Σ = var·I).
-fn smooth(points: &[(f64, f64, f64)], at: (f64, f64), var: f64) -> Option<f64> {
-    let (mut num, mut den) = (0.0, 0.0);
-    for &(x, y, v) in points {
-        let d2 = (x - at.0).powi(2) + (y - at.1).powi(2);
-        let k = (-0.5 * d2 / var).exp();
-        num += k * v;
-        den += k;
-    }
-    (den > 1e-12).then(|| num / den)
-}
-
 /// Analyses the residual of `sim` (replayed features) against `meas` (recorded, same steps in
 /// the same order). `idd` and `space` are the declared ones (the axes of the maps); the maps
 /// use a grid of `grid_step` in both axes and kernel variance `kernel_var`.
@@ -166,45 +155,32 @@ pub fn analyse(
         })
         .collect();
 
-    // Maps over the command space.
-    let poly = space.polygon_body();
-    let (vmax, wmax) = poly
-        .iter()
-        .fold((0.0f64, 0.0f64), |a, p| (a.0.max(p.0.abs()), a.1.max(p.1.abs())));
-    let axis = |m: f64| {
-        let n = (m / grid_step).floor() as i64;
-        (-n..=n).map(|i| i as f64 * grid_step).collect::<Vec<f64>>()
+    // Maps over the command space: the analysis module's exact Gaussian kernel smoother.
+    let grid = Grid::over_space(space, grid_step, grid_step);
+    let cov = KernelCovariance {
+        var_vx: kernel_var,
+        var_wz: kernel_var,
     };
-    let (vx_axis, wz_axis) = (axis(vmax), axis(wmax));
-    let maps = [0usize, 1, 2]
-        .iter()
-        .map(|&c| {
-            let pts: Vec<(f64, f64, f64)> = points
-                .iter()
-                .map(|p| (p.cmd.vx_m_s, p.cmd.wz_rad_s, p.residual[c]))
-                .collect();
-            let values = wz_axis
-                .iter()
-                .map(|&wz| {
-                    vx_axis
-                        .iter()
-                        .map(|&vx| {
-                            if space.contains_body(BodyVelocity::new(vx, 0.0, wz)) {
-                                smooth(&pts, (vx, wz), kernel_var)
-                            } else {
-                                None
-                            }
-                        })
+    let cmd_points: Vec<(f64, f64)> = points.iter().map(|p| (p.cmd.vx_m_s, p.cmd.wz_rad_s)).collect();
+    let channels: Vec<Vec<f64>> = (0..3)
+        .map(|c| points.iter().map(|p| p.residual[c]).collect())
+        .collect();
+    let channel_refs: Vec<&[f64]> = channels.iter().map(|c| c.as_slice()).collect();
+    let smoothed = smooth_exact(&grid, &cov, &cmd_points, &channel_refs);
+    let nvx = grid.vx_m_s.len();
+    let maps = (0..3)
+        .map(|c| ResidualMap {
+            channel: STEADY_CHANNELS[c].to_string(),
+            vx_m_s: grid.vx_m_s.clone(),
+            wz_rad_s: grid.wz_rad_s.clone(),
+            values: (0..grid.wz_rad_s.len())
+                .map(|j| {
+                    (0..nvx)
+                        .map(|i| Some(smoothed.values[c][j * nvx + i]).filter(|v| v.is_finite()))
                         .collect()
                 })
-                .collect();
-            ResidualMap {
-                channel: STEADY_CHANNELS[c].to_string(),
-                vx_m_s: vx_axis.clone(),
-                wz_rad_s: wz_axis.clone(),
-                values,
-                kernel_var,
-            }
+                .collect(),
+            kernel_var,
         })
         .collect();
 
@@ -354,16 +330,13 @@ mod tests {
         assert!(m.values.iter().all(|row| row.len() == m.vx_m_s.len()));
         let (i, j) = (m.vx_m_s.len() - 1, m.wz_rad_s.len() - 1);
         assert!(m.values[j][i].is_none());
-    }
-
-    #[test]
-    fn smoother_is_a_weighted_mean() {
-        // Two points at distance 1 either side of the query, values 1 and 3: mean 2.
-        let pts = [(-1.0, 0.0, 1.0), (1.0, 0.0, 3.0)];
-        assert!((smooth(&pts, (0.0, 0.0), 0.5).unwrap() - 2.0).abs() < 1e-12);
-        // Weights exp(-d²/2var): at x = 1 the far point has weight e^{-4/1} relative to 1.
-        let w = (-2.0f64).exp();
-        let v = smooth(&pts, (1.0, 0.0), 0.5).unwrap();
-        assert!((v - (3.0 + w.powi(2) * 1.0) / (1.0 + w.powi(2))).abs() < 1e-12, "{v}");
+        // Inside U the smoothed vx residual is a weighted mean of zeros.
+        assert!(a.maps[0].values.iter().flatten().flatten().count() > 0);
+        assert!(a.maps[0]
+            .values
+            .iter()
+            .flatten()
+            .flatten()
+            .all(|v| v.abs() < 1e-12));
     }
 }

@@ -83,9 +83,7 @@ impl KinematicEffects {
         }
         let positive = value > 0.0;
         match name {
-            "wheel_speed_saturation_rad_s" if positive => {
-                self.wheel_speed_saturation_rad_s = Some(value)
-            }
+            "wheel_speed_saturation_rad_s" if positive => self.wheel_speed_saturation_rad_s = Some(value),
             "motor_gain_left" if positive => self.motor_gain_left = value,
             "motor_gain_right" if positive => self.motor_gain_right = value,
             "wheel_radius_scale" if positive => self.wheel_radius_scale = value,
