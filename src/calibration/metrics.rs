@@ -3,9 +3,10 @@
 //! estimated from the recording.
 //!
 //! Every quantity comes from the same estimators applied to both logs, so an estimator bias
-//! cancels: body velocity from the pose stream (mean of body-frame pose differences over a
-//! window, or a ±0.25 s central difference per sample), wheel speed from the encoders, yaw rate
-//! from the IMU. Poses are only differenced inside a window (measured logs restart them there).
+//! cancels: body velocity from the pose stream (the analysis pipeline's per-sample local
+//! least-squares slopes, [`crate::analysis::velocity::window_kinematics`], and their window
+//! means), wheel speed from the encoders, yaw rate from the IMU. Poses are only differenced
+//! inside a window (measured logs restart them there).
 //!
 //! **Noise floor.** What no deterministic model can predict. For a steady-state channel, the
 //! two steady windows of a step see the same command; if each window mean is the true steady
@@ -26,8 +27,9 @@
 //! the optimizer minimizes and what the bootstrap compares.
 
 use super::replay::StepSlice;
+use crate::analysis::velocity::window_kinematics;
 use crate::error::{Error, Result};
-use crate::kinematics::WheelSpeeds;
+use crate::kinematics::{IdealDiffDrive, WheelSpeeds};
 use crate::log::{Pose, Sample};
 use crate::sim::plant::wrap_angle;
 use serde::{Deserialize, Serialize};
@@ -36,8 +38,8 @@ use serde::{Deserialize, Serialize};
 pub const STEADY_CHANNELS: [&str; 6] = ["vx", "vy", "wz", "enc_left", "enc_right", "imu_wz"];
 /// Per-sample channels (the transient window, and residuals over time).
 pub const SERIES_CHANNELS: [&str; 4] = ["vx", "wz", "enc_left", "enc_right"];
-/// Half-width of the per-sample central difference, samples (0.25 s at 20 Hz).
-const HALF_SPAN: usize = 5;
+/// Half-width of the per-sample derivative (the analysis pipeline's default: 7 points, 0.3 s).
+const DERIVATIVE_HALF_WIDTH: usize = 3;
 /// Floors are never taken below these (units of the channel): a noise-free log would
 /// otherwise make any error infinitely significant.
 const MIN_FLOOR: f64 = 1e-3;
@@ -97,48 +99,35 @@ pub fn step_features(step: u32, samples: &[Sample]) -> Result<StepFeatures> {
         displacement: Vec::new(),
     };
     let mut n_cmd = 0usize;
+    // `enc_body` of the analysis kinematics is not used here: any geometry will do.
+    let unit = IdealDiffDrive {
+        wheel_radius_m: 1.0,
+        baseline_m: 1.0,
+    };
     for w in samples.chunk_by(|a, b| a.window == b.window) {
         let n = w.len();
-        // Per-sample central differences, clipped at the window edges.
-        for i in 0..n {
-            let (a, b) = (i.saturating_sub(HALF_SPAN), (i + HALF_SPAN).min(n - 1));
-            let dt = w[b].t_in_step_s - w[a].t_in_step_s;
-            let (vx, wz) = if b > a && dt > 0.0 {
-                let d = relative(&w[a].m.pose, &w[b].m.pose);
-                // Into the frame of sample i.
-                let yaw_i = wrap_angle(w[i].m.pose.yaw_rad - w[a].m.pose.yaw_rad);
-                ((yaw_i.cos() * d[0] + yaw_i.sin() * d[1]) / dt, d[2] / dt)
-            } else {
-                (0.0, 0.0)
-            };
-            f.t_s.push(w[i].t_in_step_s);
-            f.window.push(w[i].window);
-            f.series
-                .push([vx, wz, w[i].m.enc.left_rad_s, w[i].m.enc.right_rad_s]);
+        // The analysis pipeline's per-sample velocities (local least-squares slopes).
+        let kin = window_kinematics(w, DERIVATIVE_HALF_WIDTH, &unit);
+        for (s, k) in w.iter().zip(&kin) {
+            f.t_s.push(s.t_in_step_s);
+            f.window.push(s.window);
+            f.series.push([
+                k.pose.vx_m_s,
+                k.pose.wz_rad_s,
+                s.m.enc.left_rad_s,
+                s.m.enc.right_rad_s,
+            ]);
         }
         f.displacement.push(relative(&w[0].m.pose, &w[n - 1].m.pose));
         if w[0].window == 0 {
             continue;
         }
-        // Steady window: mean of body-frame consecutive pose differences.
+        // Steady window: window means, as the analysis pipeline takes them.
         let mut v = [0.0; 6];
-        let mut m = 0usize;
-        for pair in w.windows(2) {
-            let dt = pair[1].t_in_step_s - pair[0].t_in_step_s;
-            if dt > 0.0 {
-                let d = body_rate(&pair[0].m.pose, &pair[1].m.pose, dt);
-                v[0] += d[0];
-                v[1] += d[1];
-                v[2] += d[2];
-                m += 1;
-            }
-        }
-        if m > 0 {
-            for x in &mut v[..3] {
-                *x /= m as f64;
-            }
-        }
-        for s in w {
+        for (s, k) in w.iter().zip(&kin) {
+            v[0] += k.pose.vx_m_s / n as f64;
+            v[1] += k.pose.vy_m_s / n as f64;
+            v[2] += k.pose.wz_rad_s / n as f64;
             v[3] += s.m.enc.left_rad_s / n as f64;
             v[4] += s.m.enc.right_rad_s / n as f64;
             v[5] += s.m.imu.wz_rad_s / n as f64;
