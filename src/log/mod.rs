@@ -5,8 +5,10 @@
 //! stream of [`Frame`]s, one per 20 Hz tick, by [`DriveLog::from_frames`]; that one function
 //! decides which samples belong to which step and which attempts were interrupted.
 
+pub mod cdr;
 pub mod csv;
 pub mod mcap;
+pub mod ros_msgs;
 
 use crate::kinematics::{BodyVelocity, WheelSpeeds};
 use serde::{Deserialize, Serialize};
