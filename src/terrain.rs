@@ -53,16 +53,24 @@ pub struct FrictionProfile {
     pub peak_slip_angle_rad: f64,
 }
 
-/// Rolling resistance and soft-soil effects.
+/// Rolling resistance and soft-soil effects (a reduced Bekker/Wong terramechanics model).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Resistance {
-    /// Rolling resistance coefficient (force / normal load).
+    /// Rolling resistance coefficient (resisting force / normal load), applied as a torque
+    /// `f_r N r` opposing each wheel's spin; on soft soil it includes compaction resistance.
     pub rolling_coefficient: f64,
-    /// Static sinkage of a tyre, m (0 on hard ground).
+    /// Static sinkage of a tyre, m (0 on hard ground): the wheel sits this much below the
+    /// surface, which sets the frontal and side areas that bulldoze soil.
     pub sinkage_m: f64,
-    /// Bulldozing resistance per unit of sunk frontal area and speed, N/(m²·m/s)... see sim.
-    pub bulldozing_coefficient: f64,
+    /// Bulldozing pressure, Pa: soil pushed by the sunk part of a tyre resists with this
+    /// pressure times the sunk frontal area (width x sinkage, longitudinal motion) or the sunk
+    /// side area (contact chord x sinkage, lateral motion, which is what piles dirt beside the
+    /// wheels when skid-steering). 0 on hard ground.
+    pub bulldozing_pressure_pa: f64,
+    /// Churning drag of a wheel spinning in viscous soil (mud, slush), s/m: a torque
+    /// `c N r (w r)` opposing the spin, proportional to the rim speed. 0 on dry ground.
+    pub churning_drag_s_m: f64,
 }
 
 /// Random ground unevenness.
@@ -106,7 +114,26 @@ impl Validate for Terrain {
         let r = &self.resistance;
         non_negative("resistance.rolling_coefficient", r.rolling_coefficient)?;
         non_negative("resistance.sinkage_m", r.sinkage_m)?;
-        non_negative("resistance.bulldozing_coefficient", r.bulldozing_coefficient)?;
+        non_negative("resistance.bulldozing_pressure_pa", r.bulldozing_pressure_pa)?;
+        non_negative("resistance.churning_drag_s_m", r.churning_drag_s_m)?;
+        if r.rolling_coefficient >= 1.0 {
+            return Err((
+                "resistance.rolling_coefficient".into(),
+                format!("{} is not a rolling resistance (must be < 1)", r.rolling_coefficient),
+            ));
+        }
+        if f.peak_longitudinal > 3.0 || f.peak_lateral > 3.0 {
+            return Err((
+                "friction.peak_longitudinal".into(),
+                "friction coefficients above 3 are not physical for tyres".into(),
+            ));
+        }
+        if f.peak_slip_angle_rad >= std::f64::consts::FRAC_PI_2 {
+            return Err((
+                "friction.peak_slip_angle_rad".into(),
+                "must be below pi/2".into(),
+            ));
+        }
         non_negative("roughness.height_std_m", self.roughness.height_std_m)?;
         positive(
             "roughness.correlation_length_m",
