@@ -28,7 +28,7 @@ pub mod surrogate;
 pub use candidates::{CandidateEvidence, EffectCandidate, SelectionRule};
 pub use fit::{FitOptions, FitResult, FittedParam};
 pub use metrics::{ErrorSummary, NoiseFloor};
-pub use model::{IddFactory, KinematicFactory, ModelParams, ParamSpec, PlantFactory};
+pub use model::{IddFactory, KinematicFactory, ModelParams, ParamSpec, PlantFactory, SimFactory};
 pub use replay::{replay_log, ReplayOptions};
 pub use residual::ResidualAnalysis;
 

@@ -7,7 +7,8 @@ use super::surrogate::{KinematicEffects, KinematicPlant};
 use crate::config::Validate;
 use crate::error::{Error, Result};
 use crate::robot::Robot;
-use crate::sim::{IdealPlant, Plant};
+use crate::sim::effects::Effects;
+use crate::sim::{IdealPlant, Plant, SimConfig, Simulator};
 use crate::terrain::Terrain;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -217,6 +218,66 @@ impl PlantFactory for KinematicFactory {
         let upper = (2.5 * b).min(1.5 * params.robot.body.width_m);
         vec![
             ParamSpec::new("robot.wheels.baseline_m", 0.7 * b, upper.max(b)),
+            ParamSpec::new("robot.powertrain.time_constant_s", 0.02, 1.5),
+        ]
+    }
+}
+
+/// The rapier simulator ([`Simulator`]), noise-free, with the model's effects set through
+/// [`Effects::set`]. Its calibrated parameters are the terrain's friction profile and rolling
+/// resistance and the powertrain time constant.
+#[derive(Debug, Clone, Copy)]
+pub struct SimFactory {
+    /// Physics rate, Hz.
+    pub physics_hz: f64,
+}
+
+impl Default for SimFactory {
+    fn default() -> Self {
+        Self {
+            physics_hz: SimConfig::default().physics_hz,
+        }
+    }
+}
+
+impl PlantFactory for SimFactory {
+    fn name(&self) -> String {
+        "simulator".into()
+    }
+    fn build(&self, params: &ModelParams) -> Result<Box<dyn Plant>> {
+        let mut effects = Effects::default();
+        for (name, value) in &params.effects {
+            effects.set(name, *value)?;
+        }
+        let cfg = SimConfig {
+            seed: 0,
+            physics_hz: self.physics_hz,
+            effects,
+            ..SimConfig::default()
+        };
+        Ok(Box::new(Simulator::new(&params.robot, &params.terrain, cfg)?))
+    }
+    fn effect_names(&self) -> Vec<String> {
+        Effects::NAMES.iter().map(|s| s.to_string()).collect()
+    }
+    fn calibration_params(&self, params: &ModelParams) -> Vec<ParamSpec> {
+        let f = &params.terrain.friction;
+        // Peaks are searched above the (fixed) sliding values, so every point of the box is a
+        // valid terrain; the terrain file's validation caps friction at 3.
+        let top = |declared: f64| (1.5 * declared).clamp(1.2, 3.0);
+        vec![
+            ParamSpec::new(
+                "terrain.friction.peak_longitudinal",
+                f.sliding_longitudinal,
+                top(f.peak_longitudinal),
+            ),
+            ParamSpec::new(
+                "terrain.friction.peak_lateral",
+                f.sliding_lateral,
+                top(f.peak_lateral),
+            ),
+            ParamSpec::new("terrain.friction.peak_slip_ratio", 0.02, 0.5),
+            ParamSpec::new("terrain.resistance.rolling_coefficient", 0.0, 0.3),
             ParamSpec::new("robot.powertrain.time_constant_s", 0.02, 1.5),
         ]
     }
