@@ -7,7 +7,8 @@
 //! Run with `--nocapture` to see each dataset's before/after table.
 
 use drive_sim::calibration::{
-    calibrate, models_for_log, write_report, CalibrationOptions, CalibrationReport, KinematicFactory,
+    calibrate, calibrate_file, models_for_log, replay_and_compare, write_report, CalibrationOptions,
+    CalibrationReport, KinematicFactory, ModelKind,
 };
 use drive_sim::log::csv::read_measured_csv;
 use drive_sim::log::DriveLog;
@@ -160,4 +161,70 @@ fn report_is_written_as_json_and_terrain_toml() {
         assert!(std::fs::metadata(p).unwrap().len() > 0, "{p:?}");
     }
     assert!(paths.iter().any(|p| p.ends_with("residual_map_wz.png")));
+}
+
+#[test]
+fn replay_keeps_the_structure_and_the_idd_error_matches_a_hand_computation() {
+    let log = read_measured_csv(format!("{DATA}/warthog_asphalt.csv")).unwrap();
+    let c = replay_and_compare(&log, ModelKind::Kinematic).unwrap();
+    assert_eq!(c.replayed.samples.len(), log.samples.len());
+    assert_eq!(c.replayed.steps(), log.steps());
+    for (a, b) in c.replayed.samples.iter().zip(&log.samples) {
+        assert_eq!((a.step, a.window, a.k, a.m.cmd), (b.step, b.window, b.k, b.m.cmd));
+    }
+    // The IDD's wheels follow the command exactly: its steady wheel RMSE is the RMS of
+    // (window-mean encoder - window-mean command) over steady windows and both sides.
+    let (mut sq, mut n) = (0.0, 0usize);
+    for w in log
+        .samples
+        .chunk_by(|a, b| (a.step, a.window) == (b.step, b.window))
+    {
+        if w[0].window == 0 {
+            continue;
+        }
+        let m = w.len() as f64;
+        let enc_l = w.iter().map(|s| s.m.enc.left_rad_s).sum::<f64>() / m;
+        let enc_r = w.iter().map(|s| s.m.enc.right_rad_s).sum::<f64>() / m;
+        let cmd_l = w.iter().map(|s| s.m.cmd.left_rad_s).sum::<f64>() / m;
+        let cmd_r = w.iter().map(|s| s.m.cmd.right_rad_s).sum::<f64>() / m;
+        sq += (enc_l - cmd_l).powi(2) + (enc_r - cmd_r).powi(2);
+        n += 2;
+    }
+    let by_hand = (sq / n as f64).sqrt();
+    assert!(
+        (c.idd.steady_wheel_rad_s - by_hand).abs() < 1e-9,
+        "{} vs {by_hand}",
+        c.idd.steady_wheel_rad_s
+    );
+}
+
+#[test]
+fn bad_inputs_are_clear_errors() {
+    let e = calibrate_file(
+        std::path::Path::new("/nonexistent/x.csv"),
+        ModelKind::Kinematic,
+        &Default::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("/nonexistent/x"), "{e}");
+    let e = ModelKind::parse("physx").unwrap_err().to_string();
+    assert!(e.contains("simulator") && e.contains("kinematic"), "{e}");
+    let log = read_measured_csv(format!("{DATA}/warthog_ice.csv")).unwrap();
+    let (robot, terrain, _) = models_for_log(&log).unwrap();
+    let bad = CalibrationOptions {
+        train_fraction: 1.0,
+        ..Default::default()
+    };
+    let e = calibrate(&log, &robot, &terrain, &KinematicFactory, &bad)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("train fraction"), "{e}");
+    // Three steps are too few to split and judge.
+    let mut short = log.clone();
+    short.samples.retain(|s| s.step < 3);
+    let e = calibrate(&short, &robot, &terrain, &KinematicFactory, &Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("at least 4"), "{e}");
 }

@@ -500,6 +500,93 @@ pub fn calibrate(
     })
 }
 
+/// Which plant to calibrate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ModelKind {
+    /// The rapier simulator ([`SimFactory`]).
+    Simulator,
+    /// The kinematic grey-box model ([`KinematicFactory`]): seconds instead of minutes.
+    Kinematic,
+}
+
+impl ModelKind {
+    /// Names accepted by [`ModelKind::parse`].
+    pub const NAMES: &'static [&'static str] = &["simulator", "kinematic"];
+
+    /// Parses a model name (for the CLI).
+    pub fn parse(name: &str) -> Result<Self> {
+        match name {
+            "simulator" | "sim" => Ok(Self::Simulator),
+            "kinematic" => Ok(Self::Kinematic),
+            _ => Err(Error::Unknown {
+                kind: "model",
+                name: name.to_string(),
+                available: Self::NAMES.join(", "),
+            }),
+        }
+    }
+
+    /// The factory of this model.
+    pub fn factory(self) -> Box<dyn PlantFactory> {
+        match self {
+            Self::Simulator => Box::new(SimFactory::default()),
+            Self::Kinematic => Box::new(KinematicFactory),
+        }
+    }
+}
+
+/// Reads a measured dataset (CSV + sibling JSON) and calibrates `kind` on it, starting from the
+/// robot and terrain the log declares ([`models_for_log`]; their notes go to the report).
+/// What `drive-sim calibrate MEASURED` runs.
+pub fn calibrate_file(csv: &Path, kind: ModelKind, opts: &CalibrationOptions) -> Result<CalibrationReport> {
+    let log = crate::log::csv::read_measured_csv(csv)?;
+    let (robot, terrain, notes) = models_for_log(&log)?;
+    let mut report = calibrate(&log, &robot, &terrain, kind.factory().as_ref(), opts)?;
+    report.status.notes.splice(0..0, notes);
+    report.reproduce = format!(
+        "drive-sim calibrate {} --model {} --seed {} --out <DIR>",
+        csv.display(),
+        ModelKind::NAMES[kind as usize],
+        opts.seed
+    );
+    Ok(report)
+}
+
+/// A replay of a whole log and how far it is from the recording.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReplayComparison {
+    /// The replayed log (same steps, windows and sampling as the recording).
+    pub replayed: DriveLog,
+    /// Error of the replay over all steps.
+    pub model: ErrorSummary,
+    /// Error of the IDD over all steps.
+    pub idd: ErrorSummary,
+    /// Noise floor of the recording.
+    pub floor: ErrorSummary,
+}
+
+/// Replays every step of `log` on the declared model `kind` (no fit) and compares it with the
+/// recording, beside the IDD and the noise floor. What `drive-sim replay MEASURED` runs.
+pub fn replay_and_compare(log: &DriveLog, kind: ModelKind) -> Result<ReplayComparison> {
+    let (robot, terrain, _) = models_for_log(log)?;
+    let params = ModelParams::new(robot, terrain);
+    let factory = kind.factory();
+    let slices = replay::step_slices(log);
+    let steps: Vec<u32> = slices.iter().map(|s| s.step).collect();
+    let all = fit::StepSet::new(&slices, &steps, log.meta.rate_hz)?;
+    let floor = NoiseFloor::estimate(&all.features)?;
+    let model = ErrorSummary::pool(&all.errors(factory.as_ref(), &params)?, &floor);
+    let idd = ErrorSummary::pool(&all.errors(&IddFactory, &params)?, &floor);
+    let replayed = replay_log(log, factory.as_ref(), &params, &ReplayOptions::default())?;
+    Ok(ReplayComparison {
+        replayed,
+        model,
+        idd,
+        floor: ErrorSummary::floor(&floor),
+    })
+}
+
 /// The calibrated terrain as a terrain TOML file, with a header saying where it comes from.
 pub fn fitted_terrain_toml(report: &CalibrationReport) -> Result<String> {
     let body = toml::to_string(&report.model_after.terrain)
