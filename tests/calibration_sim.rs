@@ -192,7 +192,7 @@ fn measured_options() -> CalibrationOptions {
 fn measured_datasets_with_the_simulator() {
     let names = std::env::var("DATASETS")
         .unwrap_or_else(|_| "warthog_asphalt,warthog_gravel,warthog_ice,husky_2023".into());
-    let mut worse = Vec::new();
+    let mut worse: Vec<String> = Vec::new();
     for name in names.split(',') {
         let t0 = std::time::Instant::now();
         let log = read_measured_csv(format!("{DATA}/{name}.csv")).unwrap();
