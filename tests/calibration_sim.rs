@@ -209,11 +209,10 @@ fn measured_datasets_with_the_simulator() {
         if let Ok(dir) = std::env::var("CALIB_OUT") {
             write_report(&r, &std::path::Path::new(&dir).join(name)).unwrap();
         }
-        assert!(
-            r.after.score <= r.before.score,
-            "{name}: {} -> {}",
-            r.before.score,
-            r.after.score
-        );
+        if r.after.score > r.before.score {
+            worse.push(format!("{name}: {} -> {}", r.before.score, r.after.score));
+        }
     }
+    // The held-out score is never worse after calibration.
+    assert!(worse.is_empty(), "{worse:?}");
 }
