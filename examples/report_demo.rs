@@ -10,10 +10,9 @@ use std::path::PathBuf;
 
 use drive_sim::kinematics::{BodyVelocity, CommandSpace, IdealDiffDrive, WheelSpeeds};
 use drive_sim::report::{
-    box_plots, command_space_figure, heat_maps, histograms, line_bands, risk_map, value_scatter,
-    AxisLabel, BandPoint, BandSeries, BoxPanel, ColourMap, ColourScale, CommandScenario,
-    EnergyLimit, Grid2, HeatPanel, HistPanel, HtmlReport, KeyFigure, RiskScenario, Samples,
-    ScatterPanel, ValuePoint, CHI2_2DOF_95,
+    box_plots, command_space_figure, heat_maps, histograms, line_bands, risk_map, value_scatter, AxisLabel,
+    BandPoint, BandSeries, BoxPanel, ColourMap, ColourScale, CommandScenario, EnergyLimit, Grid2, HeatPanel,
+    HistPanel, HtmlReport, KeyFigure, RiskScenario, Samples, ScatterPanel, ValuePoint, CHI2_2DOF_95,
 };
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -159,9 +158,8 @@ fn main() -> drive_sim::Result<()> {
         .map(|t| simulate(&space, t, 250, &mut rng))
         .collect();
     let mut report = HtmlReport::new("drive-sim report demo (synthetic data)");
-    report.paragraph(
-        "All data on this page are synthetic and seeded; they only exercise the figure builders.",
-    );
+    report
+        .paragraph("All data on this page are synthetic and seeded; they only exercise the figure builders.");
 
     // 1. Command space.
     let scen: Vec<CommandScenario> = terrains
@@ -196,11 +194,19 @@ fn main() -> drive_sim::Result<()> {
         groups: group(f),
     };
     let slips = [
-        panel("longitudinal", "slip g_vx", "m/s", &|s| s.cmd_b.vx_m_s - s.body.vx_m_s),
+        panel("longitudinal", "slip g_vx", "m/s", &|s| {
+            s.cmd_b.vx_m_s - s.body.vx_m_s
+        }),
         panel("lateral", "slip g_vy", "m/s", &|s| -s.body.vy_m_s),
-        panel("angular", "slip g_wz", "rad/s", &|s| s.cmd_b.wz_rad_s - s.body.wz_rad_s),
-        panel("left wheel", "slip g_l", "rad/s", &|s| s.cmd.left_rad_s - s.wheels.left_rad_s),
-        panel("right wheel", "slip g_r", "rad/s", &|s| s.cmd.right_rad_s - s.wheels.right_rad_s),
+        panel("angular", "slip g_wz", "rad/s", &|s| {
+            s.cmd_b.wz_rad_s - s.body.wz_rad_s
+        }),
+        panel("left wheel", "slip g_l", "rad/s", &|s| {
+            s.cmd.left_rad_s - s.wheels.left_rad_s
+        }),
+        panel("right wheel", "slip g_r", "rad/s", &|s| {
+            s.cmd.right_rad_s - s.wheels.right_rad_s
+        }),
     ];
     let f = box_plots(&out, "slip_boxplots", "Steady-state slip per terrain", &slips)?;
     report
@@ -213,7 +219,12 @@ fn main() -> drive_sim::Result<()> {
     // 3. Transfer functions.
     let poly = space.polygon_body();
     for (stem, q, spacing, f) in [
-        ("tf_longitudinal", "longitudinal slip", 0.2, &(|s: &Step| s.cmd_b.vx_m_s - s.body.vx_m_s) as &dyn Fn(&Step) -> f64),
+        (
+            "tf_longitudinal",
+            "longitudinal slip",
+            0.2,
+            &(|s: &Step| s.cmd_b.vx_m_s - s.body.vx_m_s) as &dyn Fn(&Step) -> f64,
+        ),
         ("tf_lateral", "lateral slip", 0.1, &|s: &Step| -s.body.vy_m_s),
     ] {
         let panels: Vec<HeatPanel> = terrains
@@ -231,7 +242,14 @@ fn main() -> drive_sim::Result<()> {
             map: ColourMap::Diverging,
             range: None,
         };
-        let fig = heat_maps(&out, stem, &format!("Transfer function: {q}"), &panels, &scale, Some(spacing))?;
+        let fig = heat_maps(
+            &out,
+            stem,
+            &format!("Transfer function: {q}"),
+            &panels,
+            &scale,
+            Some(spacing),
+        )?;
         report.figure(format!("{q}, contours every {spacing} m/s."), &fig)?;
     }
 
@@ -258,7 +276,13 @@ fn main() -> drive_sim::Result<()> {
             command_space: poly.clone(),
         })
         .collect();
-    let f = value_scatter(&out, "rho_scatter", "ρ at the sampled commands", &panels, &rho_scale)?;
+    let f = value_scatter(
+        &out,
+        "rho_scatter",
+        "ρ at the sampled commands",
+        &panels,
+        &rho_scale,
+    )?;
     report.figure("ρ per step at its command.", &f)?;
     let panels: Vec<HeatPanel> = terrains
         .iter()
@@ -270,7 +294,14 @@ fn main() -> drive_sim::Result<()> {
             command_space: poly.clone(),
         })
         .collect();
-    let f = heat_maps(&out, "rho_map", "ρ over the command space", &panels, &rho_scale, None)?;
+    let f = heat_maps(
+        &out,
+        "rho_map",
+        "ρ over the command space",
+        &panels,
+        &rho_scale,
+        None,
+    )?;
     report.figure("ρ smoothed onto a 0.1 grid.", &f)?;
 
     // 5. Risk map.
@@ -302,8 +333,17 @@ fn main() -> drive_sim::Result<()> {
         label: "Warthog max on flat ground".into(),
         energy_j: e_max,
     }];
-    let f = risk_map(&out, "risk_map", "Risk: likelihood vs severity", &scenarios, &limits, CHI2_2DOF_95)?;
-    report.section("Risk").figure("Median and 95 % ellipse per scenario.", &f)?;
+    let f = risk_map(
+        &out,
+        "risk_map",
+        "Risk: likelihood vs severity",
+        &scenarios,
+        &limits,
+        CHI2_2DOF_95,
+    )?;
+    report
+        .section("Risk")
+        .figure("Median and 95 % ellipse per scenario.", &f)?;
 
     // 6. Accelerations of the first 2 s.
     let normal = |sd: f64, n: usize, rng: &mut ChaCha8Rng| -> Vec<f64> {
@@ -326,7 +366,13 @@ fn main() -> drive_sim::Result<()> {
             ],
         });
     }
-    let f = histograms(&out, "accelerations", "Accelerations during the first 2 s", &hp, 41)?;
+    let f = histograms(
+        &out,
+        "accelerations",
+        "Accelerations during the first 2 s",
+        &hp,
+        41,
+    )?;
     report.section("Accelerations").figure("Red: limits.", &f)?;
 
     // 7. Error vs number of steps.

@@ -15,6 +15,7 @@ pub mod protocol;
 pub mod report;
 pub mod robot;
 pub mod sim;
+pub mod sweep;
 pub mod terrain;
 
 pub use error::{Error, Result};

@@ -119,20 +119,25 @@ impl Validate for Terrain {
         if r.rolling_coefficient >= 1.0 {
             return Err((
                 "resistance.rolling_coefficient".into(),
-                format!("{} is not a rolling resistance (must be < 1)", r.rolling_coefficient),
+                format!(
+                    "{} is not a rolling resistance (must be < 1)",
+                    r.rolling_coefficient
+                ),
             ));
         }
-        if f.peak_longitudinal > 3.0 || f.peak_lateral > 3.0 {
-            return Err((
-                "friction.peak_longitudinal".into(),
-                "friction coefficients above 3 are not physical for tyres".into(),
-            ));
+        for (field, v) in [
+            ("friction.peak_longitudinal", f.peak_longitudinal),
+            ("friction.peak_lateral", f.peak_lateral),
+        ] {
+            if v > 3.0 {
+                return Err((
+                    field.into(),
+                    format!("{v}: friction coefficients above 3 are not physical for tyres"),
+                ));
+            }
         }
         if f.peak_slip_angle_rad >= std::f64::consts::FRAC_PI_2 {
-            return Err((
-                "friction.peak_slip_angle_rad".into(),
-                "must be below pi/2".into(),
-            ));
+            return Err(("friction.peak_slip_angle_rad".into(), "must be below pi/2".into()));
         }
         non_negative("roughness.height_std_m", self.roughness.height_std_m)?;
         positive(

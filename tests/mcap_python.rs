@@ -19,9 +19,7 @@ const INSTALL: &str = "install Python 3 and `pip install mcap mcap-ros2-support`
 
 fn skip() -> bool {
     if std::env::var("DRIVE_SIM_SKIP_PYTHON").is_ok_and(|v| v == "1") {
-        eprintln!(
-            "\n!!!!! SKIPPED: independent Python MCAP decoding (DRIVE_SIM_SKIP_PYTHON=1) !!!!!\n"
-        );
+        eprintln!("\n!!!!! SKIPPED: independent Python MCAP decoding (DRIVE_SIM_SKIP_PYTHON=1) !!!!!\n");
         return true;
     }
     false
@@ -40,11 +38,7 @@ fn decode_with_python(file: &Path) -> Value {
         out.status.success(),
         "decode_mcap.py failed ({}):\n{stderr}\n{}",
         out.status,
-        if out.status.code() == Some(3) {
-            INSTALL
-        } else {
-            ""
-        }
+        if out.status.code() == Some(3) { INSTALL } else { "" }
     );
     serde_json::from_slice(&out.stdout).expect("decode_mcap.py printed invalid JSON")
 }
@@ -153,14 +147,8 @@ fn check(frames: &[Frame], meta: &LogMeta, j: &Value) {
         assert_eq!(f(&v["t_in_step"]), t);
         assert_eq!(f(&v["stamp"]), fr.stamp_s);
     }
-    assert_eq!(
-        f(&mk["sums"]["step"]),
-        sum(frames, |x| marker_fields(x).1 as f64)
-    );
-    assert_eq!(
-        f(&mk["sums"]["t_in_step"]),
-        sum(frames, |x| marker_fields(x).5)
-    );
+    assert_eq!(f(&mk["sums"]["step"]), sum(frames, |x| marker_fields(x).1 as f64));
+    assert_eq!(f(&mk["sums"]["t_in_step"]), sum(frames, |x| marker_fields(x).5));
     assert_eq!(f(&mk["sums"]["stamp"]), sum(frames, |x| x.stamp_s));
 
     // Body command through the declared IDD.
@@ -188,9 +176,16 @@ fn check(frames: &[Frame], meta: &LogMeta, j: &Value) {
     ];
     for (topic, get) in wheel_topics {
         let t = &topics[topic];
-        assert_eq!(t["first"]["name"], serde_json::json!(["left_wheel", "right_wheel"]));
+        assert_eq!(
+            t["first"]["name"],
+            serde_json::json!(["left_wheel", "right_wheel"])
+        );
         let last = get(&frames[frames.len() - 1]);
-        assert_eq!(t["last"]["velocity"], serde_json::json!([last.0, last.1]), "{topic}");
+        assert_eq!(
+            t["last"]["velocity"],
+            serde_json::json!([last.0, last.1]),
+            "{topic}"
+        );
         assert_eq!(f(&t["sums"]["left"]), sum(frames, |x| get(x).0), "{topic}");
         assert_eq!(f(&t["sums"]["right"]), sum(frames, |x| get(x).1), "{topic}");
     }
@@ -216,10 +211,7 @@ fn check(frames: &[Frame], meta: &LogMeta, j: &Value) {
         last.m.truth.unwrap().velocity.vx_m_s
     );
     assert_eq!(f(&gt["last"]["twist_covariance0"]), 0.0);
-    assert_eq!(
-        f(&gt["sums"]["x"]),
-        sum(frames, |x| x.m.truth.unwrap().pose.x_m)
-    );
+    assert_eq!(f(&gt["sums"]["x"]), sum(frames, |x| x.m.truth.unwrap().pose.x_m));
 
     // IMU.
     let imu = &topics["/imu/data_raw"];
@@ -260,9 +252,7 @@ fn python_mcap_ros2_decodes_every_message() {
     roomy.safe_area.width_m = 1000.0;
     let (frames, s) = run(&roomy, 2, 4);
     assert_eq!(s.interruptions, 0);
-    assert!(!frames
-        .iter()
-        .any(|x| matches!(x.phase, Phase::Reorient { .. })));
+    assert!(!frames.iter().any(|x| matches!(x.phase, Phase::Reorient { .. })));
     let path = dir.path().join("clean.mcap");
     let m = meta(&roomy);
     write_mcap(&path, &m, &frames).unwrap();

@@ -108,9 +108,7 @@ fn simulated_log_reads_back_as_the_in_memory_log() {
     assert!(path.exists() && !partial_path(&path).exists());
     // The Husky's small area interrupts some of these steps: the log holds re-orientations.
     assert!(summary.interruptions > 0, "{summary:?}");
-    assert!(frames
-        .iter()
-        .any(|f| matches!(f.phase, Phase::Reorient { .. })));
+    assert!(frames.iter().any(|f| matches!(f.phase, Phase::Reorient { .. })));
 
     let n = frames.len() as u64;
     assert_eq!(s.frames, n);
@@ -206,17 +204,22 @@ fn unfinished_or_failed_logs_never_appear_at_the_final_path() {
     let mut frames = Vec::new();
     run(1, 1, &mut frames);
 
-    // A stale complete log at the path is removed when a new one starts.
+    // A complete log already at the path is kept, byte for byte, while a new run writes its
+    // partial file, and after that run fails: a failed run loses nothing already written.
     let path = dir.path().join("run.mcap");
     write_mcap(&path, &meta, &frames).unwrap();
+    let before = std::fs::read(&path).unwrap();
     let mut w = McapWriter::create(&path, &meta).unwrap();
-    assert!(!path.exists());
     for f in &frames[..50] {
         w.write_frame(f).unwrap();
     }
     drop(w); // e.g. the simulation diverged and the caller returned early
-    assert!(!path.exists());
-    assert!(partial_path(&path).exists(), "the partial file stays for debugging");
+    assert_eq!(std::fs::read(&path).unwrap(), before);
+    assert!(
+        partial_path(&path).exists(),
+        "the partial file stays for debugging"
+    );
+    std::fs::remove_file(&path).unwrap();
 
     // A bad frame fails the writer for good.
     let mut w = McapWriter::create(&path, &meta).unwrap();
@@ -224,7 +227,9 @@ fn unfinished_or_failed_logs_never_appear_at_the_final_path() {
     let mut bad = frames[1];
     bad.m.enc.left_rad_s = f64::NAN;
     match w.write_frame(&bad) {
-        Err(Error::Log { location, message, .. }) => {
+        Err(Error::Log {
+            location, message, ..
+        }) => {
             assert!(location.contains("frame 1"), "{location}");
             assert!(message.contains("enc"), "{message}");
         }
@@ -272,7 +277,11 @@ fn truncated_files_are_errors_not_panics() {
     for cut in (0..bytes.len()).step_by(stride).chain(ends) {
         match decode_no_panic(&bytes[..cut], &format!("truncation at {cut}")) {
             Err(Error::Log { .. }) => {}
-            r => panic!("truncation at {cut} of {}: {:?}", bytes.len(), r.map(|x| x.1.len())),
+            r => panic!(
+                "truncation at {cut} of {}: {:?}",
+                bytes.len(),
+                r.map(|x| x.1.len())
+            ),
         }
     }
 }
@@ -358,8 +367,14 @@ fn missing_metadata_topic_or_message_and_undecodable_messages_are_located() {
     let (bytes, _, _) = small_log();
     let p = Path::new("edited.mcap");
 
-    let (loc, msg) = log_error(decode_mcap(&rewrite(&bytes, false, |_, _, d| Some(d.to_vec())), p));
-    assert!(loc.contains("metadata") && msg.contains("drive_sim"), "{loc}: {msg}");
+    let (loc, msg) = log_error(decode_mcap(
+        &rewrite(&bytes, false, |_, _, d| Some(d.to_vec())),
+        p,
+    ));
+    assert!(
+        loc.contains("metadata") && msg.contains("drive_sim"),
+        "{loc}: {msg}"
+    );
 
     let no_imu = rewrite(&bytes, true, |t, _, d| (t != TOPIC_IMU).then(|| d.to_vec()));
     let (loc, _) = log_error(decode_mcap(&no_imu, p));

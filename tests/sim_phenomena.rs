@@ -49,9 +49,8 @@ fn means(run: &[(f64, Measurement, BodyVelocity)], from_s: f64, to_s: f64) -> Me
         .filter(|(t, _, _)| *t > from_s && *t <= to_s + 1e-9)
         .collect();
     let n = sel.len() as f64;
-    let sum = |f: &dyn Fn(&(f64, Measurement, BodyVelocity)) -> f64| {
-        sel.iter().map(|x| f(x)).sum::<f64>() / n
-    };
+    let sum =
+        |f: &dyn Fn(&(f64, Measurement, BodyVelocity)) -> f64| sel.iter().map(|x| f(x)).sum::<f64>() / n;
     Means {
         enc: WheelSpeeds::new(sum(&|x| x.1.enc.left_rad_s), sum(&|x| x.1.enc.right_rad_s)),
         v: BodyVelocity::new(sum(&|x| x.2.vx_m_s), sum(&|x| x.2.vy_m_s), sum(&|x| x.2.wz_rad_s)),
@@ -68,8 +67,17 @@ fn ice_wheels_reach_the_command_the_body_does_not() {
     // First steady window of a DRIVE step (2-4 s).
     let m = means(&run, 2.0, 4.0);
     let idd = r.idd().body_from_wheels(WheelSpeeds::new(w, w));
+    eprintln!(
+        "ice: enc {:.3} of {w:.3} rad/s, vx {:.3} of IDD {:.3} m/s (2-4 s)",
+        m.enc.left_rad_s, m.v.vx_m_s, idd.vx_m_s
+    );
     assert!((m.enc.left_rad_s - w).abs() < 0.02 * w, "{}", m.enc.left_rad_s);
-    assert!(m.v.vx_m_s < 0.5 * idd.vx_m_s, "vx {} vs IDD {}", m.v.vx_m_s, idd.vx_m_s);
+    assert!(
+        m.v.vx_m_s < 0.5 * idd.vx_m_s,
+        "vx {} vs IDD {}",
+        m.v.vx_m_s,
+        idd.vx_m_s
+    );
     // Independent bound: with spinning wheels the body accelerates at most at mu_peak g and at
     // least at mu_slide g minus rolling resistance.
     let f = &t.friction;
@@ -93,6 +101,10 @@ fn asphalt_straight_follows_the_idd_and_turning_in_place_skids() {
         let m = means(&hold(&mut s, WheelSpeeds::new(w, w), 6.0), 2.0, 6.0);
         let idd = r.idd().body_from_wheels(WheelSpeeds::new(w, w));
         let slip = 1.0 - m.v.vx_m_s / idd.vx_m_s;
+        eprintln!(
+            "{name} asphalt straight: vx {:.4} vs IDD {:.4}, slip {slip:.4}",
+            m.v.vx_m_s, idd.vx_m_s
+        );
         assert!((0.0..0.03).contains(&slip), "{name}: longitudinal slip {slip}");
 
         // Turning in place: every tyre slides, pushing against its sliding velocity with the
@@ -106,11 +118,15 @@ fn asphalt_straight_follows_the_idd_and_turning_in_place_skids() {
         let (hb, hl) = (r.wheels.baseline_m / 2.0, r.wheels.wheelbase_m / 2.0);
         let expected = hb * hb / (hb * hb + hl * hl);
         let ratio = m.v.wz_rad_s / r.idd().body_from_wheels(cmd).wz_rad_s;
+        eprintln!("{name} asphalt turn in place: wz/wz_idd {ratio:.4}, Coulomb balance {expected:.4}");
         assert!(
             (ratio - expected).abs() < 0.03,
             "{name}: wz/wz_idd = {ratio}, expected {expected}"
         );
-        assert!(ratio < 0.6, "{name}: the effective baseline must exceed the geometric one");
+        assert!(
+            ratio < 0.6,
+            "{name}: the effective baseline must exceed the geometric one"
+        );
         assert!((m.enc.right_rad_s - wt).abs() < 0.01 * wt);
     }
 }
@@ -130,12 +146,18 @@ fn mud_saturates_the_motors() {
         let n_side = r.body.mass_kg * GRAVITY_M_S2 / 2.0;
         let per_side = r.wheels.per_side as f64;
         let bulldoze = per_side * res.bulldozing_pressure_pa * r.wheels.width_m * res.sinkage_m;
-        let rim = (r.powertrain.torque_limit_nm / rad
-            - bulldoze
-            - res.rolling_coefficient * n_side)
+        let rim = (r.powertrain.torque_limit_nm / rad - bulldoze - res.rolling_coefficient * n_side)
             / (res.churning_drag_s_m * n_side);
         let expected = rim / rad;
         let enc = 0.5 * (m.enc.left_rad_s + m.enc.right_rad_s);
+        eprintln!("{name} mud full speed: enc {enc:.3} of {w:.3}, force balance {expected:.3}");
+        assert_eq!(
+            s.torque_saturated(),
+            [true, true],
+            "{name}: motors at their limit"
+        );
+        let tq = s.motor_torques_nm();
+        assert!((tq[0] - r.powertrain.torque_limit_nm).abs() < 1e-9, "{tq:?}");
         assert!(enc < 0.8 * w, "{name}: encoders {enc} should stay well below {w}");
         assert!(
             (enc / expected - 1.0).abs() < tol,
@@ -147,6 +169,7 @@ fn mud_saturates_the_motors() {
     let wt = 0.5 * r.powertrain.max_wheel_rad_s;
     let mut s = sim(&r, &t, SimConfig::default());
     let m = means(&hold(&mut s, WheelSpeeds::new(-wt, wt), 6.0), 2.0, 6.0);
+    eprintln!("husky mud turn in place: enc {:.3} of {wt:.3}", m.enc.right_rad_s);
     assert!(m.enc.right_rad_s < 0.3 * wt, "{}", m.enc.right_rad_s);
 }
 
@@ -163,13 +186,24 @@ fn fast_combined_turns_drift_outwards() {
         // Left turn: the body slides to the right (outwards).
         vys.push(m.v.vy_m_s);
         // The IMU's lateral specific force is the centripetal acceleration vx wz at steady state.
-        let ay = run.iter().filter(|x| x.0 > 3.0).map(|x| x.1.imu.ay_m_s2).sum::<f64>()
+        let ay = run
+            .iter()
+            .filter(|x| x.0 > 3.0)
+            .map(|x| x.1.imu.ay_m_s2)
+            .sum::<f64>()
             / run.iter().filter(|x| x.0 > 3.0).count() as f64;
         let centripetal = m.v.vx_m_s * m.v.wz_rad_s;
-        assert!((ay - centripetal).abs() < 0.05 * centripetal.abs() + 0.02, "{ay} vs {centripetal}");
+        assert!(
+            (ay - centripetal).abs() < 0.05 * centripetal.abs() + 0.02,
+            "{ay} vs {centripetal}"
+        );
     }
+    eprintln!("warthog asphalt (10, 16.6) x (0.3, 1): vy {vys:?}");
     assert!(vys[1] < -0.2, "fast turn: vy = {}", vys[1]);
-    assert!(vys[0].abs() < 0.2 * vys[1].abs(), "slow turn drifts much less: {vys:?}");
+    assert!(
+        vys[0].abs() < 0.2 * vys[1].abs(),
+        "slow turn drifts much less: {vys:?}"
+    );
 }
 
 #[test]
@@ -183,6 +217,7 @@ fn rest_is_rest_on_flat_and_rough_ground() {
         let run = hold(&mut s, WheelSpeeds::default(), 10.0);
         let p1 = s.true_pose();
         let drift = (p1.x_m - p0.x_m).hypot(p1.y_m - p0.y_m);
+        eprintln!("rest {robot_name} {terrain_name}: drift {drift:.2e} m over 10 s");
         assert!(drift < 1e-3, "{robot_name} on {terrain_name}: drift {drift} m");
         assert!((p1.yaw_rad - p0.yaw_rad).abs() < 1e-3);
         let last = &run.last().unwrap().1;
@@ -205,6 +240,7 @@ fn turning_in_place_stays_in_place() {
         let run = hold(&mut s, WheelSpeeds::new(w, -w), 6.0);
         let p1 = s.true_pose();
         let drift = (p1.x_m - p0.x_m).hypot(p1.y_m - p0.y_m);
+        eprintln!("{name} turn in place: centre drift {drift:.2e} m over 6 s");
         assert!(drift < 0.01, "{name}: centre moved {drift} m");
         assert!(run.last().unwrap().2.wz_rad_s < -0.3, "it turns (clockwise)");
         assert!(run.iter().all(|x| x.2.vy_m_s.abs() < 0.01), "no sideways slide");
@@ -222,10 +258,18 @@ fn full_speed_straight_on_every_terrain() {
             let run = hold(&mut s, WheelSpeeds::new(w, w), 6.0);
             let m = means(&run, 2.0, 6.0);
             let idd = r.idd().body_from_wheels(WheelSpeeds::new(w, w)).vx_m_s;
-            assert!(m.v.vx_m_s > 0.1 * idd && m.v.vx_m_s < 1.01 * idd, "{rname} {tname}: {}", m.v.vx_m_s);
+            assert!(
+                m.v.vx_m_s > 0.1 * idd && m.v.vx_m_s < 1.01 * idd,
+                "{rname} {tname}: {}",
+                m.v.vx_m_s
+            );
             let p = s.true_pose();
+            eprintln!("{rname} {tname} full speed: vx {:.3} of IDD {idd:.3}", m.v.vx_m_s);
             assert!(p.yaw_rad.abs() < 0.15, "{rname} {tname}: heading {}", p.yaw_rad);
-            assert!(p.roll_rad.abs() < 0.1 && p.pitch_rad.abs() < 0.1, "{rname} {tname}: {p:?}");
+            assert!(
+                p.roll_rad.abs() < 0.1 && p.pitch_rad.abs() < 0.1,
+                "{rname} {tname}: {p:?}"
+            );
         }
     }
 }

@@ -124,11 +124,16 @@ pub struct CrossCheck {
 impl CrossCheck {
     /// The verdict on a channel, if checked.
     pub fn verdict(&self, sensor: &str) -> Option<&Verdict> {
-        self.verdicts.iter().find(|v| v.sensor == sensor).map(|v| &v.verdict)
+        self.verdicts
+            .iter()
+            .find(|v| v.sensor == sensor)
+            .map(|v| &v.verdict)
     }
     /// The comparison of `measured` against `reference`, if made.
     pub fn comparison(&self, measured: &str, reference: &str) -> Option<&Comparison> {
-        self.comparisons.iter().find(|c| c.measured == measured && c.reference == reference)
+        self.comparisons
+            .iter()
+            .find(|c| c.measured == measured && c.reference == reference)
     }
 }
 
@@ -148,7 +153,11 @@ fn compare(
     for w in windows {
         let a: Vec<f64> = w.iter().map(measured.1).collect();
         let b: Vec<f64> = w.iter().map(reference.1).collect();
-        let ok: Vec<bool> = a.iter().zip(&b).map(|(x, y)| x.is_finite() && y.is_finite()).collect();
+        let ok: Vec<bool> = a
+            .iter()
+            .zip(&b)
+            .map(|(x, y)| x.is_finite() && y.is_finite())
+            .collect();
         let n = ok.iter().filter(|&&o| o).count();
         if n == 0 {
             continue;
@@ -158,8 +167,14 @@ fn compare(
         my.push(ma);
         mx.push(mb);
         series.push((
-            a.iter().zip(&ok).map(|(x, o)| if *o { x - ma } else { f64::NAN }).collect(),
-            b.iter().zip(&ok).map(|(y, o)| if *o { y - mb } else { f64::NAN }).collect(),
+            a.iter()
+                .zip(&ok)
+                .map(|(x, o)| if *o { x - ma } else { f64::NAN })
+                .collect(),
+            b.iter()
+                .zip(&ok)
+                .map(|(y, o)| if *o { y - mb } else { f64::NAN })
+                .collect(),
         ));
     }
     let fit = linear_fit(&mx, &my);
@@ -213,12 +228,24 @@ fn compare(
 fn describe(c: &Comparison) -> String {
     format!(
         "{} = {:.3} x {} {:+.4} (r = {:.3}, {} windows), latency {:+.3} s (r = {:.3})",
-        c.measured, c.fit.slope, c.reference, c.fit.intercept, c.fit.correlation, c.fit.n, c.latency_s, c.latency_correlation
+        c.measured,
+        c.fit.slope,
+        c.reference,
+        c.fit.intercept,
+        c.fit.correlation,
+        c.fit.n,
+        c.latency_s,
+        c.latency_correlation
     )
 }
 
 /// Verdict on a signal that should equal its reference (slope 1, no bias, no latency).
-fn identity_verdict(c: &Comparison, scale_tol: f64, max_bias: Option<f64>, params: &CrossCheckParams) -> Verdict {
+fn identity_verdict(
+    c: &Comparison,
+    scale_tol: f64,
+    max_bias: Option<f64>,
+    params: &CrossCheckParams,
+) -> Verdict {
     if !(c.fit.correlation.abs() >= params.min_correlation) {
         return Verdict::Inconclusive {
             description: format!("|r| below {}: {}", params.min_correlation, describe(c)),
@@ -237,7 +264,10 @@ fn identity_verdict(c: &Comparison, scale_tol: f64, max_bias: Option<f64>, param
         }
     }
     if c.latency_s.abs() > params.max_latency_s {
-        faults.push(format!("latency {:+.3} s (tolerance ±{} s)", c.latency_s, params.max_latency_s));
+        faults.push(format!(
+            "latency {:+.3} s (tolerance ±{} s)",
+            c.latency_s, params.max_latency_s
+        ));
     }
     if faults.is_empty() {
         Verdict::Pass
@@ -280,7 +310,10 @@ pub fn cross_check(windows: &[Vec<SampleKinematics>], rate_hz: f64, params: &Cro
         }
     } else if !(c_enc.fit.correlation.abs() >= params.min_correlation) {
         Verdict::Inconclusive {
-            description: format!("pose yaw rate weakly correlated with the encoders: {}", describe(&c_enc)),
+            description: format!(
+                "pose yaw rate weakly correlated with the encoders: {}",
+                describe(&c_enc)
+            ),
         }
     } else {
         Verdict::Pass
@@ -290,7 +323,12 @@ pub fn cross_check(windows: &[Vec<SampleKinematics>], rate_hz: f64, params: &Cro
             description: "reference (pose) yaw rate is itself inverted".to_string(),
         }
     } else {
-        identity_verdict(&c_imu, params.yaw_scale_tolerance, Some(params.max_yaw_bias_rad_s), params)
+        identity_verdict(
+            &c_imu,
+            params.yaw_scale_tolerance,
+            Some(params.max_yaw_bias_rad_s),
+            params,
+        )
     };
     // Encoders: IDD scale on a skid-steer is legitimately off (effective baseline), only the
     // sign and the correlation are checked.
@@ -300,7 +338,10 @@ pub fn cross_check(windows: &[Vec<SampleKinematics>], rate_hz: f64, params: &Cro
             faults.push(format!("forward speed sign inverted: {}", describe(&c_vx)));
         }
         if sign(&c_enc) < 0.0 && sign(&c_imu) > 0.0 {
-            faults.push(format!("yaw sign inverted (left/right swapped?): {}", describe(&c_enc)));
+            faults.push(format!(
+                "yaw sign inverted (left/right swapped?): {}",
+                describe(&c_enc)
+            ));
         }
         if !faults.is_empty() {
             Verdict::Fault {
@@ -308,7 +349,10 @@ pub fn cross_check(windows: &[Vec<SampleKinematics>], rate_hz: f64, params: &Cro
             }
         } else if !(c_vx.fit.correlation.abs() >= params.min_correlation) {
             Verdict::Inconclusive {
-                description: format!("encoder speed weakly correlated with the pose: {}", describe(&c_vx)),
+                description: format!(
+                    "encoder speed weakly correlated with the pose: {}",
+                    describe(&c_vx)
+                ),
             }
         } else {
             Verdict::Pass

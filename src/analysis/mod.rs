@@ -296,7 +296,11 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         .max(2);
     let (segments, exclusions) = segment::segment(log, min_samples);
     if segments.is_empty() {
-        let why: Vec<String> = exclusions.iter().take(3).map(|e| format!("step {}: {}", e.step, e.reason)).collect();
+        let why: Vec<String> = exclusions
+            .iter()
+            .take(3)
+            .map(|e| format!("step {}: {}", e.step, e.reason))
+            .collect();
         return Err(Error::Analysis(format!(
             "{}: no complete step to analyse ({} excluded; {})",
             meta.name,
@@ -306,7 +310,12 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
     }
     let kin: Vec<Vec<Vec<SampleKinematics>>> = segments
         .iter()
-        .map(|s| s.windows.iter().map(|w| velocity::window_kinematics(w, params.derivative_half_width, &idd)).collect())
+        .map(|s| {
+            s.windows
+                .iter()
+                .map(|w| velocity::window_kinematics(w, params.derivative_half_width, &idd))
+                .collect()
+        })
         .collect();
     let all_windows: Vec<Vec<SampleKinematics>> = kin.iter().flatten().cloned().collect();
     let crosscheck = crosscheck::cross_check(&all_windows, meta.rate_hz, &params.crosscheck);
@@ -316,7 +325,11 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
     for (seg, wins) in segments.iter().zip(&kin) {
         // The held command: the last sample's (the transient window starts with the previous
         // step's command for a few samples).
-        let cmd = wins.last().and_then(|w| w.last()).map(|s| s.cmd).unwrap_or_default();
+        let cmd = wins
+            .last()
+            .and_then(|w| w.last())
+            .map(|s| s.cmd)
+            .unwrap_or_default();
         let mut windows = Vec::with_capacity(wins.len());
         for (w, k) in wins.iter().enumerate() {
             let wheels = WheelSpeeds::new(
@@ -382,7 +395,12 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         pts(&|s| (s.steady.cmd_body.vx_m_s, s.steady.cmd_body.wz_rad_s)),
         pts(&|s| (s.steady.cmd_wheels.left_rad_s, s.steady.cmd_wheels.right_rad_s)),
         pts(&|s| (s.steady.realized_body.vx_m_s, s.steady.realized_body.wz_rad_s)),
-        pts(&|s| (s.steady.realized_wheels.left_rad_s, s.steady.realized_wheels.right_rad_s)),
+        pts(&|s| {
+            (
+                s.steady.realized_wheels.left_rad_s,
+                s.steady.realized_wheels.right_rad_s,
+            )
+        }),
         &col(&|s| s.steady.realized_body.vy_m_s),
     );
     let max_kinetic_energy = risk::max_kinetic_energy(&space, &mass);
@@ -391,20 +409,40 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         &meta.terrain,
         &steps
             .iter()
-            .map(|s| (s.steady_rho.rho, s.steady_rho.k_x_j, s.steady_rho.k_ut_j, s.steady_rho.k_urot_j))
+            .map(|s| {
+                (
+                    s.steady_rho.rho,
+                    s.steady_rho.k_x_j,
+                    s.steady_rho.k_ut_j,
+                    s.steady_rho.k_urot_j,
+                )
+            })
             .collect::<Vec<_>>(),
     );
     let transfer = if params.smoother.enabled {
         let sp = &params.smoother;
         let grid = Grid::over_space(&space, sp.resolution_vx_m_s, sp.resolution_wz_rad_s);
         let cmd_pts = pts(&|s| (s.steady.cmd_body.vx_m_s, s.steady.cmd_body.wz_rad_s));
-        let smoothed = smoother::smooth_fast(&grid, &sp.covariance, &sp.fast, &cmd_pts, &[&g_vx, &g_vy, &g_wz, &g_l, &g_r, &rhos]);
+        let smoothed = smoother::smooth_fast(
+            &grid,
+            &sp.covariance,
+            &sp.fast,
+            &cmd_pts,
+            &[&g_vx, &g_vy, &g_wz, &g_l, &g_r, &rhos],
+        );
         Some(TransferFunctions {
             grid,
             covariance: sp.covariance,
-            names: ["slip_vx_m_s", "slip_vy_m_s", "slip_wz_rad_s", "slip_left_rad_s", "slip_right_rad_s", "rho"]
-                .map(String::from)
-                .to_vec(),
+            names: [
+                "slip_vx_m_s",
+                "slip_vy_m_s",
+                "slip_wz_rad_s",
+                "slip_left_rad_s",
+                "slip_right_rad_s",
+                "rho",
+            ]
+            .map(String::from)
+            .to_vec(),
             smoothed,
         })
     } else {

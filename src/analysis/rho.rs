@@ -149,23 +149,38 @@ mod tests {
         // Moving with no command: atan2(0, K_x) = 0 -> rho = 1.
         assert!((rho(&mp, BodyVelocity::default(), v).rho - 1.0).abs() < 1e-12);
         // Zero command and rest: defined as 0.
-        assert_eq!(rho(&mp, BodyVelocity::default(), BodyVelocity::default()).rho, 0.0);
+        assert_eq!(
+            rho(&mp, BodyVelocity::default(), BodyVelocity::default()).rho,
+            0.0
+        );
         // Reversed motion: alpha = beta = 0 -> K_x = 0 -> rho = 1.
         let r = rho(&mp, v, BodyVelocity::new(-2.0, 0.0, -0.5));
         assert_eq!((r.alpha, r.beta), (0.0, 0.0));
         assert!((r.rho - 1.0).abs() < 1e-12);
         // Pure rotation at half the commanded rate: K_x = K_u / 4.
         // rho = (4/pi)(atan(4) - pi/4) = (4/pi)(1.3258177 - 0.7853982) = 0.688083.
-        let r = rho(&mp, BodyVelocity::new(0.0, 0.0, 1.0), BodyVelocity::new(0.0, 0.0, 0.5));
+        let r = rho(
+            &mp,
+            BodyVelocity::new(0.0, 0.0, 1.0),
+            BodyVelocity::new(0.0, 0.0, 0.5),
+        );
         assert!((r.k_u_j - 0.5 * mp.izz_kg_m2).abs() < 1e-9);
         assert!((r.rho - 0.688083).abs() < 1e-6, "{}", r.rho);
         // Lateral drift at 90 degrees: alpha = 1/2. Command vx = 1, realized vy = 1 only:
         // K_u = 235, K_x = 0.5 * 235 -> rho = (4/pi)(atan(2) - pi/4) = 0.409666.
-        let r = rho(&mp, BodyVelocity::new(1.0, 0.0, 0.0), BodyVelocity::new(0.0, 1.0, 0.0));
+        let r = rho(
+            &mp,
+            BodyVelocity::new(1.0, 0.0, 0.0),
+            BodyVelocity::new(0.0, 1.0, 0.0),
+        );
         assert!((r.alpha - 0.5).abs() < 1e-12);
         assert!((r.rho - 0.409666).abs() < 1e-6, "{}", r.rho);
         // Pure rotation commanded, robot also drifts: command translation zero -> alpha = 1/2.
-        let r = rho(&mp, BodyVelocity::new(0.0, 0.0, 1.0), BodyVelocity::new(0.2, 0.0, 1.0));
+        let r = rho(
+            &mp,
+            BodyVelocity::new(0.0, 0.0, 1.0),
+            BodyVelocity::new(0.2, 0.0, 1.0),
+        );
         assert_eq!(r.alpha, 0.5);
         assert_eq!(r.beta, 1.0);
     }

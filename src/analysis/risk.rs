@@ -98,7 +98,10 @@ pub fn ellipse95(points: &[(f64, f64)]) -> Option<Ellipse95> {
         return None;
     }
     let nf = n as f64;
-    let m = (points.iter().map(|p| p.0).sum::<f64>() / nf, points.iter().map(|p| p.1).sum::<f64>() / nf);
+    let m = (
+        points.iter().map(|p| p.0).sum::<f64>() / nf,
+        points.iter().map(|p| p.1).sum::<f64>() / nf,
+    );
     let (mut a, mut b, mut c) = (0.0, 0.0, 0.0);
     for p in points {
         a += (p.0 - m.0).powi(2);
@@ -107,7 +110,11 @@ pub fn ellipse95(points: &[(f64, f64)]) -> Option<Ellipse95> {
     }
     let (a, b, c) = (a / (nf - 1.0), b / (nf - 1.0), c / (nf - 1.0));
     let eig = nalgebra::Matrix2::new(a, b, b, c).symmetric_eigen();
-    let (i_max, i_min) = if eig.eigenvalues[0] >= eig.eigenvalues[1] { (0, 1) } else { (1, 0) };
+    let (i_max, i_min) = if eig.eigenvalues[0] >= eig.eigenvalues[1] {
+        (0, 1)
+    } else {
+        (1, 0)
+    };
     let v = eig.eigenvectors.column(i_max);
     Some(Ellipse95 {
         center: m,

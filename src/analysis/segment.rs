@@ -30,9 +30,15 @@ fn sample_is_finite(s: &Sample) -> bool {
     m.cmd.is_finite()
         && m.enc.is_finite()
         && m.pose.is_finite()
-        && [m.imu.wz_rad_s, m.imu.ax_m_s2, m.imu.ay_m_s2, m.imu.az_m_s2, s.t_in_step_s]
-            .iter()
-            .all(|v| v.is_finite())
+        && [
+            m.imu.wz_rad_s,
+            m.imu.ax_m_s2,
+            m.imu.ay_m_s2,
+            m.imu.az_m_s2,
+            s.t_in_step_s,
+        ]
+        .iter()
+        .all(|v| v.is_finite())
 }
 
 /// Splits `log.samples` into complete steps; the others become [`Exclusion`]s.
@@ -72,7 +78,10 @@ pub fn segment(log: &DriveLog, min_samples_per_window: usize) -> (Vec<StepSegmen
             a = b;
         }
         if problem.is_none() {
-            let missing: Vec<String> = (0..wps).filter(|&w| windows[w].is_none()).map(|w| w.to_string()).collect();
+            let missing: Vec<String> = (0..wps)
+                .filter(|&w| windows[w].is_none())
+                .map(|w| w.to_string())
+                .collect();
             if !missing.is_empty() {
                 problem = Some(format!("missing window(s) {}", missing.join(", ")));
             }

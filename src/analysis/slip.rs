@@ -23,7 +23,12 @@ pub struct SlipRecord {
 }
 
 /// Slips of a command against realized velocities.
-pub fn slip(idd: &IdealDiffDrive, cmd: WheelSpeeds, realized_wheels: WheelSpeeds, realized_body: BodyVelocity) -> SlipRecord {
+pub fn slip(
+    idd: &IdealDiffDrive,
+    cmd: WheelSpeeds,
+    realized_wheels: WheelSpeeds,
+    realized_body: BodyVelocity,
+) -> SlipRecord {
     let cmd_body = idd.body_from_wheels(cmd);
     SlipRecord {
         cmd_wheels: cmd,
@@ -46,13 +51,23 @@ mod tests {
             baseline_m: 1.08,
         };
         // Command 10 rad/s both sides: 3 m/s forward. Robot reaches 2.5 m/s, wheels 9 rad/s.
-        let r = slip(&idd, WheelSpeeds::new(10.0, 10.0), WheelSpeeds::new(9.0, 9.5), BodyVelocity::new(2.5, -0.1, 0.2));
+        let r = slip(
+            &idd,
+            WheelSpeeds::new(10.0, 10.0),
+            WheelSpeeds::new(9.0, 9.5),
+            BodyVelocity::new(2.5, -0.1, 0.2),
+        );
         assert!((r.slip_body.vx_m_s - 0.5).abs() < 1e-12);
         assert!((r.slip_body.vy_m_s - 0.1).abs() < 1e-12);
         assert!((r.slip_body.wz_rad_s + 0.2).abs() < 1e-12);
         assert_eq!(r.slip_wheels, WheelSpeeds::new(1.0, 0.5));
         // Reverse command, robot slower in reverse: command -3 m/s, realized -2 m/s -> slip -1.
-        let r = slip(&idd, WheelSpeeds::new(-10.0, -10.0), WheelSpeeds::default(), BodyVelocity::new(-2.0, 0.0, 0.0));
+        let r = slip(
+            &idd,
+            WheelSpeeds::new(-10.0, -10.0),
+            WheelSpeeds::default(),
+            BodyVelocity::new(-2.0, 0.0, 0.0),
+        );
         assert!((r.slip_body.vx_m_s + 1.0).abs() < 1e-12);
     }
 }

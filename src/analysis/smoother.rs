@@ -86,7 +86,9 @@ fn axis(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     if n <= 1 {
         return vec![lo];
     }
-    (0..n).map(|i| lo + (hi - lo) * i as f64 / (n - 1) as f64).collect()
+    (0..n)
+        .map(|i| lo + (hi - lo) * i as f64 / (n - 1) as f64)
+        .collect()
 }
 
 impl Grid {
@@ -94,8 +96,12 @@ impl Grid {
     /// lower corner.
     pub fn over_space(space: &CommandSpace, res_vx_m_s: f64, res_wz_rad_s: f64) -> Self {
         let poly = space.polygon_body();
-        let (lo_v, hi_v) = poly.iter().fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.0), a.1.max(p.0)));
-        let (lo_w, hi_w) = poly.iter().fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.1), a.1.max(p.1)));
+        let (lo_v, hi_v) = poly
+            .iter()
+            .fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.0), a.1.max(p.0)));
+        let (lo_w, hi_w) = poly
+            .iter()
+            .fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.1), a.1.max(p.1)));
         let nv = ((hi_v - lo_v) / res_vx_m_s + 1e-9).floor() as usize + 1;
         let nw = ((hi_w - lo_w) / res_wz_rad_s + 1e-9).floor() as usize + 1;
         let vx: Vec<f64> = (0..nv).map(|i| lo_v + i as f64 * res_vx_m_s).collect();
@@ -105,8 +111,12 @@ impl Grid {
     /// `nvx × nwz` grid spanning U's bounding box (used by the benches: 101², 1001²).
     pub fn with_counts(space: &CommandSpace, nvx: usize, nwz: usize) -> Self {
         let poly = space.polygon_body();
-        let (lo_v, hi_v) = poly.iter().fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.0), a.1.max(p.0)));
-        let (lo_w, hi_w) = poly.iter().fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.1), a.1.max(p.1)));
+        let (lo_v, hi_v) = poly
+            .iter()
+            .fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.0), a.1.max(p.0)));
+        let (lo_w, hi_w) = poly
+            .iter()
+            .fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.1), a.1.max(p.1)));
         Self::with_axes(space, axis(lo_v, hi_v, nvx), axis(lo_w, hi_w, nwz))
     }
     /// Grid on given axes, masked by U.
@@ -170,10 +180,17 @@ fn check_inputs(points: &[(f64, f64)], channels: &[&[f64]]) {
 
 /// Reference smoother: `Σ k_i g_i / Σ k_i` by direct summation at every grid point in U.
 /// Points whose value is not finite are skipped (in every channel).
-pub fn smooth_exact(grid: &Grid, cov: &KernelCovariance, points: &[(f64, f64)], channels: &[&[f64]]) -> Smoothed {
+pub fn smooth_exact(
+    grid: &Grid,
+    cov: &KernelCovariance,
+    points: &[(f64, f64)],
+    channels: &[&[f64]],
+) -> Smoothed {
     check_inputs(points, channels);
     let keep: Vec<usize> = (0..points.len())
-        .filter(|&i| points[i].0.is_finite() && points[i].1.is_finite() && channels.iter().all(|c| c[i].is_finite()))
+        .filter(|&i| {
+            points[i].0.is_finite() && points[i].1.is_finite() && channels.iter().all(|c| c[i].is_finite())
+        })
         .collect();
     let (ivx, iwz) = (0.5 / cov.var_vx, 0.5 / cov.var_wz);
     let nv = grid.vx_m_s.len();
@@ -317,7 +334,9 @@ pub fn smooth_fast(
             }
         }
     }
-    let row_has_mass: Vec<bool> = (0..az.n).map(|r| lat[0][r * ax.n..(r + 1) * ax.n].iter().any(|&v| v != 0.0)).collect();
+    let row_has_mass: Vec<bool> = (0..az.n)
+        .map(|r| lat[0][r * ax.n..(r + 1) * ax.n].iter().any(|&v| v != 0.0))
+        .collect();
     let nvx = grid.vx_m_s.len();
     let nwz = grid.wz_rad_s.len();
     // Pass along x, only at the grid columns: A[r][i] = Σ_k taps[k] L[r][first + i m + k - half].
@@ -379,10 +398,20 @@ pub fn smooth_fast(
         .collect();
     for c in 0..nc {
         let n = pass_z(&pass_x(&lat[c + 1], &ax.taps), &az.taps);
-        let range = if ranges[c].1 >= ranges[c].0 { ranges[c].1 - ranges[c].0 } else { 0.0 };
+        let range = if ranges[c].1 >= ranges[c].0 {
+            ranges[c].1 - ranges[c].0
+        } else {
+            0.0
+        };
         values.push(
             (0..grid.len())
-                .map(|g| if grid.inside[g] && d[g] > 0.0 { n[g] / d[g] } else { f64::NAN })
+                .map(|g| {
+                    if grid.inside[g] && d[g] > 0.0 {
+                        n[g] / d[g]
+                    } else {
+                        f64::NAN
+                    }
+                })
                 .collect::<Vec<f64>>(),
         );
         bounds.push((0..grid.len()).map(|g| range * rel[g]).collect::<Vec<f64>>());
@@ -444,7 +473,10 @@ mod tests {
         let pts = samples(200, 1);
         let c = vec![0.7; pts.len()];
         let cov = KernelCovariance::default();
-        for sm in [smooth_exact(&grid, &cov, &pts, &[&c]), smooth_fast(&grid, &cov, &FastParams::default(), &pts, &[&c])] {
+        for sm in [
+            smooth_exact(&grid, &cov, &pts, &[&c]),
+            smooth_fast(&grid, &cov, &FastParams::default(), &pts, &[&c]),
+        ] {
             for (g, v) in sm.values[0].iter().enumerate() {
                 if grid.inside[g] {
                     assert!((v - 0.7).abs() < 1e-12, "{v}");
@@ -481,7 +513,11 @@ mod tests {
             max_diff = max_diff.max(diff);
             if v.abs() < 1.5 && w.abs() < 1.5 {
                 let truth = 0.3 * v - 0.2 * w + 1.0;
-                assert!((ex.values[0][i] - truth).abs() < 0.1, "{} vs {truth}", ex.values[0][i]);
+                assert!(
+                    (ex.values[0][i] - truth).abs() < 0.1,
+                    "{} vs {truth}",
+                    ex.values[0][i]
+                );
             }
         }
         assert!(max_diff <= 1e-3 * range, "{max_diff}");

@@ -13,13 +13,18 @@ use serde::{Deserialize, Serialize};
 
 /// Convex hull (counter-clockwise, no collinear points) of finite points, Andrew's monotone chain.
 pub fn convex_hull(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
-    let mut p: Vec<(f64, f64)> = points.iter().copied().filter(|q| q.0.is_finite() && q.1.is_finite()).collect();
+    let mut p: Vec<(f64, f64)> = points
+        .iter()
+        .copied()
+        .filter(|q| q.0.is_finite() && q.1.is_finite())
+        .collect();
     p.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
     p.dedup();
     if p.len() < 3 {
         return p;
     }
-    let cross = |o: (f64, f64), a: (f64, f64), b: (f64, f64)| (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0);
+    let cross =
+        |o: (f64, f64), a: (f64, f64), b: (f64, f64)| (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0);
     let mut lower: Vec<(f64, f64)> = Vec::new();
     for &q in &p {
         while lower.len() >= 2 && cross(lower[lower.len() - 2], lower[lower.len() - 1], q) <= 0.0 {
@@ -173,7 +178,15 @@ mod tests {
     #[test]
     fn hull_and_clip_by_hand() {
         // Unit square corners plus interior points: hull is the square, area 1.
-        let pts = [(0.0, 0.0), (1.0, 0.0), (0.5, 0.5), (1.0, 1.0), (0.0, 1.0), (0.2, 0.7), (0.5, 0.0)];
+        let pts = [
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (0.5, 0.5),
+            (1.0, 1.0),
+            (0.0, 1.0),
+            (0.2, 0.7),
+            (0.5, 0.0),
+        ];
         let h = convex_hull(&pts);
         assert_eq!(h.len(), 4);
         assert!((polygon_area(&h) - 1.0).abs() < 1e-12);

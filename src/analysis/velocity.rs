@@ -89,7 +89,11 @@ pub struct SampleKinematics {
 }
 
 /// Estimates every velocity of the samples of one window (in time order).
-pub fn window_kinematics(samples: &[Sample], half_width: usize, idd: &IdealDiffDrive) -> Vec<SampleKinematics> {
+pub fn window_kinematics(
+    samples: &[Sample],
+    half_width: usize,
+    idd: &IdealDiffDrive,
+) -> Vec<SampleKinematics> {
     let t: Vec<f64> = samples.iter().map(|s| s.t_in_step_s).collect();
     let x: Vec<f64> = samples.iter().map(|s| s.m.pose.x_m).collect();
     let y: Vec<f64> = samples.iter().map(|s| s.m.pose.y_m).collect();
@@ -150,7 +154,8 @@ mod tests {
                     x_m: r * (psi.sin() - psi0.sin()) + n,
                     y_m: -r * (psi.cos() - psi0.cos()) - n,
                     // Wrapped to (-pi, pi] as a real sensor reports it.
-                    yaw_rad: (psi + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI,
+                    yaw_rad: (psi + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                        - std::f64::consts::PI,
                     ..Default::default()
                 };
                 Sample {

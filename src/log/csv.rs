@@ -70,7 +70,13 @@ fn read_meta(csv_path: &Path) -> Result<(MeasuredJson, PathBuf)> {
         let path = e.path().to_string();
         Error::log(&json_path, format!("field `{path}`"), e.into_inner().to_string())
     })?;
-    let bad = |field: &str, msg: &str| Err(Error::log(&json_path, format!("field `{field}`"), msg.to_string()));
+    let bad = |field: &str, msg: &str| {
+        Err(Error::log(
+            &json_path,
+            format!("field `{field}`"),
+            msg.to_string(),
+        ))
+    };
     let positive = |v: f64| v.is_finite() && v > 0.0;
     if !positive(meta.rate_hz) {
         return bad("rate_hz", "must be a positive finite number");
@@ -79,7 +85,10 @@ fn read_meta(csv_path: &Path) -> Result<(MeasuredJson, PathBuf)> {
         return bad("window_s", "must be a positive finite number");
     }
     if meta.windows_per_step < 2 {
-        return bad("windows_per_step", "must be at least 2 (one transient and one steady window)");
+        return bad(
+            "windows_per_step",
+            "must be at least 2 (one transient and one steady window)",
+        );
     }
     if meta.samples_per_window == 0 {
         return bad("samples_per_window", "must be positive");
@@ -99,7 +108,10 @@ fn read_meta(csv_path: &Path) -> Result<(MeasuredJson, PathBuf)> {
             return bad(field, &format!("must be a positive finite number, got {v}"));
         }
     }
-    for (field, v) in [("nominal.height_m", n.height_m), ("nominal.max_lin_acc_m_s2", n.max_lin_acc_m_s2)] {
+    for (field, v) in [
+        ("nominal.height_m", n.height_m),
+        ("nominal.max_lin_acc_m_s2", n.max_lin_acc_m_s2),
+    ] {
         if let Some(v) = v {
             if !positive(v) {
                 return bad(field, &format!("must be a positive finite number, got {v}"));
@@ -129,7 +141,11 @@ pub fn read_measured_csv(csv_path: impl AsRef<Path>) -> Result<DriveLog> {
     let mut req_idx = [0usize; REQUIRED.len()];
     for (i, name) in REQUIRED.iter().enumerate() {
         req_idx[i] = col(name).ok_or_else(|| {
-            Error::log(csv_path, format!("row 1 (header), column `{name}`"), "missing required column")
+            Error::log(
+                csv_path,
+                format!("row 1 (header), column `{name}`"),
+                "missing required column",
+            )
         })?;
     }
     let ref_idx: Vec<Option<usize>> = REFERENCE.iter().map(|n| col(n)).collect();
@@ -152,13 +168,21 @@ pub fn read_measured_csv(csv_path: impl AsRef<Path>) -> Result<DriveLog> {
             let name = REQUIRED[i];
             let raw = record.get(req_idx[i]).unwrap_or("").trim();
             if raw.is_empty() {
-                return Err(Error::log(csv_path, loc(name), "empty value in a required column"));
+                return Err(Error::log(
+                    csv_path,
+                    loc(name),
+                    "empty value in a required column",
+                ));
             }
             let v: f64 = raw
                 .parse()
                 .map_err(|_| Error::log(csv_path, loc(name), format!("cannot parse `{raw}` as a number")))?;
             if !v.is_finite() {
-                return Err(Error::log(csv_path, loc(name), format!("non-finite value `{raw}`")));
+                return Err(Error::log(
+                    csv_path,
+                    loc(name),
+                    format!("non-finite value `{raw}`"),
+                ));
             }
             Ok(v)
         };
@@ -178,7 +202,10 @@ pub fn read_measured_csv(csv_path: impl AsRef<Path>) -> Result<DriveLog> {
             return Err(Error::log(
                 csv_path,
                 loc("step"),
-                format!("step {step} is beyond the {} steps declared in the JSON", meta.steps),
+                format!(
+                    "step {step} is beyond the {} steps declared in the JSON",
+                    meta.steps
+                ),
             ));
         }
         if window >= meta.windows_per_step {
@@ -242,7 +269,11 @@ pub fn read_measured_csv(csv_path: impl AsRef<Path>) -> Result<DriveLog> {
                     ));
                 }
                 v[j] = raw.parse().map_err(|_| {
-                    Error::log(csv_path, loc(REFERENCE[j]), format!("cannot parse `{raw}` as a number"))
+                    Error::log(
+                        csv_path,
+                        loc(REFERENCE[j]),
+                        format!("cannot parse `{raw}` as a number"),
+                    )
                 })?;
             }
             let b = BodyVelocity::new(v[0], v[1], v[2]);
@@ -310,7 +341,10 @@ mod tests {
 
     fn write(dir: &tempfile::TempDir, csv: &str, json: Option<&str>) -> PathBuf {
         let p = dir.path().join("t.csv");
-        std::fs::File::create(&p).unwrap().write_all(csv.as_bytes()).unwrap();
+        std::fs::File::create(&p)
+            .unwrap()
+            .write_all(csv.as_bytes())
+            .unwrap();
         if let Some(j) = json {
             std::fs::write(dir.path().join("t.json"), j).unwrap();
         }
@@ -321,8 +355,15 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = write(&dir, csv, json);
         match read_measured_csv(&p) {
-            Err(Error::Log { location: l, message: m, .. }) => {
-                assert!(l.contains(location), "location `{l}` should contain `{location}` ({m})");
+            Err(Error::Log {
+                location: l,
+                message: m,
+                ..
+            }) => {
+                assert!(
+                    l.contains(location),
+                    "location `{l}` should contain `{location}` ({m})"
+                );
                 assert!(m.contains(message), "message `{m}` should contain `{message}`");
             }
             Err(Error::Io { .. }) if location == "io" => {}
@@ -332,7 +373,12 @@ mod tests {
 
     #[test]
     fn reads_rows_and_synthesizes_stamps() {
-        let csv = format!("{HEADER}\n{}\n{}\n{}\n", row(0, 0, 0), row(0, 1, 3), row(2, 2, 39));
+        let csv = format!(
+            "{HEADER}\n{}\n{}\n{}\n",
+            row(0, 0, 0),
+            row(0, 1, 3),
+            row(2, 2, 39)
+        );
         let dir = tempfile::tempdir().unwrap();
         let log = read_measured_csv(write(&dir, &csv, Some(JSON))).unwrap();
         assert_eq!(log.samples.len(), 3);
@@ -361,36 +407,85 @@ mod tests {
     #[test]
     fn partial_reference_is_an_error() {
         let r = row(0, 0, 0).replace(",0.4,0,0.1", ",0.4,,");
-        expect_err(&format!("{HEADER}\n{r}\n"), Some(JSON), "row 2, column `ref_vy_m_s`", "partially");
+        expect_err(
+            &format!("{HEADER}\n{r}\n"),
+            Some(JSON),
+            "row 2, column `ref_vy_m_s`",
+            "partially",
+        );
     }
 
     #[test]
     fn missing_column() {
         let h = HEADER.replace("imu_wz_rad_s,", "");
         let r = row(0, 0, 0).replacen(",0.1,0.2,0.3,9.8", ",0.2,0.3,9.8", 1);
-        expect_err(&format!("{h}\n{r}\n"), Some(JSON), "column `imu_wz_rad_s`", "missing");
+        expect_err(
+            &format!("{h}\n{r}\n"),
+            Some(JSON),
+            "column `imu_wz_rad_s`",
+            "missing",
+        );
     }
 
     #[test]
     fn unparsable_and_non_finite_numbers() {
         let r = row(0, 0, 1).replacen(",0.9,", ",abc,", 1);
-        expect_err(&format!("{HEADER}\n{}\n{r}\n", row(0, 0, 0)), Some(JSON),
-            "row 3, column `enc_left_rad_s`", "cannot parse");
+        expect_err(
+            &format!("{HEADER}\n{}\n{r}\n", row(0, 0, 0)),
+            Some(JSON),
+            "row 3, column `enc_left_rad_s`",
+            "cannot parse",
+        );
         let r = row(0, 0, 1).replacen(",0,0,0.05,", ",0,0,NaN,", 1);
-        expect_err(&format!("{HEADER}\n{}\n{r}\n", row(0, 0, 0)), Some(JSON), "row 3, column `icp_yaw_rad`", "non-finite");
+        expect_err(
+            &format!("{HEADER}\n{}\n{r}\n", row(0, 0, 0)),
+            Some(JSON),
+            "row 3, column `icp_yaw_rad`",
+            "non-finite",
+        );
         let r = row(0, 0, 0).replacen(",9.8,", ",inf,", 1);
-        expect_err(&format!("{HEADER}\n{r}\n"), Some(JSON), "row 2, column `imu_az_m_s2`", "non-finite");
+        expect_err(
+            &format!("{HEADER}\n{r}\n"),
+            Some(JSON),
+            "row 2, column `imu_az_m_s2`",
+            "non-finite",
+        );
         let r = row(0, 0, 0).replacen(",1,2,", ",,2,", 1);
-        expect_err(&format!("{HEADER}\n{r}\n"), Some(JSON), "row 2, column `cmd_left_rad_s`", "empty");
+        expect_err(
+            &format!("{HEADER}\n{r}\n"),
+            Some(JSON),
+            "row 2, column `cmd_left_rad_s`",
+            "empty",
+        );
     }
 
     #[test]
     fn indices_out_of_range() {
-        expect_err(&format!("{HEADER}\n{}\n", row(0, 3, 0)), Some(JSON), "row 2, column `window`", "out of range");
-        expect_err(&format!("{HEADER}\n{}\n", row(0, 0, 40)), Some(JSON), "row 2, column `k`", "out of range");
-        expect_err(&format!("{HEADER}\n{}\n", row(5, 0, 0)), Some(JSON), "row 2, column `step`", "beyond");
+        expect_err(
+            &format!("{HEADER}\n{}\n", row(0, 3, 0)),
+            Some(JSON),
+            "row 2, column `window`",
+            "out of range",
+        );
+        expect_err(
+            &format!("{HEADER}\n{}\n", row(0, 0, 40)),
+            Some(JSON),
+            "row 2, column `k`",
+            "out of range",
+        );
+        expect_err(
+            &format!("{HEADER}\n{}\n", row(5, 0, 0)),
+            Some(JSON),
+            "row 2, column `step`",
+            "beyond",
+        );
         let r = row(0, 0, 0).replacen("0,0,0,", "0,0,1.5,", 1);
-        expect_err(&format!("{HEADER}\n{r}\n"), Some(JSON), "row 2, column `k`", "integer");
+        expect_err(
+            &format!("{HEADER}\n{r}\n"),
+            Some(JSON),
+            "row 2, column `k`",
+            "integer",
+        );
     }
 
     #[test]
@@ -406,9 +501,24 @@ mod tests {
         let csv = format!("{HEADER}\n{}\n", row(0, 0, 0));
         expect_err(&csv, None, "io", "");
         expect_err(&csv, Some("{not json"), "field", "");
-        expect_err(&csv, Some(&JSON.replace("\"mass_kg\":470.0", "\"mass_kg\":-1")), "field `nominal.mass_kg`", "positive");
-        expect_err(&csv, Some(&JSON.replace("\"rate_hz\":20.0,", "")), "field", "rate_hz");
-        expect_err(&csv, Some(&JSON.replace("\"windows_per_step\":3", "\"windows_per_step\":1")), "windows_per_step", "at least 2");
+        expect_err(
+            &csv,
+            Some(&JSON.replace("\"mass_kg\":470.0", "\"mass_kg\":-1")),
+            "field `nominal.mass_kg`",
+            "positive",
+        );
+        expect_err(
+            &csv,
+            Some(&JSON.replace("\"rate_hz\":20.0,", "")),
+            "field",
+            "rate_hz",
+        );
+        expect_err(
+            &csv,
+            Some(&JSON.replace("\"windows_per_step\":3", "\"windows_per_step\":1")),
+            "windows_per_step",
+            "at least 2",
+        );
     }
 
     #[test]
@@ -419,7 +529,12 @@ mod tests {
     #[test]
     fn reads_every_measured_dataset() {
         let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured");
-        for (name, steps) in [("warthog_asphalt", 100), ("warthog_ice", 100), ("warthog_gravel", 100), ("husky_2023", 201)] {
+        for (name, steps) in [
+            ("warthog_asphalt", 100),
+            ("warthog_ice", 100),
+            ("warthog_gravel", 100),
+            ("husky_2023", 201),
+        ] {
             let log = read_measured_csv(format!("{dir}/{name}.csv")).unwrap();
             assert_eq!(log.steps().len(), steps, "{name}");
             assert_eq!(log.samples.len(), steps * 120, "{name}");

@@ -45,8 +45,8 @@
 
 use super::cdr::CdrError;
 use super::ros_msgs::{
-    DriveMarker, Header, Imu, JointState, Odometry, Pose as RosPose, Quaternion, RosMessage,
-    TfMessage, Time, TransformStamped, Twist, TwistStamped, Vector3,
+    DriveMarker, Header, Imu, JointState, Odometry, Pose as RosPose, Quaternion, RosMessage, TfMessage, Time,
+    TransformStamped, Twist, TwistStamped, Vector3,
 };
 use super::{DriveLog, Frame, GroundTruth, ImuReading, LogMeta, Measurement, Phase, Pose};
 use crate::error::{Error, Result};
@@ -330,8 +330,7 @@ impl<W: Write + Seek> FrameEncoder<W> {
                 None => {
                     let e = |e| mcap_err(&self.file, &loc, e);
                     let o = add_channel(&mut self.w, TOPIC_TRUTH_ODOM, Odometry::DEF).map_err(e)?;
-                    let j = add_channel(&mut self.w, TOPIC_TRUTH_JOINTS, JointState::DEF)
-                        .map_err(e)?;
+                    let j = add_channel(&mut self.w, TOPIC_TRUTH_JOINTS, JointState::DEF).map_err(e)?;
                     self.topics.insert(o, TOPIC_TRUTH_ODOM);
                     self.topics.insert(j, TOPIC_TRUTH_JOINTS);
                     self.truth_ch = Some((o, j));
@@ -359,9 +358,7 @@ impl<W: Write + Seek> FrameEncoder<W> {
 
     /// Writes the summary; returns the sink and the per-topic counts.
     fn finish(mut self) -> Result<(W, u64, BTreeMap<String, u64>)> {
-        self.w
-            .finish()
-            .map_err(|e| mcap_err(&self.file, "summary", e))?;
+        self.w.finish().map_err(|e| mcap_err(&self.file, "summary", e))?;
         let counts = self
             .topics
             .iter()
@@ -538,11 +535,8 @@ impl McapWriter {
     pub fn create(path: impl AsRef<Path>, meta: &LogMeta) -> Result<Self> {
         let path = path.as_ref().to_path_buf();
         let partial = partial_path(&path);
-        match std::fs::remove_file(&path) {
-            Ok(()) => {}
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(e) => return Err(Error::io(&path, e)),
-        }
+        // An existing log at `path` stays untouched until `finish` atomically renames the new
+        // one over it: a failed run loses nothing that was already written.
         let file = File::create(&partial).map_err(|e| Error::io(&partial, e))?;
         let enc = FrameEncoder::new(BufWriter::with_capacity(1 << 16, file), meta, &partial)?;
         Ok(Self {
@@ -588,18 +582,16 @@ impl McapWriter {
     /// Writes the summary, syncs the file and renames it to its final path.
     pub fn finish(mut self) -> Result<McapSummary> {
         self.encoder()?;
-        let enc = self.enc.take().ok_or_else(|| {
-            Error::log(&self.partial, "writer", "already finished")
-        })?;
+        let enc = self
+            .enc
+            .take()
+            .ok_or_else(|| Error::log(&self.partial, "writer", "already finished"))?;
         let (buf, frames, messages_per_topic) = enc.finish()?;
         let file = buf
             .into_inner()
             .map_err(|e| Error::io(&self.partial, e.into_error()))?;
         file.sync_all().map_err(|e| Error::io(&self.partial, e))?;
-        let bytes = file
-            .metadata()
-            .map_err(|e| Error::io(&self.partial, e))?
-            .len();
+        let bytes = file.metadata().map_err(|e| Error::io(&self.partial, e))?.len();
         drop(file);
         std::fs::rename(&self.partial, &self.path).map_err(|e| Error::io(&self.path, e))?;
         Ok(McapSummary {
@@ -714,9 +706,7 @@ impl Iterator for Records<'_> {
             match event {
                 Ok(LinearReadEvent::ReadRequest(need)) => {
                     let len = need.min(self.buf.len());
-                    self.reader
-                        .insert(len)
-                        .copy_from_slice(&self.buf[..len]);
+                    self.reader.insert(len).copy_from_slice(&self.buf[..len]);
                     self.reader.notify_read(len);
                     self.buf = &self.buf[len..];
                 }
@@ -744,13 +734,8 @@ pub fn decode_mcap(bytes: &[u8], file: &Path) -> Result<(LogMeta, Vec<Frame>)> {
     let mut profile_seen = false;
     let mut messages = 0u64;
     for (i, rec) in reader.enumerate() {
-        let rec = rec.map_err(|e| {
-            mcap_err(
-                file,
-                &format!("MCAP record {i} (after {messages} messages)"),
-                e,
-            )
-        })?;
+        let rec =
+            rec.map_err(|e| mcap_err(file, &format!("MCAP record {i} (after {messages} messages)"), e))?;
         match rec {
             Record::Header(h) => {
                 if h.profile != "ros2" {
@@ -770,8 +755,7 @@ pub fn decode_mcap(bytes: &[u8], file: &Path) -> Result<(LogMeta, Vec<Frame>)> {
                 if let Some(k) = known {
                     let def = READ_TOPICS[k].1;
                     let (name, enc) = schemas.get(&c.schema_id).cloned().unwrap_or_default();
-                    if name != def.schema_name() || enc != "ros2msg" || c.message_encoding != "cdr"
-                    {
+                    if name != def.schema_name() || enc != "ros2msg" || c.message_encoding != "cdr" {
                         return Err(Error::log(
                             file,
                             format!("topic {}", c.topic),
@@ -865,7 +849,11 @@ fn parse_meta(m: &BTreeMap<String, String>, file: &Path) -> Result<LogMeta> {
         .ok_or_else(|| Error::log(file, &loc, "no `log_meta` key"))?;
     let de = &mut serde_json::Deserializer::from_str(json);
     let meta: LogMeta = serde_path_to_error::deserialize(de).map_err(|e| {
-        Error::log(file, format!("{loc} key `log_meta` at `{}`", e.path()), e.inner().to_string())
+        Error::log(
+            file,
+            format!("{loc} key `log_meta` at `{}`", e.path()),
+            e.inner().to_string(),
+        )
     })?;
     if !(meta.rate_hz.is_finite() && meta.rate_hz > 0.0) {
         return Err(Error::log(
@@ -968,22 +956,22 @@ fn assemble(d: &Decoded, file: &Path) -> Result<Vec<Frame>> {
         Ok(())
     };
     orphan(TOPIC_WHEEL_CMD, &mut d.wheel_cmd.iter().map(|(t, v)| (t, &v.0)))?;
-    orphan(TOPIC_JOINT_STATES, &mut d.joint_states.iter().map(|(t, v)| (t, &v.0)))?;
+    orphan(
+        TOPIC_JOINT_STATES,
+        &mut d.joint_states.iter().map(|(t, v)| (t, &v.0)),
+    )?;
     orphan(TOPIC_ICP_ODOM, &mut d.icp_odom.iter().map(|(t, v)| (t, &v.0)))?;
     orphan(TOPIC_IMU, &mut d.imu.iter().map(|(t, v)| (t, &v.0)))?;
     orphan(TOPIC_TRUTH_ODOM, &mut d.truth_odom.iter().map(|(t, v)| (t, &v.0)))?;
-    orphan(TOPIC_TRUTH_JOINTS, &mut d.truth_joints.iter().map(|(t, v)| (t, &v.0)))?;
+    orphan(
+        TOPIC_TRUTH_JOINTS,
+        &mut d.truth_joints.iter().map(|(t, v)| (t, &v.0)),
+    )?;
     Ok(frames)
 }
 
 /// The message of `topic` at log time `t`, or an error naming the marker that needs it.
-fn at<'a, T>(
-    m: &'a ByTime<T>,
-    t: u64,
-    topic: &str,
-    marker_loc: &str,
-    file: &Path,
-) -> Result<&'a (u64, T)> {
+fn at<'a, T>(m: &'a ByTime<T>, t: u64, topic: &str, marker_loc: &str, file: &Path) -> Result<&'a (u64, T)> {
     m.get(&t).ok_or_else(|| {
         Error::log(
             file,

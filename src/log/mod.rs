@@ -374,3 +374,21 @@ impl DriveLog {
         (productive / self.duration_s).min(1.0)
     }
 }
+
+/// Reads a DRIVE log of either kind: a simulated `.mcap` or a measured `.csv` (with its JSON).
+pub fn read_log(path: &std::path::Path) -> crate::Result<DriveLog> {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("mcap") => mcap::read_mcap(path),
+        Some("csv") => csv::read_measured_csv(path),
+        _ => Err(crate::Error::log(
+            path,
+            "file name",
+            "expected a .mcap (simulated) or .csv (measured) DRIVE log",
+        )),
+    }
+}

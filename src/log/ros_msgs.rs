@@ -529,8 +529,7 @@ impl RosMessage for Imu {
             orientation: r.field("orientation", Quaternion::decode)?,
             orientation_covariance: r.field("orientation_covariance", |r| r.f64_array::<9>())?,
             angular_velocity: r.field("angular_velocity", Vector3::decode)?,
-            angular_velocity_covariance: r
-                .field("angular_velocity_covariance", |r| r.f64_array::<9>())?,
+            angular_velocity_covariance: r.field("angular_velocity_covariance", |r| r.f64_array::<9>())?,
             linear_acceleration: r.field("linear_acceleration", Vector3::decode)?,
             linear_acceleration_covariance: r
                 .field("linear_acceleration_covariance", |r| r.f64_array::<9>())?,
@@ -656,10 +655,7 @@ mod tests {
         let s = ODOMETRY.schema_text();
         let sep = format!("{}\nMSG: ", "=".repeat(80));
         let sections: Vec<&str> = s.split(&sep).collect();
-        let names: Vec<&str> = sections[1..]
-            .iter()
-            .map(|x| x.lines().next().unwrap())
-            .collect();
+        let names: Vec<&str> = sections[1..].iter().map(|x| x.lines().next().unwrap()).collect();
         assert_eq!(
             names,
             [
@@ -677,9 +673,19 @@ mod tests {
         assert!(sections[0].starts_with("std_msgs/Header header\nstring child_frame_id\n"));
         assert_eq!(ODOMETRY.schema_name(), "nav_msgs/msg/Odometry");
         // Every type a field names is defined in the text.
-        for d in [&ODOMETRY, &IMU, &TF_MESSAGE, &JOINT_STATE, &TWIST_STAMPED, &DRIVE_MARKER] {
+        for d in [
+            &ODOMETRY,
+            &IMU,
+            &TF_MESSAGE,
+            &JOINT_STATE,
+            &TWIST_STAMPED,
+            &DRIVE_MARKER,
+        ] {
             let s = d.schema_text();
-            for line in s.lines().filter(|l| !l.starts_with('#') && !l.starts_with("MSG:")) {
+            for line in s
+                .lines()
+                .filter(|l| !l.starts_with('#') && !l.starts_with("MSG:"))
+            {
                 let ty = line.split_whitespace().next().unwrap_or("");
                 let ty = ty.split('[').next().unwrap();
                 if ty.contains('/') {
@@ -692,7 +698,10 @@ mod tests {
     #[test]
     fn header_bytes_by_hand_and_round_trip() {
         let h = Header {
-            stamp: Time { sec: 1, nanosec: 50_000_000 },
+            stamp: Time {
+                sec: 1,
+                nanosec: 50_000_000,
+            },
             frame_id: "odom".into(),
         };
         let b = h.to_cdr(Vec::new());
@@ -707,13 +716,30 @@ mod tests {
             header: h,
             child_frame_id: "base_link".into(),
             pose: Pose {
-                position: Vector3 { x: 1.0, y: -2.0, z: 0.5 },
-                orientation: Quaternion { x: 0.0, y: 0.0, z: 0.6, w: 0.8 },
+                position: Vector3 {
+                    x: 1.0,
+                    y: -2.0,
+                    z: 0.5,
+                },
+                orientation: Quaternion {
+                    x: 0.0,
+                    y: 0.0,
+                    z: 0.6,
+                    w: 0.8,
+                },
             },
             pose_covariance: [0.25; 36],
             twist: Twist {
-                linear: Vector3 { x: 0.3, y: 0.0, z: 0.0 },
-                angular: Vector3 { x: 0.0, y: 0.0, z: -0.1 },
+                linear: Vector3 {
+                    x: 0.3,
+                    y: 0.0,
+                    z: 0.0,
+                },
+                angular: Vector3 {
+                    x: 0.0,
+                    y: 0.0,
+                    z: -0.1,
+                },
             },
             twist_covariance: [0.0; 36],
         };

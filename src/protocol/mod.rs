@@ -6,6 +6,7 @@
 //! (its rear, for a backward command), and the same command restarts from zero elapsed time.
 
 pub mod sampler;
+pub mod samplers;
 
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, CommandSpace, WheelSpeeds};
@@ -55,6 +56,18 @@ impl Default for ProtocolConfig {
 }
 
 impl ProtocolConfig {
+    /// The defaults for `steps` steps of `robot` on `terrain`: the safety operator expects the
+    /// robot to brake at its acceleration limit, or at what the terrain's sliding friction
+    /// allows (80 % of μ_slide·g) if that is less, as an operator who knows the ground would.
+    pub fn for_run(robot: &Robot, terrain: &crate::terrain::Terrain, steps: u32) -> Self {
+        let grip = 0.8 * terrain.friction.sliding_longitudinal * crate::sim::GRAVITY_M_S2;
+        Self {
+            steps,
+            operator_decel_m_s2: robot.limits.max_lin_acc_m_s2.min(grip),
+            ..Self::default()
+        }
+    }
+
     /// Samples per window.
     pub fn samples_per_window(&self) -> u32 {
         (self.window_s * self.rate_hz).round() as u32
@@ -317,18 +330,54 @@ impl Runner<'_> {
             }
             self.stop(phase, step, deadline)?;
         }
-        // Face the centre with the side the command drives towards.
-        let backward = idd.body_from_wheels(cmd).vx_m_s < 0.0;
-        let target = move |p: Pose| {
-            let to_centre = (-p.y_m).atan2(-p.x_m);
-            if backward {
-                wrap_angle(to_centre + std::f64::consts::PI)
-            } else {
-                to_centre
-            }
-        };
-        self.turn_to(phase, step, target, max_wz, deadline)?;
+        // Face the heading from which the command's ideal path stays inside longest.
+        let p = self.plant.true_pose();
+        let heading = self.best_heading(p, cmd);
+        self.turn_to(phase, step, move |_| heading, max_wz, deadline)?;
         self.stop(phase, step, deadline)
+    }
+
+    /// The operator's choice of heading before restarting `cmd` from `p`: the one (every 5°)
+    /// whose ideal differential-drive path of a whole step stays longest inside the shrunk safe
+    /// area; among equals, the one closest to facing the centre with the side the command
+    /// drives towards (the paper's rule).
+    fn best_heading(&self, p: Pose, cmd: WheelSpeeds) -> f64 {
+        let v = self.space.idd.body_from_wheels(cmd);
+        let backward = v.vx_m_s < 0.0;
+        let to_centre = (-p.y_m).atan2(-p.x_m);
+        let preferred = if backward {
+            wrap_angle(to_centre + std::f64::consts::PI)
+        } else {
+            to_centre
+        };
+        let (hx, hy) = self.half_extents();
+        let m = self.cfg.border_margin_m + v.vx_m_s.powi(2) / (2.0 * self.cfg.operator_decel_m_s2);
+        let horizon_s = self.cfg.window_s * self.cfg.windows_per_step as f64;
+        let dt = 0.1;
+        let time_inside = |heading: f64| {
+            let (mut x, mut y, mut yaw) = (p.x_m, p.y_m, heading);
+            let mut t = 0.0;
+            while t < horizon_s {
+                x += v.vx_m_s * yaw.cos() * dt;
+                y += v.vx_m_s * yaw.sin() * dt;
+                yaw += v.wz_rad_s * dt;
+                if x.abs() > hx - m || y.abs() > hy - m {
+                    break;
+                }
+                t += dt;
+            }
+            t
+        };
+        let mut best = (f64::MIN, f64::MAX, preferred);
+        for i in 0..72 {
+            let h = wrap_angle(i as f64 * 5f64.to_radians());
+            let t = time_inside(h);
+            let off = wrap_angle(h - preferred).abs();
+            if t > best.0 + 1e-9 || ((t - best.0).abs() <= 1e-9 && off < best.1) {
+                best = (t, off, h);
+            }
+        }
+        best.2
     }
 
     fn stuck_error(&self, step: u32) -> Error {

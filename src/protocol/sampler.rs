@@ -1,12 +1,18 @@
 //! Sampling strategies: how the next DRIVE command is drawn from the command space U.
 //!
 //! A strategy implements [`Sampler`]; it owns a generator seeded by the run's seed so that the
-//! same seed gives the same sequence of commands.
+//! same seed gives the same sequence of commands. The strategies themselves live one per file in
+//! [`crate::protocol::samplers`], which also holds the registry that [`make_sampler`] and
+//! [`SAMPLERS`] read.
 
 use crate::kinematics::{BodyVelocity, CommandSpace, WheelSpeeds};
 use crate::log::Pose;
-use rand::{RngExt, SeedableRng};
+use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
+
+pub use super::samplers::uniform_wheel::UniformWheel;
+use super::samplers::REGISTRY;
+use super::ProtocolConfig;
 
 /// What a sampler may look at when it draws the next command.
 #[derive(Debug, Clone, Copy)]
@@ -54,97 +60,31 @@ pub fn uniform_in_wheel_space(space: &CommandSpace, rng: &mut ChaCha8Rng) -> Whe
     }
 }
 
-/// The paper's strategy: each command uniform in the wheel-frame command space, independent of
-/// the previous ones.
-#[derive(Debug, Clone)]
-pub struct UniformWheel {
-    rng: ChaCha8Rng,
-}
-
-impl UniformWheel {
-    /// A sampler seeded with `seed`.
-    pub fn new(seed: u64) -> Self {
-        Self {
-            rng: ChaCha8Rng::seed_from_u64(seed),
-        }
+const N_SAMPLERS: usize = REGISTRY.len();
+const SAMPLER_NAMES: [&str; N_SAMPLERS] = {
+    let mut names = [""; N_SAMPLERS];
+    let mut i = 0;
+    while i < N_SAMPLERS {
+        names[i] = REGISTRY[i].name;
+        i += 1;
     }
-}
+    names
+};
 
-impl Sampler for UniformWheel {
-    fn name(&self) -> &str {
-        "uniform-wheel"
-    }
-    fn next(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
-        uniform_in_wheel_space(ctx.space, &mut self.rng)
-    }
-}
+/// Names of the samplers [`make_sampler`] knows, in registry order.
+pub const SAMPLERS: &[&str] = &SAMPLER_NAMES;
 
-/// Names of the samplers [`make_sampler`] knows.
-pub const SAMPLERS: &[&str] = &["uniform-wheel"];
-
-/// Builds a sampler by name, seeded with `seed`.
+/// Builds a sampler by name, seeded with `seed`, with its default parameters, for a run with
+/// the default protocol parameters.
 pub fn make_sampler(name: &str, seed: u64) -> Option<Box<dyn Sampler>> {
-    match name {
-        "uniform-wheel" => Some(Box::new(UniformWheel::new(seed))),
-        _ => None,
-    }
+    make_sampler_for(name, seed, &ProtocolConfig::default())
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::kinematics::IdealDiffDrive;
-
-    fn space() -> CommandSpace {
-        CommandSpace {
-            idd: IdealDiffDrive {
-                wheel_radius_m: 0.3,
-                baseline_m: 1.08,
-            },
-            max_wheel_rad_s: 16.6667,
-            max_lin_m_s: 5.0,
-            max_ang_rad_s: 4.0,
-        }
-    }
-
-    #[test]
-    fn uniform_wheel_fills_u_uniformly_and_repeats_with_the_seed() {
-        let s = space();
-        let ctx = SamplingContext {
-            space: &s,
-            step: 0,
-            previous: WheelSpeeds::default(),
-            history: &[],
-            pose: Pose::default(),
-            safe_half_extents_m: (22.5, 10.0),
-        };
-        let mut a = UniformWheel::new(3);
-        let mut b = UniformWheel::new(3);
-        let n = 20_000;
-        let draws: Vec<WheelSpeeds> = (0..n).map(|_| a.next(&ctx)).collect();
-        assert!(draws.iter().all(|c| s.contains_wheels(*c)));
-        assert!(draws
-            .iter()
-            .zip((0..n).map(|_| b.next(&ctx)))
-            .all(|(x, y)| *x == y));
-        // Uniform in W: the share of draws with wl > 0 is 1/2 by symmetry of U, and the share
-        // inside the inner square |w| < w_max/2 is its area over the area of U in W.
-        let pos = draws.iter().filter(|c| c.left_rad_s > 0.0).count() as f64 / n as f64;
-        assert!((pos - 0.5).abs() < 0.02, "{pos}");
-        let h = s.max_wheel_rad_s / 2.0;
-        let inner = draws
-            .iter()
-            .filter(|c| c.left_rad_s.abs() < h && c.right_rad_s.abs() < h)
-            .count() as f64
-            / n as f64;
-        // The inner square lies wholly in U: |vx| <= 0.3*h = 2.5, |wz| <= 0.3*2h/1.08 = 4.63 > 4?
-        // No: it crosses |wz| = 4 at its corners; compute its area in U by clipping.
-        let inner_u = {
-            let mut c = s;
-            c.max_wheel_rad_s = h;
-            c.area_wheels()
-        };
-        let expected = inner_u / s.area_wheels();
-        assert!((inner - expected).abs() < 0.02, "{inner} vs {expected}");
-    }
+/// Builds a sampler by name, seeded with `seed`, for a run with the protocol parameters
+/// `protocol` (step duration, operator margins: what `boundary-aware` predicts with).
+pub fn make_sampler_for(name: &str, seed: u64, protocol: &ProtocolConfig) -> Option<Box<dyn Sampler>> {
+    REGISTRY
+        .iter()
+        .find(|e| e.name == name)
+        .map(|e| (e.build)(seed, protocol))
 }

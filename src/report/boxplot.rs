@@ -8,9 +8,8 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::stats::{finite_values, BoxStats};
 use super::style::{
-    assign_colours, canvas_height, caption_style, fmt_tick, note_style, padded,
-    render, tick_style, title_legend_body, axis_desc_style, DrawResult, Figure, FigureFiles,
-    LegendEntry, Swatch,
+    assign_colours, axis_desc_style, canvas_height, caption_style, fmt_tick, note_style, padded, render,
+    tick_style, title_legend_body, DrawResult, Figure, FigureFiles, LegendEntry, Swatch,
 };
 use super::{AxisLabel, BoxGroup};
 use crate::{Error, Result};
@@ -46,11 +45,7 @@ impl BoxFig<'_> {
             .unwrap_or(BLACK)
     }
 
-    fn draw_panel<DB: DrawingBackend>(
-        &self,
-        area: &DrawingArea<DB, Shift>,
-        panel: &BoxPanel,
-    ) -> DrawResult {
+    fn draw_panel<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>, panel: &BoxPanel) -> DrawResult {
         let stats: Vec<Option<BoxStats>> = panel
             .groups
             .iter()
@@ -119,10 +114,7 @@ impl BoxFig<'_> {
             let line = BLACK.stroke_width(2);
             // Whiskers with caps.
             for (a, b) in [(s.whisker_low, s.q1), (s.q3, s.whisker_high)] {
-                chart.draw_series(std::iter::once(PathElement::new(
-                    vec![(x, a), (x, b)],
-                    line,
-                )))?;
+                chart.draw_series(std::iter::once(PathElement::new(vec![(x, a), (x, b)], line)))?;
             }
             for w in [s.whisker_low, s.whisker_high] {
                 chart.draw_series(std::iter::once(PathElement::new(
@@ -189,8 +181,7 @@ pub fn box_plots(dir: &Path, stem: &str, title: &str, panels: &[BoxPanel]) -> Re
             labels.push(g.label.clone());
         }
     }
-    let colours: Vec<(String, RGBColor)> =
-        labels.iter().cloned().zip(assign_colours(&labels)).collect();
+    let colours: Vec<(String, RGBColor)> = labels.iter().cloned().zip(assign_colours(&labels)).collect();
     let legend = colours
         .iter()
         .map(|(l, c)| LegendEntry::new(l.clone(), *c, Swatch::Square))

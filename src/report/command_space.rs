@@ -8,8 +8,8 @@ use plotters::prelude::*;
 
 use super::stats::histogram;
 use super::style::{
-    assign_colours, canvas_height, closed, no_data, render, title_legend_body,
-    xy_chart, DrawResult, Figure, FigureFiles, LegendEntry, Swatch,
+    assign_colours, canvas_height, closed, no_data, render, title_legend_body, xy_chart, DrawResult, Figure,
+    FigureFiles, LegendEntry, Swatch,
 };
 use crate::kinematics::{BodyVelocity, CommandSpace, WheelSpeeds};
 use crate::{Error, Result};
@@ -53,9 +53,8 @@ fn convex_hull(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
     if p.len() < 3 {
         return p;
     }
-    let cross = |o: (f64, f64), a: (f64, f64), b: (f64, f64)| {
-        (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0)
-    };
+    let cross =
+        |o: (f64, f64), a: (f64, f64), b: (f64, f64)| (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0);
     let mut hull: Vec<(f64, f64)> = Vec::with_capacity(2 * p.len());
     for pass in 0..2 {
         let start = hull.len();
@@ -65,8 +64,7 @@ fn convex_hull(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
             Box::new(p.iter().rev())
         };
         for &q in iter {
-            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0
-            {
+            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0 {
                 hull.pop();
             }
             hull.push(q);
@@ -108,13 +106,7 @@ impl CommandSpaceFig<'_> {
             .filter(|w| w.is_finite())
             .map(|w| (w.left_rad_s, w.right_rad_s))
             .collect();
-        let r = symmetric(
-            u_w.iter()
-                .chain(&s_w)
-                .chain(&t_w)
-                .flat_map(|p| [p.0, p.1]),
-            0.0,
-        );
+        let r = symmetric(u_w.iter().chain(&s_w).chain(&t_w).flat_map(|p| [p.0, p.1]), 0.0);
         let mut ch = xy_chart(
             &cells[0],
             &format!("{}: wheel frame W", sc.label),
@@ -213,10 +205,7 @@ impl CommandSpaceFig<'_> {
                 colour.stroke_width(2),
             )))?;
         }
-        ch.draw_series(
-            s.iter()
-                .map(|&p| Circle::new(p, 3, S_COLOUR.mix(0.9).filled())),
-        )?;
+        ch.draw_series(s.iter().map(|&p| Circle::new(p, 3, S_COLOUR.mix(0.9).filled())))?;
         ch.draw_series(t.iter().map(|&p| Circle::new(p, 3, t_style)))?;
         ch.draw_series(std::iter::once(PathElement::new(
             closed(u),
@@ -305,7 +294,14 @@ mod tests {
 
     #[test]
     fn hull_of_square_with_inner_points() {
-        let pts = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0), (0.5, 0.5), (0.2, 0.7)];
+        let pts = [
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (1.0, 1.0),
+            (0.0, 1.0),
+            (0.5, 0.5),
+            (0.2, 0.7),
+        ];
         let h = convex_hull(&pts);
         assert_eq!(h.len(), 4);
         assert!(!h.contains(&(0.5, 0.5)));

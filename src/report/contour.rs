@@ -29,11 +29,7 @@ pub type ContourSegment = ((f64, f64), (f64, f64));
 
 impl Grid2 {
     /// Builds a grid by evaluating `f(vx, wz)` at every grid point.
-    pub fn from_fn(
-        vx_m_s: Vec<f64>,
-        wz_rad_s: Vec<f64>,
-        mut f: impl FnMut(f64, f64) -> Option<f64>,
-    ) -> Self {
+    pub fn from_fn(vx_m_s: Vec<f64>, wz_rad_s: Vec<f64>, mut f: impl FnMut(f64, f64) -> Option<f64>) -> Self {
         let mut values = Vec::with_capacity(vx_m_s.len() * wz_rad_s.len());
         for &vx in &vx_m_s {
             for &wz in &wz_rad_s {

@@ -71,9 +71,7 @@ pub fn ellipse_points(
     n: usize,
 ) -> Result<Vec<(f64, f64)>> {
     if !(centre.0.is_finite() && centre.1.is_finite()) {
-        return Err(Error::Report(format!(
-            "ellipse centre {centre:?} is not finite"
-        )));
+        return Err(Error::Report(format!("ellipse centre {centre:?} is not finite")));
     }
     let ax = ellipse_axes(cov, chi2)?;
     let n = n.max(8);

@@ -8,8 +8,8 @@ use plotters::prelude::*;
 
 use super::contour::{contour_levels, contour_segments, Grid2};
 use super::style::{
-    axis_desc_style, closed, finite_extent, fmt_tick, render, tick_style, title_legend_body,
-    xy_chart, ColourMap, DrawResult, Figure, FigureFiles, LegendEntry, Swatch, XyChart,
+    axis_desc_style, closed, finite_extent, fmt_tick, render, tick_style, title_legend_body, xy_chart,
+    ColourMap, DrawResult, Figure, FigureFiles, LegendEntry, Swatch, XyChart,
 };
 use super::AxisLabel;
 use crate::{Error, Result};
@@ -239,9 +239,11 @@ fn colour_bar<DB: DrawingBackend>(
             scale.map.at((k as f64 + 0.5) / steps as f64).filled(),
         )
     }))?;
-    chart.draw_series(levels.iter().map(|&l| {
-        PathElement::new(vec![(0.0, l), (1.0, l)], BLACK.stroke_width(1))
-    }))?;
+    chart.draw_series(
+        levels
+            .iter()
+            .map(|&l| PathElement::new(vec![(0.0, l), (1.0, l)], BLACK.stroke_width(1))),
+    )?;
     chart.draw_series(std::iter::once(Rectangle::new(
         [(0.0, range.0), (1.0, range.1)],
         BLACK.stroke_width(1),
@@ -335,15 +337,17 @@ impl Figure for HeatFig<'_> {
             ch.draw_series(rects)?;
             ch.draw_series(clipped)?;
             for &level in &self.levels {
-                let segs = contour_segments(grid, level).map_err(|e| super::style::DrawError(e.to_string()))?;
+                let segs =
+                    contour_segments(grid, level).map_err(|e| super::style::DrawError(e.to_string()))?;
                 let style = if level == 0.0 {
                     BLACK.stroke_width(2)
                 } else {
                     BLACK.mix(0.85).stroke_width(1)
                 };
-                ch.draw_series(segs.into_iter().map(|(a, b)| {
-                    PathElement::new(vec![(a.1, a.0), (b.1, b.0)], style)
-                }))?;
+                ch.draw_series(
+                    segs.into_iter()
+                        .map(|(a, b)| PathElement::new(vec![(a.1, a.0), (b.1, b.0)], style)),
+                )?;
             }
             u_outline(&mut ch, poly)?;
             if grid.values.iter().all(Option::is_none) {
@@ -395,9 +399,15 @@ pub fn heat_maps(
     let mut skipped = 0;
     let mut prepared = vec![];
     for p in panels {
-        p.grid.validate().map_err(|e| Error::Report(format!("{stem}: panel `{}`: {e}", p.title)))?;
+        p.grid
+            .validate()
+            .map_err(|e| Error::Report(format!("{stem}: panel `{}`: {e}", p.title)))?;
         skipped += p.grid.non_finite_count();
-        prepared.push((p.title.clone(), masked(&p.grid, &p.command_space), p.command_space.clone()));
+        prepared.push((
+            p.title.clone(),
+            masked(&p.grid, &p.command_space),
+            p.command_space.clone(),
+        ));
     }
     let data = finite_extent(prepared.iter().flat_map(|p| p.1.values.iter().flatten().copied()));
     let range = resolve_range(scale, data)?;
@@ -482,9 +492,10 @@ impl Figure for ScatterFig<'_> {
                     self.scale.map.at(norm(q.value, self.range)).filled(),
                 )
             }))?;
-            ch.draw_series(pts.iter().map(|q| {
-                Circle::new((q.wz_rad_s, q.vx_m_s), 5, BLACK.mix(0.4).stroke_width(1))
-            }))?;
+            ch.draw_series(
+                pts.iter()
+                    .map(|q| Circle::new((q.wz_rad_s, q.vx_m_s), 5, BLACK.mix(0.4).stroke_width(1))),
+            )?;
             if pts.is_empty() {
                 super::style::no_data(&mut ch, "")?;
             }
@@ -567,12 +578,21 @@ mod tests {
         let cw: Vec<(f64, f64)> = tri.iter().rev().copied().collect();
         let q = clip_convex(vec![(0.5, 0.5), (1.5, 0.5), (1.5, 1.5), (0.5, 1.5)], &cw);
         assert_eq!(q.len(), p.len());
-        assert!(!is_convex(&[(0.0, 0.0), (2.0, 0.0), (1.0, 0.5), (2.0, 2.0), (0.0, 2.0)]));
+        assert!(!is_convex(&[
+            (0.0, 0.0),
+            (2.0, 0.0),
+            (1.0, 0.5),
+            (2.0, 2.0),
+            (0.0, 2.0)
+        ]));
     }
 
     #[test]
     fn cell_edges_midpoints() {
-        assert_eq!(cell_edges(&[0.0, 1.0, 3.0]), vec![(-0.5, 0.5), (0.5, 2.0), (2.0, 4.0)]);
+        assert_eq!(
+            cell_edges(&[0.0, 1.0, 3.0]),
+            vec![(-0.5, 0.5), (0.5, 2.0), (2.0, 4.0)]
+        );
         assert_eq!(cell_edges(&[2.0]), vec![(1.95, 2.05)]);
     }
 }

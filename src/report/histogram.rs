@@ -7,8 +7,8 @@ use plotters::prelude::*;
 
 use super::stats::{finite_values, histogram};
 use super::style::{
-    assign_colours, canvas_height, finite_extent, no_data, padded, render, title_legend_body,
-    xy_chart, DrawResult, Figure, FigureFiles, LegendEntry, Swatch,
+    assign_colours, canvas_height, finite_extent, no_data, padded, render, title_legend_body, xy_chart,
+    DrawResult, Figure, FigureFiles, LegendEntry, Swatch,
 };
 use super::{AxisLabel, Samples};
 use crate::{Error, Result};
@@ -64,10 +64,16 @@ impl HistFig<'_> {
                 (frac, c)
             })
             .collect();
-        let ymax = finite_extent(hists.iter().flat_map(|h| h.0.iter().copied()))
-            .map_or(0.0, |r| r.1);
+        let ymax = finite_extent(hists.iter().flat_map(|h| h.0.iter().copied())).map_or(0.0, |r| r.1);
         let ytop = if ymax > 0.0 { ymax * 1.1 } else { 1.0 };
-        let mut ch = xy_chart(area, &p.title, (lo, hi), (0.0, ytop), &p.value.text(), "fraction of samples")?;
+        let mut ch = xy_chart(
+            area,
+            &p.title,
+            (lo, hi),
+            (0.0, ytop),
+            &p.value.text(),
+            "fraction of samples",
+        )?;
         for (frac, c) in &hists {
             ch.draw_series(frac.iter().enumerate().filter(|(_, f)| **f > 0.0).map(|(i, &f)| {
                 let x0 = lo + i as f64 * w;
@@ -143,8 +149,7 @@ pub fn histograms(
             labels.push(s.label.clone());
         }
     }
-    let colours: Vec<(String, RGBColor)> =
-        labels.iter().cloned().zip(assign_colours(&labels)).collect();
+    let colours: Vec<(String, RGBColor)> = labels.iter().cloned().zip(assign_colours(&labels)).collect();
     let mut legend: Vec<LegendEntry> = colours
         .iter()
         .map(|(l, c)| LegendEntry::new(l.clone(), *c, Swatch::Square))

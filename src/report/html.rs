@@ -235,8 +235,12 @@ mod tests {
             .section("S1 <x>")
             .paragraph("x < y && y > z")
             .table("t", &[KeyFigure::new("ρ's median", 0.5, "")]);
-        r.figure_svg("cap", "<?xml version=\"1.0\"?>\n<svg width=\"1\"><rect/></svg>\n", "mem")
-            .unwrap();
+        r.figure_svg(
+            "cap",
+            "<?xml version=\"1.0\"?>\n<svg width=\"1\"><rect/></svg>\n",
+            "mem",
+        )
+        .unwrap();
         let h = r.to_html();
         assert!(h.contains("<title>a &lt;b&gt; &amp; &quot;c&quot;</title>"));
         assert!(h.contains("<p>x &lt; y &amp;&amp; y &gt; z</p>"));

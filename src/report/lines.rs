@@ -6,8 +6,8 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::style::{
-    assign_colours, canvas_height, finite_extent, padded, render, title_legend_body, xy_chart,
-    DrawResult, Figure, FigureFiles, LegendEntry, Swatch,
+    assign_colours, canvas_height, finite_extent, padded, render, title_legend_body, xy_chart, DrawResult,
+    Figure, FigureFiles, LegendEntry, Swatch,
 };
 use super::AxisLabel;
 use crate::{Error, Result};
@@ -72,9 +72,10 @@ impl Figure for LinesFig<'_> {
                 ch.draw_series(std::iter::once(Polygon::new(band, c.mix(0.2))))?;
             } else {
                 // A single point: an error bar instead of a band.
-                ch.draw_series(p.iter().map(|q| {
-                    PathElement::new(vec![(q.x, q.low), (q.x, q.high)], c.stroke_width(2))
-                }))?;
+                ch.draw_series(
+                    p.iter()
+                        .map(|q| PathElement::new(vec![(q.x, q.low), (q.x, q.high)], c.stroke_width(2))),
+                )?;
             }
         }
         for (_, p, c) in &self.series {

@@ -24,6 +24,7 @@
 //! [`HtmlReport`] assembles sections, key-figure tables and inline SVG figures into one
 //! self-contained `report.html`.
 
+pub mod analysis_report;
 mod boxplot;
 mod command_space;
 pub mod contour;

@@ -9,8 +9,8 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::ellipse::ellipse_points;
 use super::style::{
-    canvas_height, finite_extent, note_style, outline_for, render, scenario_colour,
-    title_legend_body, widen, xy_chart, DrawResult, Figure, FigureFiles, LegendEntry, Swatch,
+    canvas_height, finite_extent, note_style, outline_for, render, scenario_colour, title_legend_body, widen,
+    xy_chart, DrawResult, Figure, FigureFiles, LegendEntry, Swatch,
 };
 use crate::{Error, Result};
 
@@ -89,7 +89,11 @@ impl Figure for RiskFig<'_> {
         for (s, _, c) in &self.ellipses {
             let p = (s.median_rho, s.median_energy_j);
             ch.draw_series(std::iter::once(Circle::new(p, 6, c.filled())))?;
-            ch.draw_series(std::iter::once(Circle::new(p, 6, outline_for(*c).stroke_width(1))))?;
+            ch.draw_series(std::iter::once(Circle::new(
+                p,
+                6,
+                outline_for(*c).stroke_width(1),
+            )))?;
         }
         Ok(())
     }

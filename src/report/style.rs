@@ -65,12 +65,7 @@ pub(crate) trait Figure {
 
 /// Checks that a file stem is a plain file name (no directory part, not empty).
 fn check_stem(stem: &str) -> Result<()> {
-    if stem.is_empty()
-        || stem.contains('/')
-        || stem.contains('\\')
-        || stem == "."
-        || stem == ".."
-    {
+    if stem.is_empty() || stem.contains('/') || stem.contains('\\') || stem == "." || stem == ".." {
         return Err(Error::Report(format!(
             "figure file stem `{stem}` must be a plain, non-empty file name"
         )));
@@ -437,8 +432,7 @@ pub(crate) fn draw_legend<DB: DrawingBackend>(
     let sw = SWATCH_W;
     let line_h = LEGEND_H as i32;
     for (li, line) in lines.iter().enumerate() {
-        let total: i32 =
-            line.iter().map(|&i| widths[i]).sum::<i32>() + LEGEND_GAP * (line.len() as i32 - 1);
+        let total: i32 = line.iter().map(|&i| widths[i]).sum::<i32>() + LEGEND_GAP * (line.len() as i32 - 1);
         let mut x = (w as i32 - total) / 2;
         let y = line_h * li as i32 + line_h / 2;
         for &i in line {
@@ -450,25 +444,16 @@ pub(crate) fn draw_legend<DB: DrawingBackend>(
                     area.draw(&Circle::new((x + sw / 2, y), 5, outline_for(c)))?;
                 }
                 Swatch::Line => {
-                    area.draw(&PathElement::new(
-                        vec![(x, y), (x + sw, y)],
-                        c.stroke_width(3),
-                    ))?;
+                    area.draw(&PathElement::new(vec![(x, y), (x + sw, y)], c.stroke_width(3)))?;
                 }
                 Swatch::Dashed => {
                     for k in 0..3 {
                         let x0 = x + k * 10;
-                        area.draw(&PathElement::new(
-                            vec![(x0, y), (x0 + 6, y)],
-                            c.stroke_width(3),
-                        ))?;
+                        area.draw(&PathElement::new(vec![(x0, y), (x0 + 6, y)], c.stroke_width(3)))?;
                     }
                 }
                 Swatch::Square => {
-                    area.draw(&Rectangle::new(
-                        [(x + 4, y - 8), (x + sw - 4, y + 8)],
-                        c.filled(),
-                    ))?;
+                    area.draw(&Rectangle::new([(x + 4, y - 8), (x + sw - 4, y + 8)], c.filled()))?;
                     area.draw(&Rectangle::new(
                         [(x + 4, y - 8), (x + sw - 4, y + 8)],
                         BLACK.stroke_width(1),
@@ -525,8 +510,11 @@ pub(crate) fn canvas_height(body_h: u32, width: u32, legend: &[LegendEntry]) -> 
 // ---------------------------------------------------------------- axes
 
 /// The Cartesian chart every panel uses.
-pub(crate) type XyChart<'a, DB> =
-    ChartContext<'a, DB, Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>>;
+pub(crate) type XyChart<'a, DB> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
 
 /// Builds a panel: caption, x/y ranges, light grid, tick labels and axis descriptions.
 pub(crate) fn xy_chart<'a, DB: DrawingBackend>(
@@ -571,7 +559,9 @@ pub(crate) fn no_data<DB: DrawingBackend>(chart: &mut XyChart<'_, DB>, what: &st
     chart.draw_series(std::iter::once(Text::new(
         format!("no data{what}"),
         ((x.start + x.end) / 2.0, (y.start + y.end) / 2.0),
-        caption_style().pos(Pos::new(HPos::Center, VPos::Center)).color(&BLACK.mix(0.5)),
+        caption_style()
+            .pos(Pos::new(HPos::Center, VPos::Center))
+            .color(&BLACK.mix(0.5)),
     )))?;
     Ok(())
 }

@@ -131,10 +131,12 @@ impl Effects {
                 self.imu_yaw_rate_scale = value
             }
             "imu_yaw_rate_sign_flip" => {
-                self.imu_yaw_rate_sign_flip = match value {
-                    v if v == 0.0 => false,
-                    v if v == 1.0 => true,
-                    _ => return Err(bad("must be 0 or 1")),
+                self.imu_yaw_rate_sign_flip = if value == 0.0 {
+                    false
+                } else if value == 1.0 {
+                    true
+                } else {
+                    return Err(bad("must be 0 or 1"));
                 }
             }
             "imu_yaw_rate_bias_rad_s" => {
@@ -165,9 +167,7 @@ impl Effects {
     /// unknown name. A missing saturation reads as infinity, booleans as 0 or 1.
     pub fn get(&self, name: &str) -> Option<f64> {
         Some(match name {
-            "wheel_speed_saturation_rad_s" => {
-                self.wheel_speed_saturation_rad_s.unwrap_or(f64::INFINITY)
-            }
+            "wheel_speed_saturation_rad_s" => self.wheel_speed_saturation_rad_s.unwrap_or(f64::INFINITY),
             "motor_gain_left" => self.motor_gain_left,
             "motor_gain_right" => self.motor_gain_right,
             "wheel_radius_scale" => self.wheel_radius_scale,
@@ -199,16 +199,16 @@ impl Effects {
 
     /// Parses `NAME=VALUE` (the CLI's `--inject` syntax) and applies it.
     pub fn apply_assignment(&mut self, assignment: &str) -> Result<()> {
-        let (name, value) = assignment.split_once('=').ok_or_else(|| {
-            Error::config("--inject", assignment, "expected NAME=VALUE")
-        })?;
+        let (name, value) = assignment
+            .split_once('=')
+            .ok_or_else(|| Error::config("--inject", assignment, "expected NAME=VALUE"))?;
         let name = name.trim();
         let v: f64 = match value.trim() {
             "true" => 1.0,
             "false" => 0.0,
-            t => t.parse().map_err(|_| {
-                Error::config("--inject", name, format!("`{t}` is not a number"))
-            })?,
+            t => t
+                .parse()
+                .map_err(|_| Error::config("--inject", name, format!("`{t}` is not a number")))?,
         };
         self.set(name, v)
     }
@@ -240,7 +240,10 @@ mod tests {
         let msg = e.set("motor_gain_left", -1.0).unwrap_err().to_string();
         assert!(msg.contains("motor_gain_left"), "{msg}");
         let msg = e.set("warp_drive", 1.0).unwrap_err().to_string();
-        assert!(msg.contains("warp_drive") && msg.contains("encoder_scale"), "{msg}");
+        assert!(
+            msg.contains("warp_drive") && msg.contains("encoder_scale"),
+            "{msg}"
+        );
         assert!(e.set("imu_yaw_rate_sign_flip", 0.5).is_err());
         assert!(e.set("dead_time_s", f64::NAN).is_err());
         let msg = e.apply_assignment("encoder_scale=abc").unwrap_err().to_string();
@@ -248,6 +251,12 @@ mod tests {
         e.apply_assignment("imu_yaw_rate_sign_flip=true").unwrap();
         assert!(e.imu_yaw_rate_sign_flip);
         e.apply_assignment("wheel_speed_saturation_rad_s=12").unwrap();
-        assert_eq!(e.declared(), vec![("wheel_speed_saturation_rad_s", 12.0), ("imu_yaw_rate_sign_flip", 1.0)]);
+        assert_eq!(
+            e.declared(),
+            vec![
+                ("wheel_speed_saturation_rad_s", 12.0),
+                ("imu_yaw_rate_sign_flip", 1.0)
+            ]
+        );
     }
 }

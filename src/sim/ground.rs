@@ -42,8 +42,7 @@ impl Ground {
         let builder = if height_std_m <= 0.0 {
             ColliderBuilder::new(SharedShape::halfspace(Vector::Z))
         } else {
-            let (heights, spacing) =
-                height_grid(height_std_m, correlation_length_m, extent_m, seed);
+            let (heights, spacing) = height_grid(height_std_m, correlation_length_m, extent_m, seed);
             let n = heights.nrows();
             let size = spacing * (n - 1) as f64;
             // Parry height fields are y-up with rows along local z; rotating by +90° about x
@@ -57,13 +56,7 @@ impl Ground {
     }
 
     /// Casts a ray from `origin` along the unit `dir` (world frame) up to `max_m`.
-    pub fn cast(
-        &self,
-        colliders: &ColliderSet,
-        origin: [f64; 3],
-        dir: [f64; 3],
-        max_m: f64,
-    ) -> Option<Hit> {
+    pub fn cast(&self, colliders: &ColliderSet, origin: [f64; 3], dir: [f64; 3], max_m: f64) -> Option<Hit> {
         let c = &colliders[self.handle];
         let ray = Ray::new(
             Vector::new(origin[0] as f32, origin[1] as f32, origin[2] as f32),

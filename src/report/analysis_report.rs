@@ -1,0 +1,516 @@
+//! The report of `drive-sim analyze`: one or several analysed logs turned into `summary.json`,
+//! `transfer_functions.json`, the paper's figures (SVG and PNG) and one self-contained
+//! `report.html`. Several logs are compared on the same figures.
+
+use super::{
+    box_plots, command_space_figure, heat_maps, histograms, risk_map, value_scatter, AxisLabel, BoxPanel,
+    ColourMap, ColourScale, CommandScenario, EnergyLimit, FigureFiles, Grid2, HeatPanel, HistPanel,
+    HtmlReport, KeyFigure, RiskScenario, Samples, ScatterPanel, ValuePoint, CHI2_2DOF_95,
+};
+use crate::analysis::{velocity, Analysis, StepResult};
+use crate::error::{Error, Result};
+use crate::log::DriveLog;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// What [`write_analysis_report`] wrote.
+#[derive(Debug, Clone)]
+pub struct AnalysisReportFiles {
+    /// `summary.json`.
+    pub summary: PathBuf,
+    /// `transfer_functions.json`.
+    pub transfer_functions: PathBuf,
+    /// `report.html`.
+    pub html: PathBuf,
+    /// Every figure.
+    pub figures: Vec<FigureFiles>,
+}
+
+/// Label of an analysed log on figures: the dataset name, which says robot and terrain.
+fn label(a: &Analysis) -> String {
+    a.dataset.clone()
+}
+
+/// `summary.json`: per dataset the rows (one per step and window) and the aggregates.
+#[derive(Serialize)]
+struct Summary<'a> {
+    tool: String,
+    datasets: Vec<DatasetSummary<'a>>,
+    /// Ratios of median ρ between every pair of datasets (row over column).
+    median_rho_ratios: Vec<(String, String, f64)>,
+}
+
+#[derive(Serialize)]
+struct DatasetSummary<'a> {
+    dataset: &'a str,
+    robot: &'a str,
+    terrain: &'a str,
+    origin: &'a crate::log::Origin,
+    nominal: &'a crate::log::Nominal,
+    steps_analysed: usize,
+    steps_excluded: usize,
+    interruptions: usize,
+    time_efficiency: f64,
+    yaw_rate_source: crate::analysis::crosscheck::YawRateSource,
+    crosscheck: &'a crate::analysis::crosscheck::CrossCheck,
+    stats: &'a crate::analysis::SlipStats,
+    idd_rmse: &'a crate::kinematics::BodyVelocity,
+    t_area_pct_body: f64,
+    t_area_pct_wheels: f64,
+    lateral_speed: &'a crate::analysis::spaces::LateralSpeed,
+    max_kinetic_energy: &'a crate::analysis::risk::MaxKineticEnergy,
+    risk: &'a [crate::analysis::risk::RiskScenario],
+    exclusions: &'a [crate::analysis::segment::Exclusion],
+    rows: &'a [crate::analysis::SummaryRow],
+}
+
+fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
+    let text =
+        serde_json::to_string_pretty(value).map_err(|e| Error::Report(format!("{}: {e}", path.display())))?;
+    std::fs::write(path, text).map_err(|e| Error::io(path, e))
+}
+
+fn steady(a: &Analysis, f: impl Fn(&StepResult) -> f64) -> Vec<f64> {
+    a.steps.iter().map(f).collect()
+}
+
+/// Accelerations (pose-derived, body frame) over the transient window of every step: the
+/// paper's check of the first 2 s against the acceleration limit.
+fn transient_accelerations(log: &DriveLog, a: &Analysis) -> (Vec<f64>, Vec<f64>) {
+    let idd = log.meta.nominal.idd();
+    let (mut ax, mut ay) = (Vec::new(), Vec::new());
+    let mut i = 0;
+    let s = &log.samples;
+    while i < s.len() {
+        let j = i + s[i..]
+            .iter()
+            .take_while(|x| x.step == s[i].step && x.window == s[i].window)
+            .count();
+        if s[i].window == 0 {
+            for k in velocity::window_kinematics(&s[i..j], a.params.derivative_half_width, &idd) {
+                ax.push(k.pose_acc_m_s2.0);
+                ay.push(k.pose_acc_m_s2.1);
+            }
+        }
+        i = j;
+    }
+    (ax, ay)
+}
+
+/// Writes the whole report of `items` (each log with its analysis) into `dir`.
+pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Result<AnalysisReportFiles> {
+    if items.is_empty() {
+        return Err(Error::Report("nothing to report: no analysed log".into()));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let analyses: Vec<&Analysis> = items.iter().map(|(_, a)| *a).collect();
+
+    // summary.json
+    let datasets = items
+        .iter()
+        .map(|(log, a)| DatasetSummary {
+            dataset: &a.dataset,
+            robot: &a.robot,
+            terrain: &a.terrain,
+            origin: &a.origin,
+            nominal: &a.nominal,
+            steps_analysed: a.steps.len(),
+            steps_excluded: a.exclusions.len(),
+            interruptions: log.interruptions.len(),
+            time_efficiency: log.time_efficiency(),
+            yaw_rate_source: a.yaw_rate_source,
+            crosscheck: &a.crosscheck,
+            stats: &a.stats,
+            idd_rmse: &a.idd_rmse,
+            t_area_pct_body: a.spaces.t_area_pct_body,
+            t_area_pct_wheels: a.spaces.t_area_pct_wheels,
+            lateral_speed: &a.spaces.lateral,
+            max_kinetic_energy: &a.max_kinetic_energy,
+            risk: &a.risk,
+            exclusions: &a.exclusions,
+            rows: &a.rows,
+        })
+        .collect();
+    let med = |a: &Analysis| a.stats.rho.map_or(f64::NAN, |b| b.median);
+    let mut median_rho_ratios = Vec::new();
+    for x in &analyses {
+        for y in &analyses {
+            if x.dataset != y.dataset {
+                median_rho_ratios.push((x.dataset.clone(), y.dataset.clone(), med(x) / med(y)));
+            }
+        }
+    }
+    let summary_path = dir.join("summary.json");
+    write_json(
+        &summary_path,
+        &Summary {
+            tool: format!("drive-sim {}", env!("CARGO_PKG_VERSION")),
+            datasets,
+            median_rho_ratios,
+        },
+    )?;
+    let tf: Vec<_> = analyses.iter().map(|a| (&a.dataset, &a.transfer)).collect();
+    let tf_path = dir.join("transfer_functions.json");
+    write_json(&tf_path, &tf)?;
+
+    // Figures.
+    let mut figures = Vec::new();
+    let mut html = HtmlReport::new(format!(
+        "DRIVE analysis: {}",
+        analyses
+            .iter()
+            .map(|a| a.dataset.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    ));
+    html.section("Key figures");
+    html.paragraph(
+        "Steady state = mean of the two steady windows of each step. Slip = commanded (nominal ideal \
+         differential drive) minus realized. Boxes: quartiles; whiskers: 2.5 and 97.5 %.",
+    );
+    for ((log, a), _) in items.iter().zip(0..) {
+        html.table(
+            format!("{} ({} on {})", a.dataset, a.robot, a.terrain),
+            &key_figures(log, a),
+        );
+    }
+
+    // Command spaces, one figure per robot (U differs).
+    let mut robots: Vec<&str> = analyses.iter().map(|a| a.robot.as_str()).collect();
+    robots.sort();
+    robots.dedup();
+    html.section("Command space U, sampled commands S, reached velocities T");
+    for robot in &robots {
+        let of_robot: Vec<&Analysis> = analyses.iter().copied().filter(|a| a.robot == *robot).collect();
+        let space = of_robot[0].nominal.command_space();
+        let scenarios: Vec<CommandScenario> = of_robot
+            .iter()
+            .map(|a| CommandScenario {
+                label: label(a),
+                commands: a.steps.iter().map(|s| s.steady.cmd_wheels).collect(),
+                steady_wheels: a.steps.iter().map(|s| s.steady.realized_wheels).collect(),
+                steady_body: a.steps.iter().map(|s| s.steady.realized_body).collect(),
+            })
+            .collect();
+        let f = command_space_figure(
+            dir,
+            &format!("command_space_{robot}"),
+            &format!("{robot}: U, S and T"),
+            &space,
+            &scenarios,
+        )?;
+        html.figure(format!("{robot}: command space U (outline), sampled commands S and reached steady-state velocities T, in the wheel frame W and the body frame B; lateral speed distribution."), &f)?;
+        figures.push(f);
+    }
+
+    // Slip and rho box plots.
+    let groups = |f: &dyn Fn(&StepResult) -> f64| -> Vec<Samples> {
+        analyses
+            .iter()
+            .map(|a| Samples::new(label(a), steady(a, f)))
+            .collect()
+    };
+    let panels = vec![
+        BoxPanel {
+            title: "longitudinal".into(),
+            value: AxisLabel::new("slip vx", "m/s"),
+            groups: groups(&|s| s.steady.slip_body.vx_m_s),
+        },
+        BoxPanel {
+            title: "lateral".into(),
+            value: AxisLabel::new("slip vy", "m/s"),
+            groups: groups(&|s| s.steady.slip_body.vy_m_s),
+        },
+        BoxPanel {
+            title: "angular".into(),
+            value: AxisLabel::new("slip wz", "rad/s"),
+            groups: groups(&|s| s.steady.slip_body.wz_rad_s),
+        },
+        BoxPanel {
+            title: "left wheel".into(),
+            value: AxisLabel::new("slip left", "rad/s"),
+            groups: groups(&|s| s.steady.slip_wheels.left_rad_s),
+        },
+        BoxPanel {
+            title: "right wheel".into(),
+            value: AxisLabel::new("slip right", "rad/s"),
+            groups: groups(&|s| s.steady.slip_wheels.right_rad_s),
+        },
+    ];
+    html.section("Steady-state slip");
+    let f = box_plots(
+        dir,
+        "slip_boxplots",
+        "Steady-state slip (body and wheel frames)",
+        &panels,
+    )?;
+    html.figure(
+        "Steady-state slip per dataset in the body frame (vx, vy, wz) and the wheel frame (left, right).",
+        &f,
+    )?;
+    figures.push(f);
+
+    html.section("Unpredictability ρ");
+    let rho_panel = [BoxPanel {
+        title: "steady state".into(),
+        value: AxisLabel::new("ρ", ""),
+        groups: groups(&|s| s.steady_rho.rho),
+    }];
+    let f = box_plots(dir, "rho_boxplot", "Unpredictability ρ per dataset", &rho_panel)?;
+    html.figure("ρ of the steady state of every step.", &f)?;
+    figures.push(f);
+    let scatter: Vec<ScatterPanel> = analyses
+        .iter()
+        .map(|a| ScatterPanel {
+            title: label(a),
+            points: a
+                .steps
+                .iter()
+                .map(|s| ValuePoint {
+                    vx_m_s: s.steady.cmd_body.vx_m_s,
+                    wz_rad_s: s.steady.cmd_body.wz_rad_s,
+                    value: s.steady_rho.rho,
+                })
+                .collect(),
+            command_space: a.nominal.command_space().polygon_body(),
+        })
+        .collect();
+    let rho_scale = ColourScale {
+        value: AxisLabel::new("ρ", ""),
+        map: ColourMap::Viridis,
+        range: Some((0.0, 1.0)),
+    };
+    let f = value_scatter(
+        dir,
+        "rho_command_space",
+        "ρ over the command space",
+        &scatter,
+        &rho_scale,
+    )?;
+    html.figure("ρ of each step at its commanded (vx, wz).", &f)?;
+    figures.push(f);
+
+    // Transfer functions.
+    html.section("Transfer functions (Gaussian kernel smoother)");
+    let channels = [
+        ("slip_vx_m_s", "longitudinal slip", "m/s", Some(0.2)),
+        ("slip_vy_m_s", "lateral slip", "m/s", Some(0.1)),
+        ("slip_wz_rad_s", "angular slip", "rad/s", Some(0.2)),
+        ("rho", "ρ", "", Some(0.1)),
+    ];
+    for (name, quantity, unit, spacing) in channels {
+        let panels: Vec<HeatPanel> = analyses.iter().filter_map(|a| heat_panel(a, name)).collect();
+        if panels.is_empty() {
+            continue;
+        }
+        let scale = ColourScale {
+            value: AxisLabel::new(quantity, unit),
+            map: if name == "rho" {
+                ColourMap::Viridis
+            } else {
+                ColourMap::Diverging
+            },
+            range: if name == "rho" { Some((0.0, 1.0)) } else { None },
+        };
+        let stem = format!("tf_{name}");
+        let f = heat_maps(
+            dir,
+            &stem,
+            &format!("Transfer function: {quantity}"),
+            &panels,
+            &scale,
+            spacing,
+        )?;
+        html.figure(
+            format!("Smoothed steady-state {quantity} over U (kernel Σ = diag({}, {})), contour lines every {} {unit}.",
+                analyses[0].params.smoother.covariance.var_vx, analyses[0].params.smoother.covariance.var_wz, spacing.unwrap_or(0.0)),
+            &f,
+        )?;
+        figures.push(f);
+    }
+
+    // Risk map.
+    html.section("Risk map");
+    let risk: Vec<RiskScenario> = analyses
+        .iter()
+        .flat_map(|a| a.risk.iter())
+        .filter_map(|r| {
+            let e = r.ellipse.as_ref()?;
+            Some(RiskScenario {
+                label: format!("{} {} {:?}", r.robot, r.terrain, r.motion).to_lowercase(),
+                colour_key: r.terrain.clone(),
+                median_rho: r.median_rho,
+                median_energy_j: r.median_k_x_j,
+                covariance: e.covariance,
+                dashed: matches!(r.motion, crate::analysis::risk::MotionClass::Rotation),
+            })
+        })
+        .collect();
+    let mut limits: Vec<EnergyLimit> = Vec::new();
+    for a in &analyses {
+        let l = format!("{} max (IDD over U)", a.robot);
+        if !limits.iter().any(|x| x.label == l) {
+            limits.push(EnergyLimit {
+                label: l,
+                energy_j: a.max_kinetic_energy.k_max_j,
+            });
+        }
+    }
+    if !risk.is_empty() {
+        let f = risk_map(
+            dir,
+            "risk_map",
+            "Risk: likelihood ρ vs severity K_x",
+            &risk,
+            &limits,
+            CHI2_2DOF_95,
+        )?;
+        html.figure("Median and 95 % ellipse of (ρ, measured kinetic energy) per scenario (solid: translation-dominant, dashed: rotation-dominant); horizontal lines: maximum kinetic energy of each robot over U.", &f)?;
+        figures.push(f);
+    }
+
+    // First-2-s accelerations against the limit.
+    html.section("Accelerations in the transient window");
+    let acc: Vec<(String, Vec<f64>, Vec<f64>)> = items
+        .iter()
+        .map(|(log, a)| {
+            let (ax, ay) = transient_accelerations(log, a);
+            (label(a), ax, ay)
+        })
+        .collect();
+    let limit = analyses.iter().find_map(|a| a.nominal.max_lin_acc_m_s2);
+    let panels = vec![
+        HistPanel {
+            title: "longitudinal".into(),
+            value: AxisLabel::new("ax", "m/s²"),
+            limit,
+            series: acc
+                .iter()
+                .map(|(l, x, _)| Samples::new(l.clone(), x.clone()))
+                .collect(),
+        },
+        HistPanel {
+            title: "lateral".into(),
+            value: AxisLabel::new("ay", "m/s²"),
+            limit: None,
+            series: acc
+                .iter()
+                .map(|(l, _, y)| Samples::new(l.clone(), y.clone()))
+                .collect(),
+        },
+    ];
+    let f = histograms(
+        dir,
+        "transient_accelerations",
+        "Body accelerations in the first 2 s of each step",
+        &panels,
+        40,
+    )?;
+    html.figure("Pose-derived body-frame accelerations over the transient window; dashed lines: the user acceleration limit where declared.", &f)?;
+    figures.push(f);
+
+    html.section("Sensor cross-check");
+    for a in &analyses {
+        let rows: Vec<KeyFigure> = a
+            .crosscheck
+            .verdicts
+            .iter()
+            .map(|v| KeyFigure::new(&v.sensor, verdict_text(&v.verdict), ""))
+            .chain(std::iter::once(KeyFigure::new(
+                "yaw-rate source used",
+                format!("{:?}: {}", a.yaw_rate_source, a.crosscheck.yaw_rate_reason),
+                "",
+            )))
+            .collect();
+        html.table(format!("{}: sensor verdicts", a.dataset), &rows);
+    }
+    let html_path = html.write(dir)?;
+    Ok(AnalysisReportFiles {
+        summary: summary_path,
+        transfer_functions: tf_path,
+        html: html_path,
+        figures,
+    })
+}
+
+fn verdict_text(v: &crate::analysis::crosscheck::Verdict) -> String {
+    use crate::analysis::crosscheck::Verdict;
+    match v {
+        Verdict::Pass => "pass".into(),
+        Verdict::Fault { description } => format!("FAULT: {description}"),
+        Verdict::Inconclusive { description } => format!("inconclusive: {description}"),
+    }
+}
+
+fn heat_panel(a: &Analysis, name: &str) -> Option<HeatPanel> {
+    let tf = a.transfer.as_ref()?;
+    let ch = tf.names.iter().position(|n| n == name)?;
+    let g = &tf.grid;
+    let nvx = g.vx_m_s.len();
+    // The analysis grid is wz-major; the figure grid is vx-major.
+    let grid = Grid2 {
+        vx_m_s: g.vx_m_s.clone(),
+        wz_rad_s: g.wz_rad_s.clone(),
+        values: (0..nvx)
+            .flat_map(|iv| (0..g.wz_rad_s.len()).map(move |iw| iw * nvx + iv))
+            .map(|idx| Some(tf.smoothed.values[ch][idx]).filter(|v| v.is_finite()))
+            .collect(),
+    };
+    Some(HeatPanel {
+        title: label(a),
+        grid,
+        command_space: a.nominal.command_space().polygon_body(),
+    })
+}
+
+fn key_figures(log: &DriveLog, a: &Analysis) -> Vec<KeyFigure> {
+    let med = |b: Option<crate::analysis::stats::BoxStats>| b.map_or(f64::NAN, |b| b.median);
+    let s = &a.stats;
+    vec![
+        KeyFigure::new(
+            "steps analysed / excluded",
+            format!("{} / {}", a.steps.len(), a.exclusions.len()),
+            "",
+        ),
+        KeyFigure::new(
+            "interruptions / time efficiency",
+            format!(
+                "{} / {:.1} %",
+                log.interruptions.len(),
+                100.0 * log.time_efficiency()
+            ),
+            "",
+        ),
+        KeyFigure::new("median slip vx", format!("{:.3}", med(s.vx_m_s)), "m/s"),
+        KeyFigure::new("median slip vy", format!("{:.3}", med(s.vy_m_s)), "m/s"),
+        KeyFigure::new("median slip wz", format!("{:.3}", med(s.wz_rad_s)), "rad/s"),
+        KeyFigure::new(
+            "median slip left / right",
+            format!("{:.2} / {:.2}", med(s.left_rad_s), med(s.right_rad_s)),
+            "rad/s",
+        ),
+        KeyFigure::new("median ρ", format!("{:.3}", med(s.rho)), ""),
+        KeyFigure::new(
+            "IDD RMSE vx / vy / wz",
+            format!(
+                "{:.3} / {:.3} / {:.3}",
+                a.idd_rmse.vx_m_s, a.idd_rmse.vy_m_s, a.idd_rmse.wz_rad_s
+            ),
+            "m/s, m/s, rad/s",
+        ),
+        KeyFigure::new(
+            "area of T / U (body, wheels)",
+            format!(
+                "{:.1} / {:.1}",
+                a.spaces.t_area_pct_body, a.spaces.t_area_pct_wheels
+            ),
+            "%",
+        ),
+        KeyFigure::new(
+            "max kinetic energy over U",
+            format!("{:.0}", a.max_kinetic_energy.k_max_j),
+            "J",
+        ),
+        KeyFigure::new("yaw-rate source", format!("{:?}", a.yaw_rate_source), ""),
+    ]
+}

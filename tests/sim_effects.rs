@@ -1,0 +1,259 @@
+//! Each injectable effect shows its signature; sensors, noise, determinism, replay reset, and a
+//! protocol run on the simulator.
+
+use drive_sim::kinematics::{BodyVelocity, WheelSpeeds};
+use drive_sim::log::{Measurement, Pose};
+use drive_sim::protocol::sampler::UniformWheel;
+use drive_sim::protocol::{run_drive, ProtocolConfig};
+use drive_sim::robot::Robot;
+use drive_sim::sim::{Effects, Plant, SensorNoise, SimConfig, Simulator};
+use drive_sim::terrain::Terrain;
+
+const TICK_S: f64 = 0.05;
+
+fn setup(robot: &str, terrain: &str, effects: &[(&str, f64)]) -> (Robot, Simulator) {
+    let r = Robot::resolve(robot).unwrap().0;
+    let t = Terrain::resolve(terrain).unwrap().0;
+    let mut e = Effects::default();
+    for (n, v) in effects {
+        e.set(n, *v).unwrap();
+    }
+    let cfg = SimConfig {
+        effects: e,
+        ..Default::default()
+    };
+    let mut s = Simulator::new(&r, &t, cfg).unwrap();
+    s.advance(1.0).unwrap();
+    (r, s)
+}
+
+fn hold(s: &mut Simulator, cmd: WheelSpeeds, secs: f64) -> Vec<(Measurement, BodyVelocity)> {
+    s.command(cmd);
+    (0..(secs / TICK_S).round() as usize)
+        .map(|_| {
+            s.advance(TICK_S).unwrap();
+            (s.measure(), s.true_velocity())
+        })
+        .collect()
+}
+
+fn mean_tail<T>(run: &[T], n: usize, f: impl Fn(&T) -> f64) -> f64 {
+    run[run.len() - n..].iter().map(f).sum::<f64>() / n as f64
+}
+
+#[test]
+fn weaker_left_motor_curves_left() {
+    let (_, mut s) = setup("warthog", "asphalt", &[("motor_gain_left", 0.8)]);
+    let run = hold(&mut s, WheelSpeeds::new(10.0, 10.0), 6.0);
+    let enc_l = mean_tail(&run, 40, |x| x.0.enc.left_rad_s);
+    let wz = mean_tail(&run, 40, |x| x.1.wz_rad_s);
+    assert!((enc_l - 8.0).abs() < 0.05, "{enc_l}");
+    assert!(wz > 0.1, "curves left: wz = {wz}");
+    let (_, mut s) = setup("warthog", "asphalt", &[]);
+    let run = hold(&mut s, WheelSpeeds::new(10.0, 10.0), 6.0);
+    assert!(mean_tail(&run, 40, |x| x.1.wz_rad_s).abs() < 1e-3);
+}
+
+#[test]
+fn saturation_radius_and_encoder_scale() {
+    let (_, mut s) = setup("warthog", "asphalt", &[("wheel_speed_saturation_rad_s", 12.0)]);
+    let run = hold(&mut s, WheelSpeeds::new(16.0, 16.0), 5.0);
+    assert!((mean_tail(&run, 20, |x| x.0.enc.right_rad_s) - 12.0).abs() < 0.01);
+
+    // A smaller effective radius: wheels at the command, body at scale x IDD.
+    let (r, mut s) = setup("warthog", "asphalt", &[("wheel_radius_scale", 0.9)]);
+    let run = hold(&mut s, WheelSpeeds::new(10.0, 10.0), 6.0);
+    let vx = mean_tail(&run, 40, |x| x.1.vx_m_s);
+    let idd = r.wheels.radius_m * 10.0;
+    assert!((vx / idd - 0.9).abs() < 0.02, "{vx} vs {idd}");
+
+    let (_, mut s) = setup("husky", "tile", &[("encoder_scale", 1.1)]);
+    let run = hold(&mut s, WheelSpeeds::new(4.0, 4.0), 3.0);
+    for (m, _) in &run {
+        let t = m.truth.unwrap().wheels;
+        assert!((m.enc.left_rad_s - 1.1 * t.left_rad_s).abs() < 1e-9);
+    }
+    assert!((mean_tail(&run, 10, |x| x.0.enc.left_rad_s) - 4.4).abs() < 0.02);
+}
+
+#[test]
+fn dead_time_and_time_constant_delay_the_wheels() {
+    // Small step (ramp over 0.15 s) so that the first-order loop dominates.
+    let first_wheel = |effects: &[(&str, f64)]| {
+        let (_, mut s) = setup("warthog", "asphalt", effects);
+        let run = hold(&mut s, WheelSpeeds::new(2.0, 2.0), 4.0);
+        run.iter().map(|x| x.0.enc.left_rad_s).collect::<Vec<_>>()
+    };
+    let base = first_wheel(&[]);
+    let dead = first_wheel(&[("dead_time_s", 0.5)]);
+    assert!(base[4] > 0.5, "{}", base[4]);
+    // Nothing happens during the dead time (ticks end at 0.05 .. 0.5 s).
+    assert!(dead[..9].iter().all(|w| w.abs() < 1e-9), "{:?}", &dead[..10]);
+    // Afterwards the same response, shifted by 0.5 s (10 ticks).
+    for k in 0..20 {
+        assert!(
+            (dead[k + 10] - base[k]).abs() < 0.02,
+            "{k}: {} vs {}",
+            dead[k + 10],
+            base[k]
+        );
+    }
+    // A slower loop: at t = 0.4 s the base (T = 0.25 s) is much closer to the target.
+    let slow = first_wheel(&[("time_constant_scale", 3.0)]);
+    assert!(slow[7] < base[7] - 0.3, "{} vs {}", slow[7], base[7]);
+    // Both reach the command.
+    assert!((slow.last().unwrap() - 2.0).abs() < 0.02);
+}
+
+#[test]
+fn more_turning_resistance_turns_slower() {
+    let wz = |effects: &[(&str, f64)]| {
+        let (_, mut s) = setup("husky", "asphalt", effects);
+        let run = hold(&mut s, WheelSpeeds::new(-3.0, 3.0), 5.0);
+        mean_tail(&run, 40, |x| x.1.wz_rad_s)
+    };
+    let (base, stiff) = (wz(&[]), wz(&[("turning_resistance_scale", 1.5)]));
+    assert!(stiff < 0.85 * base, "{stiff} vs {base}");
+}
+
+#[test]
+fn torsion_springs_back_after_a_slow_turn() {
+    // A slow turn in place winds up the tyres; when the command stops, the chassis rotates
+    // back (yaw rate changes sign). Without the effect it just stops.
+    let back = |effects: &[(&str, f64)]| {
+        let (_, mut s) = setup("warthog", "asphalt", effects);
+        hold(&mut s, WheelSpeeds::new(-1.0, 1.0), 3.0);
+        let run = hold(&mut s, WheelSpeeds::default(), 2.0);
+        run.iter().map(|x| x.1.wz_rad_s).fold(f64::INFINITY, f64::min)
+    };
+    let (off, on) = (back(&[]), back(&[("suspension_torsion_m", 0.3)]));
+    let longer = back(&[("suspension_torsion_m", 0.6)]);
+    eprintln!("torsion spring-back: min wz off {off:.4}, 0.3 m {on:.4}, 0.6 m {longer:.4}");
+    assert!(longer < on, "a softer spring winds up more");
+    assert!(off > -1e-3, "no spring-back without torsion: {off}");
+    assert!(on < -0.005, "spring-back with torsion: {on}");
+}
+
+#[test]
+fn imu_faults_and_pose_latency() {
+    let (_, mut s) = setup(
+        "husky",
+        "asphalt",
+        &[("imu_yaw_rate_scale", 2.0), ("imu_yaw_rate_bias_rad_s", 0.1)],
+    );
+    for (m, v) in hold(&mut s, WheelSpeeds::new(1.0, 3.0), 2.0) {
+        assert!((m.imu.wz_rad_s - (2.0 * v.wz_rad_s + 0.1)).abs() < 1e-5);
+    }
+    let (_, mut s) = setup("husky", "asphalt", &[("imu_yaw_rate_sign_flip", 1.0)]);
+    let run = hold(&mut s, WheelSpeeds::new(1.0, 3.0), 2.0);
+    assert!(run
+        .iter()
+        .all(|(m, v)| (m.imu.wz_rad_s + v.wz_rad_s).abs() < 1e-5));
+    assert!(run.last().unwrap().1.wz_rad_s > 0.1);
+
+    let (_, mut s) = setup("warthog", "asphalt", &[("pose_latency_s", 0.5)]);
+    let run = hold(&mut s, WheelSpeeds::new(10.0, 10.0), 6.0);
+    let (m, v) = run.last().unwrap();
+    let lag = m.truth.unwrap().pose.x_m - m.pose.x_m;
+    // At a steady 3 m/s the pose is 0.5 s x 3 m/s behind.
+    assert!((lag - 0.5 * v.vx_m_s).abs() < 0.02, "{lag}");
+}
+
+fn run_measurements(cfg: SimConfig, terrain: &str, ticks: usize) -> Vec<Measurement> {
+    let r = Robot::resolve("warthog").unwrap().0;
+    let t = Terrain::resolve(terrain).unwrap().0;
+    let mut s = Simulator::new(&r, &t, cfg).unwrap();
+    s.command(WheelSpeeds::new(6.0, 9.0));
+    (0..ticks)
+        .map(|_| {
+            s.advance(TICK_S).unwrap();
+            s.measure()
+        })
+        .collect()
+}
+
+#[test]
+fn same_seed_same_bits_and_noise_has_the_configured_spread() {
+    let noise = SensorNoise {
+        encoder_rad_s: 0.1,
+        pose_position_m: 0.01,
+        pose_yaw_rad: 0.01,
+        imu_gyro_rad_s: 0.02,
+        imu_accel_m_s2: 0.05,
+    };
+    let cfg = |seed| SimConfig {
+        seed,
+        noise,
+        ..Default::default()
+    };
+    let a = run_measurements(cfg(7), "gravel", 2000);
+    let b = run_measurements(cfg(7), "gravel", 2000);
+    let c = run_measurements(cfg(8), "gravel", 200);
+    assert_eq!(a, b, "bit-identical with the same seed");
+    assert_ne!(a, c);
+    // Encoder noise: residual against the true wheel speed has the configured std.
+    let res: Vec<f64> = a
+        .iter()
+        .map(|m| m.enc.left_rad_s - m.truth.unwrap().wheels.left_rad_s)
+        .collect();
+    let std = (res.iter().map(|x| x * x).sum::<f64>() / res.len() as f64).sqrt();
+    // 2000 draws: the sample std is within 5 % (3.2 standard errors) of 0.1.
+    assert!((std / 0.1 - 1.0).abs() < 0.05, "{std}");
+    // Off by default: encoders equal the truth.
+    let quiet = run_measurements(SimConfig::default(), "asphalt", 20);
+    assert!(quiet.iter().all(|m| m.enc == m.truth.unwrap().wheels));
+}
+
+#[test]
+fn reset_places_the_robot_moving() {
+    let r = Robot::resolve("warthog").unwrap().0;
+    let t = Terrain::resolve("asphalt").unwrap().0;
+    let mut s = Simulator::new(&r, &t, SimConfig::default()).unwrap();
+    let pose = Pose {
+        x_m: 3.0,
+        y_m: -2.0,
+        yaw_rad: 1.0,
+        ..Default::default()
+    };
+    let wheels = WheelSpeeds::new(8.0, 8.0);
+    s.reset(pose, BodyVelocity::new(2.4, 0.0, 0.0), wheels);
+    let p = s.true_pose();
+    assert!((p.x_m - 3.0).abs() < 1e-5 && (p.yaw_rad - 1.0).abs() < 1e-5);
+    assert!((p.z_m - r.body.com_height_m).abs() < 1e-3);
+    // Rolling at the IDD speed of its wheels, it keeps going straight at 2.4 m/s.
+    s.advance(1.0).unwrap();
+    let v = s.true_velocity();
+    assert!((v.vx_m_s - 2.4).abs() < 0.03 && v.wz_rad_s.abs() < 1e-3, "{v:?}");
+    let q = s.true_pose();
+    assert!(((q.x_m - 3.0) - 2.4 * 1f64.cos()).abs() < 0.05, "{q:?}");
+    assert!((s.measure().enc.left_rad_s - 8.0).abs() < 0.05);
+}
+
+#[test]
+fn drive_protocol_on_ice_completes() {
+    let r = Robot::resolve("warthog").unwrap().0;
+    let t = Terrain::resolve("ice").unwrap().0;
+    let mut s = Simulator::new(&r, &t, SimConfig::default()).unwrap();
+    let mut sampler = UniformWheel::new(3);
+    let cfg = ProtocolConfig {
+        steps: 5,
+        ..Default::default()
+    };
+    let mut frames = Vec::new();
+    let summary = run_drive(&mut s, &r, &mut sampler, &cfg, &mut frames).unwrap();
+    assert_eq!(summary.steps_completed, 5);
+    assert!(frames.len() >= 5 * 120);
+    // On ice the operator's assumed braking (1.5 m/s²) exceeds what the ice gives (mu_slide g
+    // = 0.69 m/s²): from full speed the robot slides past the predicted stop by at most
+    // v²/(2 mu g) - v²/(2 x 1.5).
+    let v = r.limits.max_lin_m_s;
+    let extra =
+        v * v / (2.0 * t.friction.sliding_longitudinal * 9.81) - v * v / (2.0 * cfg.operator_decel_m_s2);
+    let mut worst: f64 = 0.0;
+    for f in &frames {
+        let p = f.m.truth.unwrap().pose;
+        worst = worst.max(p.x_m.abs() - 22.5).max(p.y_m.abs() - 10.0);
+    }
+    assert!(worst <= extra, "{worst} m beyond the border, bound {extra}");
+    eprintln!("ice DRIVE: {summary:?}, worst excursion {worst:.2} m");
+}
