@@ -968,8 +968,4 @@ impl Plant for Simulator {
     fn time_s(&self) -> f64 {
         self.time_s
     }
-
-    fn reset(&mut self, pose: Pose, velocity: BodyVelocity, wheels: WheelSpeeds) {
-        Simulator::reset(self, pose, velocity, wheels)
-    }
 }
