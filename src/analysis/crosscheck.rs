@@ -4,9 +4,12 @@
 //! For each comparison (a "measured" signal against a "reference"):
 //! * sign, scale and bias from the least-squares line through the per-window means
 //!   (measured = slope · reference + intercept); window means average the sample noise away,
-//!   so the slope is not attenuated by noise in the reference;
-//! * latency from the cross-correlation of the per-window de-meaned sample series (only the
-//!   variation inside a window carries timing information), pooled over windows, searched over
+//!   so the slope is not attenuated by noise in the reference. For the accelerometer, through
+//!   the half-window accelerations of the transient windows instead (see [`cross_check`]);
+//! * latency from the cross-correlation of the sample series, centred per window over the pairs
+//!   that overlap at each lag (only the variation inside a window carries timing information),
+//!   pooled over the transient windows (where the signals move), using only samples whose pose
+//!   derivative is centred, searched over
 //!   ±`max_lag_search_s`, refined by a parabola through the peak; positive = the measured signal
 //!   is late.
 //!
@@ -34,6 +37,8 @@ pub struct CrossCheckParams {
     pub max_latency_s: f64,
     /// Lag search range, s.
     pub max_lag_search_s: f64,
+    /// Below this |correlation| at the peak the latency is undetermined and not judged.
+    pub min_latency_correlation: f64,
 }
 
 impl Default for CrossCheckParams {
@@ -45,6 +50,7 @@ impl Default for CrossCheckParams {
             max_yaw_bias_rad_s: 0.05,
             max_latency_s: 0.1,
             max_lag_search_s: 0.5,
+            min_latency_correlation: 0.5,
         }
     }
 }
@@ -60,7 +66,7 @@ pub struct Comparison {
     pub fit: LinearFit,
     /// Estimated latency of the measured signal, s (positive = late).
     pub latency_s: f64,
-    /// Correlation of the de-meaned sample series at that latency.
+    /// Correlation of the (per-window centred) sample series at that latency.
     pub latency_correlation: f64,
 }
 
@@ -148,7 +154,8 @@ fn compare(
 ) -> Comparison {
     let mut mx = Vec::new();
     let mut my = Vec::new();
-    // De-meaned per-window series.
+    // Per-window sample series, NaN where unusable for timing (non-finite or one-sided
+    // derivative at the window's ends).
     let mut series: Vec<(Vec<f64>, Vec<f64>)> = Vec::new();
     for w in windows {
         let a: Vec<f64> = w.iter().map(measured.1).collect();
@@ -162,37 +169,47 @@ fn compare(
         if n == 0 {
             continue;
         }
-        let ma = a.iter().zip(&ok).filter(|p| *p.1).map(|p| p.0).sum::<f64>() / n as f64;
-        let mb = b.iter().zip(&ok).filter(|p| *p.1).map(|p| p.0).sum::<f64>() / n as f64;
-        my.push(ma);
-        mx.push(mb);
-        series.push((
-            a.iter()
-                .zip(&ok)
-                .map(|(x, o)| if *o { x - ma } else { f64::NAN })
-                .collect(),
-            b.iter()
-                .zip(&ok)
-                .map(|(y, o)| if *o { y - mb } else { f64::NAN })
-                .collect(),
-        ));
+        my.push(a.iter().zip(&ok).filter(|p| *p.1).map(|p| p.0).sum::<f64>() / n as f64);
+        mx.push(b.iter().zip(&ok).filter(|p| *p.1).map(|p| p.0).sum::<f64>() / n as f64);
+        let timing = |v: &[f64]| -> Vec<f64> {
+            v.iter()
+                .zip(w)
+                .map(|(x, s)| if x.is_finite() && s.centered { *x } else { f64::NAN })
+                .collect()
+        };
+        // Timing from the transient windows only: in steady windows the signals are flat and
+        // their within-window variation is sensor noise, which dilutes the correlation peak.
+        if w.first().is_some_and(|s| s.window == 0) {
+            series.push((timing(&a), timing(&b)));
+        }
     }
     let fit = linear_fit(&mx, &my);
     let max_lag = (params.max_lag_search_s * rate_hz).round() as i64;
+    // Pearson correlation at `lag`, each window centred over its own overlapping pairs (so a
+    // shift does not leave a constant offset that biases the peak), pooled over windows.
     let corr_at = |lag: i64| -> f64 {
         let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
         for (a, b) in &series {
-            for i in 0..b.len() as i64 {
-                let j = i + lag;
-                if j < 0 || j >= a.len() as i64 {
-                    continue;
-                }
-                let (x, y) = (a[j as usize], b[i as usize]);
-                if x.is_finite() && y.is_finite() {
-                    sab += x * y;
-                    saa += x * x;
-                    sbb += y * y;
-                }
+            let pairs: Vec<(f64, f64)> = (0..b.len() as i64)
+                .filter_map(|i| {
+                    let j = i + lag;
+                    if j < 0 || j >= a.len() as i64 {
+                        return None;
+                    }
+                    let (x, y) = (a[j as usize], b[i as usize]);
+                    (x.is_finite() && y.is_finite()).then_some((x, y))
+                })
+                .collect();
+            if pairs.len() < 3 {
+                continue;
+            }
+            let n = pairs.len() as f64;
+            let ma = pairs.iter().map(|p| p.0).sum::<f64>() / n;
+            let mb = pairs.iter().map(|p| p.1).sum::<f64>() / n;
+            for (x, y) in pairs {
+                sab += (x - ma) * (y - mb);
+                saa += (x - ma) * (x - ma);
+                sbb += (y - mb) * (y - mb);
             }
         }
         if saa > 0.0 && sbb > 0.0 {
@@ -246,7 +263,7 @@ fn identity_verdict(
     max_bias: Option<f64>,
     params: &CrossCheckParams,
 ) -> Verdict {
-    if !(c.fit.correlation.abs() >= params.min_correlation) {
+    if !c.fit.correlation.is_finite() || c.fit.correlation.abs() < params.min_correlation {
         return Verdict::Inconclusive {
             description: format!("|r| below {}: {}", params.min_correlation, describe(c)),
         };
@@ -263,7 +280,9 @@ fn identity_verdict(
             faults.push(format!("bias {:+.4} (tolerance ±{b})", c.fit.intercept));
         }
     }
-    if c.latency_s.abs() > params.max_latency_s {
+    if c.latency_correlation.abs() >= params.min_latency_correlation
+        && c.latency_s.abs() > params.max_latency_s
+    {
         faults.push(format!(
             "latency {:+.3} s (tolerance ±{} s)",
             c.latency_s, params.max_latency_s
@@ -279,7 +298,17 @@ fn identity_verdict(
 }
 
 /// Cross-checks the sensors over the given windows (each a time-ordered sample series).
-pub fn cross_check(windows: &[Vec<SampleKinematics>], rate_hz: f64, params: &CrossCheckParams) -> CrossCheck {
+///
+/// `accelerations` holds, per transient window, `[imu_ax, imu_ay, pose_ax, pose_ay]` from
+/// [`super::velocity::half_window_acceleration`]: sign, scale and bias of the accelerometer come
+/// from them (window means of steady windows carry no acceleration, only the gravity
+/// projection of the terrain's slope); its latency still comes from the sample series.
+pub fn cross_check(
+    windows: &[Vec<SampleKinematics>],
+    accelerations: &[[f64; 4]],
+    rate_hz: f64,
+    params: &CrossCheckParams,
+) -> CrossCheck {
     let imu_wz: (&str, Getter) = ("imu_wz", |s| s.imu_wz_rad_s);
     let pose_wz: (&str, Getter) = ("pose_wz", |s| s.pose.wz_rad_s);
     let enc_wz: (&str, Getter) = ("encoder_idd_wz", |s| s.enc_body.wz_rad_s);
@@ -293,8 +322,11 @@ pub fn cross_check(windows: &[Vec<SampleKinematics>], rate_hz: f64, params: &Cro
     let c_enc = compare(windows, enc_wz, pose_wz, rate_hz, params);
     let c_imu_enc = compare(windows, imu_wz, enc_wz, rate_hz, params);
     let c_vx = compare(windows, enc_vx, pose_vx, rate_hz, params);
-    let c_ax = compare(windows, imu_ax, pose_ax, rate_hz, params);
-    let c_ay = compare(windows, imu_ay, pose_ay, rate_hz, params);
+    let mut c_ax = compare(windows, imu_ax, pose_ax, rate_hz, params);
+    let mut c_ay = compare(windows, imu_ay, pose_ay, rate_hz, params);
+    let col = |i: usize| accelerations.iter().map(|a| a[i]).collect::<Vec<f64>>();
+    c_ax.fit = linear_fit(&col(2), &col(0));
+    c_ay.fit = linear_fit(&col(3), &col(1));
 
     let sign = |c: &Comparison| c.fit.slope.signum();
     let mut verdicts = Vec::new();
@@ -308,7 +340,7 @@ pub fn cross_check(windows: &[Vec<SampleKinematics>], rate_hz: f64, params: &Cro
                 describe(&c_enc)
             ),
         }
-    } else if !(c_enc.fit.correlation.abs() >= params.min_correlation) {
+    } else if !c_enc.fit.correlation.is_finite() || c_enc.fit.correlation.abs() < params.min_correlation {
         Verdict::Inconclusive {
             description: format!(
                 "pose yaw rate weakly correlated with the encoders: {}",
@@ -347,7 +379,7 @@ pub fn cross_check(windows: &[Vec<SampleKinematics>], rate_hz: f64, params: &Cro
             Verdict::Fault {
                 description: faults.join("; "),
             }
-        } else if !(c_vx.fit.correlation.abs() >= params.min_correlation) {
+        } else if !c_vx.fit.correlation.is_finite() || c_vx.fit.correlation.abs() < params.min_correlation {
             Verdict::Inconclusive {
                 description: format!(
                     "encoder speed weakly correlated with the pose: {}",

@@ -128,6 +128,35 @@ pub struct SlipStats {
     pub rho: Option<BoxStats>,
     /// Realized weighted energy K_x, J.
     pub k_x_j: Option<BoxStats>,
+    /// The same slips signed along the command (positive = slower than commanded), the
+    /// magnitude view: signed slips of commands drawn symmetrically about zero have medians
+    /// near zero whatever the terrain.
+    pub along_command: AlongCommandStats,
+}
+
+/// Slip statistics signed along the command: `sign(u) · g` per component (steps with a zero
+/// command component left out), and |vy| for the lateral slip (its command is zero).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct AlongCommandStats {
+    /// `sign(u_vx) · g_vx`, m/s.
+    pub vx_m_s: Option<BoxStats>,
+    /// `|g_vy|`, m/s.
+    pub vy_abs_m_s: Option<BoxStats>,
+    /// `sign(u_wz) · g_wz`, rad/s.
+    pub wz_rad_s: Option<BoxStats>,
+    /// `sign(u_l) · g_l`, rad/s.
+    pub left_rad_s: Option<BoxStats>,
+    /// `sign(u_r) · g_r`, rad/s.
+    pub right_rad_s: Option<BoxStats>,
+}
+
+/// `sign(u) · g`, NaN when `u` is zero.
+fn along(u: f64, g: f64) -> f64 {
+    if u == 0.0 {
+        f64::NAN
+    } else {
+        u.signum() * g
+    }
 }
 
 /// One flat row per step and window (and one per step's steady state, `window = None`), for
@@ -318,7 +347,15 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         })
         .collect();
     let all_windows: Vec<Vec<SampleKinematics>> = kin.iter().flatten().cloned().collect();
-    let crosscheck = crosscheck::cross_check(&all_windows, meta.rate_hz, &params.crosscheck);
+    let accelerations: Vec<[f64; 4]> = segments
+        .iter()
+        .filter_map(|s| {
+            s.windows
+                .first()
+                .and_then(|w| velocity::half_window_acceleration(w))
+        })
+        .collect();
+    let crosscheck = crosscheck::cross_check(&all_windows, &accelerations, meta.rate_hz, &params.crosscheck);
     let source = params.yaw_rate_source.unwrap_or(crosscheck.yaw_rate_source);
 
     let mut steps = Vec::with_capacity(segments.len());
@@ -336,15 +373,12 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
                 mean_of(k.iter().map(|s| s.enc.left_rad_s)),
                 mean_of(k.iter().map(|s| s.enc.right_rad_s)),
             );
+            let pose = velocity::window_mean_body_velocity(seg.windows[w]);
             let wz = match source {
                 YawRateSource::Imu => mean_of(k.iter().map(|s| s.imu_wz_rad_s)),
-                YawRateSource::Pose => mean_of(k.iter().map(|s| s.pose.wz_rad_s)),
+                YawRateSource::Pose => pose.wz_rad_s,
             };
-            let body = BodyVelocity::new(
-                mean_of(k.iter().map(|s| s.pose.vx_m_s)),
-                mean_of(k.iter().map(|s| s.pose.vy_m_s)),
-                wz,
-            );
+            let body = BodyVelocity::new(pose.vx_m_s, pose.vy_m_s, wz);
             let rec = slip::slip(&idd, cmd, wheels, body);
             windows.push(WindowResult {
                 window: seg.windows[w].first().map_or(w as u32, |s| s.window),
@@ -387,6 +421,21 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         right_rad_s: BoxStats::from_values(&g_r),
         rho: BoxStats::from_values(&rhos),
         k_x_j: BoxStats::from_values(&col(&|s| s.steady_rho.k_x_j)),
+        along_command: AlongCommandStats {
+            vx_m_s: BoxStats::from_values(&col(&|s| {
+                along(s.steady.cmd_body.vx_m_s, s.steady.slip_body.vx_m_s)
+            })),
+            vy_abs_m_s: BoxStats::from_values(&col(&|s| s.steady.slip_body.vy_m_s.abs())),
+            wz_rad_s: BoxStats::from_values(&col(&|s| {
+                along(s.steady.cmd_body.wz_rad_s, s.steady.slip_body.wz_rad_s)
+            })),
+            left_rad_s: BoxStats::from_values(&col(&|s| {
+                along(s.steady.cmd_wheels.left_rad_s, s.steady.slip_wheels.left_rad_s)
+            })),
+            right_rad_s: BoxStats::from_values(&col(&|s| {
+                along(s.steady.cmd_wheels.right_rad_s, s.steady.slip_wheels.right_rad_s)
+            })),
+        },
     };
     let idd_rmse = rms(&steps.iter().map(|s| s.steady.slip_body).collect::<Vec<_>>());
     let pts = |f: &dyn Fn(&StepResult) -> (f64, f64)| steps.iter().map(f).collect::<Vec<(f64, f64)>>();
@@ -423,7 +472,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         let sp = &params.smoother;
         let grid = Grid::over_space(&space, sp.resolution_vx_m_s, sp.resolution_wz_rad_s);
         let cmd_pts = pts(&|s| (s.steady.cmd_body.vx_m_s, s.steady.cmd_body.wz_rad_s));
-        let smoothed = smoother::smooth_fast(
+        let (method, smoothed) = smoother::smooth(
             &grid,
             &sp.covariance,
             &sp.fast,
@@ -433,6 +482,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         Some(TransferFunctions {
             grid,
             covariance: sp.covariance,
+            method,
             names: [
                 "slip_vx_m_s",
                 "slip_vy_m_s",
@@ -477,6 +527,21 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         transfer,
         rows,
     })
+}
+
+impl Analysis {
+    /// Steady-state ρ of every analysed step.
+    pub fn steady_rhos(&self) -> Vec<f64> {
+        self.steps.iter().map(|s| s.steady_rho.rho).collect()
+    }
+}
+
+/// Median steady-state ρ of `a` over the median of the pooled steady-state ρ of `others`: the
+/// paper's terrain comparison ("the median of ice is 1.6 times the median of grass, gravel and
+/// asphalt combined").
+pub fn rho_median_ratio(a: &Analysis, others: &[&Analysis]) -> f64 {
+    let pooled: Vec<f64> = others.iter().flat_map(|o| o.steady_rhos()).collect();
+    stats::median_ratio(&a.steady_rhos(), &pooled)
 }
 
 /// RMSE of the nominal ideal-differential-drive prediction of the steady-state body velocity

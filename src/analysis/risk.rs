@@ -68,7 +68,7 @@ impl MotionClass {
     /// Class of a command from its energies; `None` for a zero command.
     pub fn of(k_ut_j: f64, k_urot_j: f64) -> Option<Self> {
         let k = k_ut_j + k_urot_j;
-        if !(k > 0.0) {
+        if k.is_nan() || k <= 0.0 {
             None
         } else if k_ut_j >= 0.5 * k {
             Some(Self::Translation)

@@ -67,9 +67,80 @@ pub fn unwrap_angles(a: &[f64]) -> Vec<f64> {
     out
 }
 
+/// Mean body velocity over one window from the pose: least-squares slopes over the whole window
+/// of the body-frame path (vx, vy) and of the unwrapped yaw (wz).
+///
+/// The body-frame path accumulates each pose increment rotated by the mean heading of its two
+/// end samples, so it is a straight line `v t` for any motion at constant body velocity (a
+/// circle included). Why a whole-window fit: the measured ICP positions arrive with
+/// sample-and-hold jitter (at 3.2 m/s, 3-sample increments alternate between about 0.3 and
+/// 0.6 m), and the mean of per-sample derivatives telescopes to an end-point difference that
+/// carries the jitter of the two ends (up to 0.1 m/s on warthog_asphalt step 39); the line fit
+/// uses every sample. For a window whose speed drifts, it is a parabola-weighted mean
+/// (weights largest mid-window).
+pub fn window_mean_body_velocity(samples: &[Sample]) -> BodyVelocity {
+    let n = samples.len();
+    if n < 2 {
+        return BodyVelocity::new(f64::NAN, f64::NAN, f64::NAN);
+    }
+    let t: Vec<f64> = samples.iter().map(|s| s.t_in_step_s).collect();
+    let yaw = unwrap_angles(&samples.iter().map(|s| s.m.pose.yaw_rad).collect::<Vec<_>>());
+    let mut sx = vec![0.0; n];
+    let mut sy = vec![0.0; n];
+    for i in 1..n {
+        let (dx, dy) = (
+            samples[i].m.pose.x_m - samples[i - 1].m.pose.x_m,
+            samples[i].m.pose.y_m - samples[i - 1].m.pose.y_m,
+        );
+        let (s, c) = (0.5 * (yaw[i] + yaw[i - 1])).sin_cos();
+        sx[i] = sx[i - 1] + c * dx + s * dy;
+        sy[i] = sy[i - 1] - s * dx + c * dy;
+    }
+    let slope = |y: &[f64]| local_slope(&t, y, n)[0];
+    BodyVelocity::new(slope(&sx), slope(&sy), slope(&yaw))
+}
+
+/// Mean body acceleration over the middle of a (transient) window, from the pose and from the
+/// IMU, as `[imu_ax, imu_ay, pose_ax, pose_ay]` (m/s²).
+///
+/// The pose side differences the whole-half line-fit velocities of the two halves of the
+/// window (robust to the ICP jitter that ruins a second derivative per sample) and adds the
+/// rotating-frame terms: `ax = Δvx/Δt − wz vy`, `ay = Δvy/Δt + wz vx`. The IMU side is the mean
+/// specific force between the two half-centres. `None` with fewer than 8 samples.
+pub fn half_window_acceleration(samples: &[Sample]) -> Option<[f64; 4]> {
+    let n = samples.len();
+    if n < 8 {
+        return None;
+    }
+    let (a, b) = samples.split_at(n / 2);
+    let (va, vb) = (window_mean_body_velocity(a), window_mean_body_velocity(b));
+    let mean_t = |s: &[Sample]| s.iter().map(|x| x.t_in_step_s).sum::<f64>() / s.len() as f64;
+    let (ta, tb) = (mean_t(a), mean_t(b));
+    let dt = tb - ta;
+    if dt <= 0.0 {
+        return None;
+    }
+    let wz = 0.5 * (va.wz_rad_s + vb.wz_rad_s);
+    let vx = 0.5 * (va.vx_m_s + vb.vx_m_s);
+    let vy = 0.5 * (va.vy_m_s + vb.vy_m_s);
+    let mid: Vec<&Sample> = samples
+        .iter()
+        .filter(|s| s.t_in_step_s >= ta && s.t_in_step_s <= tb)
+        .collect();
+    let m = mid.len().max(1) as f64;
+    Some([
+        mid.iter().map(|s| s.m.imu.ax_m_s2).sum::<f64>() / m,
+        mid.iter().map(|s| s.m.imu.ay_m_s2).sum::<f64>() / m,
+        (vb.vx_m_s - va.vx_m_s) / dt - wz * vy,
+        (vb.vy_m_s - va.vy_m_s) / dt + wz * vx,
+    ])
+}
+
 /// Every velocity estimate of one sample of one window.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SampleKinematics {
+    /// Window index (0 transient).
+    pub window: u32,
     /// Time in the step, s.
     pub t_s: f64,
     /// Body velocity from the pose (vx, vy from positions rotated into the body frame, wz from yaw).
@@ -86,6 +157,9 @@ pub struct SampleKinematics {
     pub enc_body: BodyVelocity,
     /// Commanded wheel speeds, rad/s.
     pub cmd: WheelSpeeds,
+    /// True when the derivative neighbourhood is symmetric (not clipped by the window's ends):
+    /// only such samples carry undistorted timing for the latency estimate.
+    pub centered: bool,
 }
 
 /// Estimates every velocity of the samples of one window (in time order).
@@ -122,6 +196,7 @@ pub fn window_kinematics(
             let m = &samples[i].m;
             let wz = dyaw[i];
             SampleKinematics {
+                window: samples[i].window,
                 t_s: t[i],
                 pose: BodyVelocity::new(vx[i], vy[i], wz),
                 pose_acc_m_s2: (dvx[i] - wz * vy[i], dvy[i] + wz * vx[i]),
@@ -130,6 +205,7 @@ pub fn window_kinematics(
                 enc: m.enc,
                 enc_body: idd.body_from_wheels(m.enc),
                 cmd: m.cmd,
+                centered: i >= half_width && i + half_width < t.len(),
             }
         })
         .collect()
@@ -197,6 +273,25 @@ mod tests {
         let noisy = window_kinematics(&circle_samples(2.0, 0.8, 0.01), 3, &idd);
         let mean_vx = noisy.iter().map(|s| s.pose.vx_m_s).sum::<f64>() / 40.0;
         assert!((mean_vx - 2.0).abs() < 0.02, "{mean_vx}");
+    }
+
+    #[test]
+    fn window_mean_on_a_circle_and_with_jitter() {
+        // Exact on a circle: chords at mid-heading give v sinc(w dt / 2) = v (1 - 2.7e-4).
+        let v = window_mean_body_velocity(&circle_samples(2.0, 0.8, 0.0));
+        assert!(
+            (v.vx_m_s - 2.0).abs() < 1e-3 && v.vy_m_s.abs() < 1e-9 && (v.wz_rad_s - 0.8).abs() < 1e-9,
+            "{v:?}"
+        );
+        // Sample-and-hold jitter of the positions (every other sample repeats the previous
+        // one) leaves the line fit within 2 % while an end-point difference can be off by a
+        // whole sample when the last sample is a held one.
+        let mut s = circle_samples(2.0, 0.0001, 0.0);
+        for k in (1..40).step_by(2) {
+            s[k].m.pose = s[k - 1].m.pose;
+        }
+        let v = window_mean_body_velocity(&s);
+        assert!((v.vx_m_s - 2.0).abs() < 0.04, "{v:?}");
     }
 
     #[test]
