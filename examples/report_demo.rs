@@ -1,7 +1,9 @@
 //! Renders every report figure from synthetic (seeded) data, plus an HTML report embedding
 //! them, to check the figures by eye.
 //!
-//! `cargo run --example report_demo -- [out_dir]` (default `target/report_demo`).
+//! `cargo run --example report_demo -- [out_dir] [--measured]` (default `target/report_demo`).
+//! With `--measured`, also analyses the measured datasets (`../shared/data/measured`) and
+//! writes their report into `<out_dir>/measured`.
 //!
 //! The data are made up to look like the paper's (a Warthog on ice and asphalt); they are not
 //! simulation or measurement results.
@@ -11,8 +13,9 @@ use std::path::PathBuf;
 use drive_sim::kinematics::{BodyVelocity, CommandSpace, IdealDiffDrive, WheelSpeeds};
 use drive_sim::report::{
     box_plots, command_space_figure, heat_maps, histograms, line_bands, risk_map, value_scatter, AxisLabel,
-    BandPoint, BandSeries, BoxPanel, ColourMap, ColourScale, CommandScenario, EnergyLimit, Grid2, HeatPanel,
-    HistPanel, HtmlReport, KeyFigure, RiskScenario, Samples, ScatterPanel, ValuePoint, CHI2_2DOF_95,
+    BandPoint, BandSeries, BoxPanel, ColourMap, ColourScale, CommandScenario, EnergyAxis, EnergyLimit, Grid2,
+    HeatPanel, HistPanel, HtmlReport, KeyFigure, LineAxes, RiskEllipse, RiskScenario, Samples, ScatterPanel,
+    ValuePoint, CHI2_2DOF_95,
 };
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -106,6 +109,10 @@ fn median(v: &[f64]) -> f64 {
     v[v.len() / 2]
 }
 
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len() as f64
+}
+
 fn covariance(a: &[f64], b: &[f64]) -> [[f64; 2]; 2] {
     let n = a.len() as f64;
     let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
@@ -117,9 +124,31 @@ fn covariance(a: &[f64], b: &[f64]) -> [[f64; 2]; 2] {
 }
 
 fn main() -> drive_sim::Result<()> {
-    let out: PathBuf = std::env::args()
-        .nth(1)
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let measured = args.iter().any(|a| a == "--measured");
+    let out: PathBuf = args
+        .iter()
+        .find(|a| !a.starts_with("--"))
         .map_or_else(|| PathBuf::from("target/report_demo"), PathBuf::from);
+    if measured {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/measured");
+        let params = drive_sim::analysis::AnalysisParams::default();
+        let mut logs = vec![];
+        for f in [
+            "warthog_ice.csv",
+            "warthog_asphalt.csv",
+            "warthog_gravel.csv",
+            "husky_2023.csv",
+        ] {
+            let log = drive_sim::log::csv::read_measured_csv(dir.join(f))?;
+            let analysis = drive_sim::analysis::analyze(&log, &params)?;
+            logs.push((log, analysis));
+        }
+        let items: Vec<_> = logs.iter().map(|(l, a)| (l, a)).collect();
+        let html =
+            drive_sim::report::analysis_report::write_analysis_report(&items, &out.join("measured"))?.html;
+        println!("wrote {}", html.display());
+    }
     let space = CommandSpace {
         idd: IdealDiffDrive {
             wheel_radius_m: 0.3,
@@ -320,7 +349,10 @@ fn main() -> drive_sim::Result<()> {
                 colour_key: t.name.to_string(),
                 median_rho: median(&rh),
                 median_energy_j: median(&e),
-                covariance: covariance(&rh, &e),
+                ellipse: Some(RiskEllipse {
+                    centre: (mean(&rh), mean(&e)),
+                    covariance: covariance(&rh, &e),
+                }),
                 dashed,
             });
         }
@@ -340,10 +372,55 @@ fn main() -> drive_sim::Result<()> {
         &scenarios,
         &limits,
         CHI2_2DOF_95,
+        EnergyAxis::Linear,
     )?;
     report
         .section("Risk")
         .figure("Median and 95 % ellipse per scenario.", &f)?;
+    // Both robots on a log energy axis: covariance of (ρ, log10 E). The "Husky" here is the
+    // Warthog data scaled by mass (75/470) and speed squared ((1/5)^2); synthetic.
+    let husky_scale = 75.0 / 470.0 / 25.0;
+    let mut log_scen = vec![];
+    for (robot, k) in [("Warthog", 1.0), ("Husky", husky_scale)] {
+        for (t, r) in terrains.iter().zip(&runs).take(2) {
+            let rh: Vec<f64> = r.iter().map(|s| rho(s.cmd_b, s.body)).collect();
+            let le: Vec<f64> = r.iter().map(|s| (k * energy(s.body)).max(1e-3).log10()).collect();
+            log_scen.push(RiskScenario {
+                label: format!("{robot} {}", t.name),
+                colour_key: t.name.to_string(),
+                median_rho: median(&rh),
+                median_energy_j: 10f64.powf(median(&le)),
+                ellipse: Some(RiskEllipse {
+                    centre: (mean(&rh), mean(&le)),
+                    covariance: covariance(&rh, &le),
+                }),
+                dashed: robot == "Husky",
+            });
+        }
+    }
+    let log_limits = [
+        EnergyLimit {
+            label: "Warthog max".into(),
+            energy_j: e_max,
+        },
+        EnergyLimit {
+            label: "Husky max".into(),
+            energy_j: e_max * husky_scale,
+        },
+    ];
+    let f = risk_map(
+        &out,
+        "risk_map_log",
+        "Risk: two robots, log severity",
+        &log_scen,
+        &log_limits,
+        CHI2_2DOF_95,
+        EnergyAxis::Log10,
+    )?;
+    report.figure(
+        "Log energy axis; ellipses from the covariance of (ρ, log10 E).",
+        &f,
+    )?;
 
     // 6. Accelerations of the first 2 s.
     let normal = |sd: f64, n: usize, rng: &mut ChaCha8Rng| -> Vec<f64> {
@@ -398,8 +475,12 @@ fn main() -> drive_sim::Result<()> {
         &out,
         "error_vs_steps",
         "Calibration error vs number of steps",
-        &AxisLabel::new("number of DRIVE steps", ""),
-        &AxisLabel::new("wheel radius error", "m"),
+        &LineAxes {
+            x: AxisLabel::new("number of DRIVE steps", ""),
+            y: AxisLabel::new("wheel radius error", "m"),
+            log_x: true,
+            log_y: true,
+        },
         &series,
     )?;
     report

@@ -4,9 +4,11 @@
 
 use super::{
     box_plots, command_space_figure, heat_maps, histograms, risk_map, value_scatter, AxisLabel, BoxPanel,
-    ColourMap, ColourScale, CommandScenario, EnergyLimit, FigureFiles, Grid2, HeatPanel, HistPanel,
-    HtmlReport, KeyFigure, RiskScenario, Samples, ScatterPanel, ValuePoint, CHI2_2DOF_95,
+    ColourMap, ColourScale, CommandScenario, EnergyAxis, EnergyLimit, FigureFiles, Grid2, HeatPanel,
+    HistPanel, HtmlReport, KeyFigure, RiskEllipse, RiskScenario, Samples, ScatterPanel, ValuePoint,
+    CHI2_2DOF_95,
 };
+use crate::analysis::risk::MotionClass;
 use crate::analysis::{velocity, Analysis, StepResult};
 use crate::error::{Error, Result};
 use crate::log::DriveLog;
@@ -331,21 +333,13 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
 
     // Risk map.
     html.section("Risk map");
-    let risk: Vec<RiskScenario> = analyses
-        .iter()
-        .flat_map(|a| a.risk.iter())
-        .filter_map(|r| {
-            let e = r.ellipse.as_ref()?;
-            Some(RiskScenario {
-                label: format!("{} {} {:?}", r.robot, r.terrain, r.motion).to_lowercase(),
-                colour_key: r.terrain.clone(),
-                median_rho: r.median_rho,
-                median_energy_j: r.median_k_x_j,
-                covariance: e.covariance,
-                dashed: matches!(r.motion, crate::analysis::risk::MotionClass::Rotation),
-            })
-        })
-        .collect();
+    let n_robots = {
+        let mut r: Vec<&str> = analyses.iter().map(|a| a.robot.as_str()).collect();
+        r.sort_unstable();
+        r.dedup();
+        r.len()
+    };
+    let (risk, axis) = risk_scenarios(&analyses, n_robots > 1);
     let mut limits: Vec<EnergyLimit> = Vec::new();
     for a in &analyses {
         let l = format!("{} max (IDD over U)", a.robot);
@@ -364,8 +358,14 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
             &risk,
             &limits,
             CHI2_2DOF_95,
+            axis,
         )?;
-        html.figure("Median and 95 % ellipse of (ρ, measured kinetic energy) per scenario (solid: translation-dominant, dashed: rotation-dominant); horizontal lines: maximum kinetic energy of each robot over U.", &f)?;
+        let fit = if axis == EnergyAxis::Log10 {
+            "bivariate normal fit of (ρ, log10 K_x), drawn on the log energy axis"
+        } else {
+            "bivariate normal fit of (ρ, K_x)"
+        };
+        html.figure(format!("Median (dot) and 95 % ellipse ({fit}) per scenario (solid: translation-dominant, dashed: rotation-dominant); horizontal lines: maximum kinetic energy of each robot over U."), &f)?;
         figures.push(f);
     }
 
@@ -446,14 +446,13 @@ fn heat_panel(a: &Analysis, name: &str) -> Option<HeatPanel> {
     let tf = a.transfer.as_ref()?;
     let ch = tf.names.iter().position(|n| n == name)?;
     let g = &tf.grid;
-    let nvx = g.vx_m_s.len();
-    // The analysis grid is wz-major; the figure grid is vx-major.
+    // The analysis grid and the figure grid share the layout (wz major, vx minor).
     let grid = Grid2 {
         vx_m_s: g.vx_m_s.clone(),
         wz_rad_s: g.wz_rad_s.clone(),
-        values: (0..nvx)
-            .flat_map(|iv| (0..g.wz_rad_s.len()).map(move |iw| iw * nvx + iv))
-            .map(|idx| Some(tf.smoothed.values[ch][idx]).filter(|v| v.is_finite()))
+        values: tf.smoothed.values[ch]
+            .iter()
+            .map(|v| Some(*v).filter(|v| v.is_finite()))
             .collect(),
     };
     Some(HeatPanel {
@@ -513,4 +512,93 @@ fn key_figures(log: &DriveLog, a: &Analysis) -> Vec<KeyFigure> {
         ),
         KeyFigure::new("yaw-rate source", format!("{:?}", a.yaw_rate_source), ""),
     ]
+}
+
+/// Risk scenarios: the analysis' own (ρ, J) fits on a linear axis for one robot; for several
+/// robots, fits of (ρ, log10 K_x) from the steps (same motion classes), for a log axis.
+fn risk_scenarios(analyses: &[&Analysis], log: bool) -> (Vec<RiskScenario>, EnergyAxis) {
+    let mut out = vec![];
+    for a in analyses {
+        if !log {
+            for r in &a.risk {
+                out.push(RiskScenario {
+                    label: format!("{} {}, {}", r.robot, r.terrain, motion_name(r.motion)),
+                    colour_key: r.terrain.clone(),
+                    median_rho: r.median_rho,
+                    median_energy_j: r.median_k_x_j,
+                    ellipse: r.ellipse.map(|e| RiskEllipse {
+                        centre: e.center,
+                        covariance: e.covariance,
+                    }),
+                    dashed: r.motion == MotionClass::Rotation,
+                });
+            }
+            continue;
+        }
+        for class in [MotionClass::Translation, MotionClass::Rotation] {
+            let pts: Vec<(f64, f64)> = a
+                .steps
+                .iter()
+                .filter(|s| MotionClass::of(s.steady_rho.k_ut_j, s.steady_rho.k_urot_j) == Some(class))
+                .map(|s| (s.steady_rho.rho, s.steady_rho.k_x_j))
+                .filter(|p| p.0.is_finite() && p.1.is_finite() && p.1 > 0.0)
+                .collect();
+            if pts.is_empty() {
+                continue;
+            }
+            let logs: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, p.1.log10())).collect();
+            out.push(RiskScenario {
+                label: format!("{} {}, {}", a.robot, a.terrain, motion_name(class)),
+                colour_key: a.terrain.clone(),
+                median_rho: median(pts.iter().map(|p| p.0)),
+                median_energy_j: 10f64.powf(median(logs.iter().map(|p| p.1))),
+                ellipse: mean_cov(&logs),
+                dashed: class == MotionClass::Rotation,
+            });
+        }
+    }
+    (
+        out,
+        if log {
+            EnergyAxis::Log10
+        } else {
+            EnergyAxis::Linear
+        },
+    )
+}
+
+fn motion_name(m: MotionClass) -> &'static str {
+    match m {
+        MotionClass::Translation => "translation",
+        MotionClass::Rotation => "rotation",
+    }
+}
+
+fn median(v: impl Iterator<Item = f64>) -> f64 {
+    let mut v: Vec<f64> = v.filter(|x| x.is_finite()).collect();
+    v.sort_by(f64::total_cmp);
+    super::stats::quantile_sorted(&v, 0.5).unwrap_or(f64::NAN)
+}
+
+/// Mean and sample covariance of 2-D points; `None` with fewer than 3.
+fn mean_cov(p: &[(f64, f64)]) -> Option<RiskEllipse> {
+    if p.len() < 3 {
+        return None;
+    }
+    let n = p.len() as f64;
+    let m = (
+        p.iter().map(|q| q.0).sum::<f64>() / n,
+        p.iter().map(|q| q.1).sum::<f64>() / n,
+    );
+    let (mut a, mut b, mut c) = (0.0, 0.0, 0.0);
+    for q in p {
+        a += (q.0 - m.0).powi(2);
+        b += (q.0 - m.0) * (q.1 - m.1);
+        c += (q.1 - m.1).powi(2);
+    }
+    let d = n - 1.0;
+    Some(RiskEllipse {
+        centre: m,
+        covariance: [[a / d, b / d], [b / d, c / d]],
+    })
 }

@@ -12,7 +12,9 @@ use crate::{Error, Result};
 /// Values on a rectilinear grid over the body-frame command space (e.g. a transfer function
 /// or ρ smoothed onto grid points).
 ///
-/// `values[i_vx * wz_rad_s.len() + i_wz]` is the value at `(vx_m_s[i_vx], wz_rad_s[i_wz])`;
+/// `values[i_wz * vx_m_s.len() + i_vx]` is the value at `(vx_m_s[i_vx], wz_rad_s[i_wz])`
+/// (rows of constant yaw rate, vx fastest: the layout of
+/// [`analysis::smoother::Grid`](crate::analysis::smoother::Grid));
 /// `None` marks a grid point without a value (outside U, or too far from any sample).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Grid2 {
@@ -20,7 +22,7 @@ pub struct Grid2 {
     pub vx_m_s: Vec<f64>,
     /// Yaw rate of each grid column, strictly increasing, rad/s.
     pub wz_rad_s: Vec<f64>,
-    /// Row-major values (`vx` major, `wz` minor); `None` = masked.
+    /// Values, `wz` major and `vx` minor; `None` = masked.
     pub values: Vec<Option<f64>>,
 }
 
@@ -31,8 +33,8 @@ impl Grid2 {
     /// Builds a grid by evaluating `f(vx, wz)` at every grid point.
     pub fn from_fn(vx_m_s: Vec<f64>, wz_rad_s: Vec<f64>, mut f: impl FnMut(f64, f64) -> Option<f64>) -> Self {
         let mut values = Vec::with_capacity(vx_m_s.len() * wz_rad_s.len());
-        for &vx in &vx_m_s {
-            for &wz in &wz_rad_s {
+        for &wz in &wz_rad_s {
+            for &vx in &vx_m_s {
                 values.push(f(vx, wz));
             }
         }
@@ -41,6 +43,18 @@ impl Grid2 {
             wz_rad_s,
             values,
         }
+    }
+
+    /// Builds a grid from values in the same layout where NaN marks masked points (the
+    /// convention of the analysis smoother's output). Errors if the length does not match.
+    pub fn from_nan_masked(vx_m_s: Vec<f64>, wz_rad_s: Vec<f64>, values: &[f64]) -> Result<Self> {
+        let g = Self {
+            values: values.iter().map(|v| (!v.is_nan()).then_some(*v)).collect(),
+            vx_m_s,
+            wz_rad_s,
+        };
+        g.validate()?;
+        Ok(g)
     }
 
     /// Checks the shape: axes non-empty, finite, strictly increasing, and one value per point.
@@ -82,7 +96,7 @@ impl Grid2 {
             return None;
         }
         self.values
-            .get(i_vx * self.wz_rad_s.len() + i_wz)
+            .get(i_wz * self.vx_m_s.len() + i_vx)
             .copied()
             .flatten()
             .filter(|v| v.is_finite())
@@ -174,8 +188,13 @@ pub fn contour_segments(grid: &Grid2, level: f64) -> Result<Vec<ContourSegment>>
             };
             let crossings: Vec<(usize, (f64, f64))> =
                 (0..4).filter_map(|e| cross(e).map(|p| (e, p))).collect();
+            // A level passing exactly through a grid point gives crossings that coincide up
+            // to rounding: drop such degenerate segments.
+            let tiny = 1e-9
+                * ((grid.vx_m_s[i + 1] - grid.vx_m_s[i]).abs()
+                    + (grid.wz_rad_s[j + 1] - grid.wz_rad_s[j]).abs());
             let mut push = |a: (f64, f64), b: (f64, f64)| {
-                if a != b {
+                if (a.0 - b.0).abs() + (a.1 - b.1).abs() > tiny {
                     out.push((a, b));
                 }
             };
@@ -200,6 +219,59 @@ pub fn contour_segments(grid: &Grid2, level: f64) -> Result<Vec<ContourSegment>>
         }
     }
     Ok(out)
+}
+
+/// The iso-line `value = level` as polylines: [`contour_segments`] chained end to end
+/// (closed loops repeat their first point at the end). Points are `(vx_m_s, wz_rad_s)`.
+pub fn contour_polylines(grid: &Grid2, level: f64) -> Result<Vec<Vec<(f64, f64)>>> {
+    let segs = contour_segments(grid, level)?;
+    // Neighbouring cells compute a shared crossing from the same two corner values, possibly
+    // in the other order: match endpoints on a grid far finer than the cells.
+    let span = grid
+        .vx_m_s
+        .iter()
+        .chain(&grid.wz_rad_s)
+        .fold(0.0f64, |m, v| m.max(v.abs()))
+        .max(1.0);
+    let q = 1e-9 * span;
+    let key = |p: (f64, f64)| ((p.0 / q).round() as i64, (p.1 / q).round() as i64);
+    let mut at: std::collections::HashMap<(i64, i64), Vec<usize>> = std::collections::HashMap::new();
+    for (i, (a, b)) in segs.iter().enumerate() {
+        at.entry(key(*a)).or_default().push(i);
+        at.entry(key(*b)).or_default().push(i);
+    }
+    let mut used = vec![false; segs.len()];
+    let mut lines = vec![];
+    // The unused segment touching `p`, oriented to start at `p`.
+    let next = |p: (f64, f64), used: &[bool]| -> Option<(usize, (f64, f64))> {
+        at.get(&key(p))?.iter().find(|&&i| !used[i]).map(|&i| {
+            let (a, b) = segs[i];
+            (i, if key(a) == key(p) { b } else { a })
+        })
+    };
+    for start in 0..segs.len() {
+        if used[start] {
+            continue;
+        }
+        used[start] = true;
+        let (a, b) = segs[start];
+        let mut fwd = vec![a, b];
+        while let Some((i, p)) = next(*fwd.last().unwrap_or(&b), &used) {
+            used[i] = true;
+            fwd.push(p);
+        }
+        let mut back = vec![];
+        let mut head = a;
+        while let Some((i, p)) = next(head, &used) {
+            used[i] = true;
+            back.push(p);
+            head = p;
+        }
+        back.reverse();
+        back.extend(fwd);
+        lines.push(back);
+    }
+    Ok(lines)
 }
 
 #[cfg(test)]
@@ -248,6 +320,23 @@ mod tests {
     }
 
     #[test]
+    fn polylines_chain_the_segments() {
+        // Plane: one open line through all cell columns; circle: one closed loop.
+        let g = Grid2::from_fn(axis(0.03, 1.03, 21), axis(-1.0, 1.0, 11), |vx, _| Some(vx));
+        let l = contour_polylines(&g, 0.5).unwrap();
+        assert_eq!(l.len(), 1);
+        assert_eq!(l[0].len(), 11);
+        let c = Grid2::from_fn(axis(-1.0, 1.0, 41), axis(-1.0, 1.0, 41), |vx, wz| {
+            Some((vx * vx + wz * wz).sqrt())
+        });
+        let segs = contour_segments(&c, 0.5).unwrap().len();
+        let l = contour_polylines(&c, 0.5).unwrap();
+        assert_eq!(l.len(), 1, "one closed loop");
+        assert_eq!(l[0].len(), segs + 1);
+        assert_eq!(l[0].first(), l[0].last());
+    }
+
+    #[test]
     fn masked_cells_are_skipped() {
         // Mask half of the grid (vx > 0.5): the plane contour at 0.25 survives, 0.75 vanishes.
         let g = Grid2::from_fn(axis(0.0, 1.0, 11), axis(0.0, 1.0, 11), |vx, _| {
@@ -282,6 +371,18 @@ mod tests {
         };
         assert!(unsorted.validate().is_err());
         assert!(contour_segments(&g, f64::NAN).is_err());
+    }
+
+    #[test]
+    fn layout_and_nan_mask() {
+        let g = Grid2::from_fn(vec![0.0, 1.0, 2.0], vec![10.0, 20.0], |vx, wz| Some(vx + wz));
+        // wz major: second row (wz = 20) starts at index 3.
+        assert_eq!(g.values[3], Some(20.0));
+        assert_eq!(g.get(2, 1), Some(22.0));
+        assert_eq!(g.get(3, 0), None);
+        let m = Grid2::from_nan_masked(vec![0.0, 1.0], vec![0.0], &[f64::NAN, 1.0]).unwrap();
+        assert_eq!(m.values, vec![None, Some(1.0)]);
+        assert!(Grid2::from_nan_masked(vec![0.0, 1.0], vec![0.0], &[1.0]).is_err());
     }
 
     #[test]

@@ -6,7 +6,7 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::contour::{contour_levels, contour_segments, Grid2};
+use super::contour::{contour_levels, contour_polylines, Grid2};
 use super::style::{
     axis_desc_style, closed, finite_extent, fmt_tick, render, tick_style, title_legend_body, xy_chart,
     ColourMap, DrawResult, Figure, FigureFiles, LegendEntry, Swatch, XyChart,
@@ -161,9 +161,9 @@ fn clip_convex(p: Vec<(f64, f64)>, clip: &[(f64, f64)]) -> Vec<(f64, f64)> {
 /// The grid with points outside `poly` masked.
 fn masked(grid: &Grid2, poly: &[(f64, f64)]) -> Grid2 {
     let mut g = grid.clone();
-    let nw = g.wz_rad_s.len();
+    let nv = g.vx_m_s.len();
     for (k, v) in g.values.iter_mut().enumerate() {
-        let (i, j) = (k / nw, k % nw);
+        let (i, j) = (k % nv, k / nv);
         let inside = match (grid.vx_m_s.get(i), grid.wz_rad_s.get(j)) {
             (Some(&vx), Some(&wz)) => in_polygon(poly, (vx, wz)),
             _ => false,
@@ -198,6 +198,12 @@ fn cell_edges(axis: &[f64]) -> Vec<(f64, f64)> {
             (lo, hi)
         })
         .collect()
+}
+
+/// Colour-map position rounded to one of 96 levels: invisible banding, and runs of equal
+/// colour that merge into one SVG rectangle.
+fn quantize(t: f64) -> f64 {
+    (t.clamp(0.0, 1.0) * 95.0).round() / 95.0
 }
 
 /// Normalized position of `v` in `range`.
@@ -275,9 +281,12 @@ fn u_outline<DB: DrawingBackend>(ch: &mut XyChart<'_, DB>, poly: &[(f64, f64)]) 
     Ok(())
 }
 
+/// Panel title, masked grid and U outline.
+type PreparedPanel = (String, Grid2, Vec<(f64, f64)>);
+
 struct HeatFig<'a> {
     title: &'a str,
-    panels: Vec<(String, Grid2, Vec<(f64, f64)>)>,
+    panels: Vec<PreparedPanel>,
     scale: &'a ColourScale,
     range: (f64, f64),
     levels: Vec<f64>,
@@ -311,43 +320,62 @@ impl Figure for HeatFig<'_> {
             )?;
             let ex = cell_edges(&grid.wz_rad_s);
             let ey = cell_edges(&grid.vx_m_s);
-            let nw = grid.wz_rad_s.len();
+            let nv = grid.vx_m_s.len();
             // U in plot coordinates (wz, vx): cells are clipped to it when it is convex, so
             // that no colour leaks outside the outline.
             let clip: Option<Vec<(f64, f64)>> =
                 is_convex(poly).then(|| poly.iter().map(|&(vx, wz)| (wz, vx)).collect());
             let mut rects = vec![];
             let mut clipped = vec![];
-            for (k, v) in grid.values.iter().enumerate() {
-                let Some(v) = *v else { continue };
-                let (i, j) = (k / nw, k % nw);
-                let (x0, x1, y0, y1) = (ex[j].0, ex[j].1, ey[i].0, ey[i].1);
-                let colour = self.scale.map.at(norm(v, self.range)).filled();
-                let corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)];
-                match &clip {
-                    Some(c) if !corners.iter().all(|&(x, y)| in_polygon(poly, (y, x))) => {
-                        let p = clip_convex(corners.to_vec(), c);
-                        if p.len() >= 3 {
-                            clipped.push(Polygon::new(p, colour));
+            // Rows of constant vx run along the x (wz) axis: consecutive cells of the same
+            // (quantized) colour become one rectangle, which keeps the SVG small.
+            for (i, &(y0, y1)) in ey.iter().enumerate() {
+                let mut run: Option<(usize, usize, RGBColor)> = None;
+                let flush = |run: &mut Option<(usize, usize, RGBColor)>, rects: &mut Vec<_>| {
+                    if let Some((j0, j1, c)) = run.take() {
+                        rects.push(Rectangle::new([(ex[j0].0, y0), (ex[j1].1, y1)], c.filled()));
+                    }
+                };
+                for (j, &(x0, x1)) in ex.iter().enumerate() {
+                    let Some(v) = grid.values[j * nv + i] else {
+                        flush(&mut run, &mut rects);
+                        continue;
+                    };
+                    let colour = self.scale.map.at(quantize(norm(v, self.range)));
+                    let corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)];
+                    if let Some(c) = &clip {
+                        if !corners.iter().all(|&(x, y)| in_polygon(poly, (y, x))) {
+                            flush(&mut run, &mut rects);
+                            let p = clip_convex(corners.to_vec(), c);
+                            if p.len() >= 3 {
+                                clipped.push(Polygon::new(p, colour.filled()));
+                            }
+                            continue;
                         }
                     }
-                    _ => rects.push(Rectangle::new([(x0, y0), (x1, y1)], colour)),
+                    match &mut run {
+                        Some((_, j1, c)) if *c == colour && *j1 + 1 == j => *j1 = j,
+                        _ => {
+                            flush(&mut run, &mut rects);
+                            run = Some((j, j, colour));
+                        }
+                    }
                 }
+                flush(&mut run, &mut rects);
             }
             ch.draw_series(rects)?;
             ch.draw_series(clipped)?;
             for &level in &self.levels {
-                let segs =
-                    contour_segments(grid, level).map_err(|e| super::style::DrawError(e.to_string()))?;
+                let lines =
+                    contour_polylines(grid, level).map_err(|e| super::style::DrawError(e.to_string()))?;
                 let style = if level == 0.0 {
                     BLACK.stroke_width(2)
                 } else {
                     BLACK.mix(0.85).stroke_width(1)
                 };
-                ch.draw_series(
-                    segs.into_iter()
-                        .map(|(a, b)| PathElement::new(vec![(a.1, a.0), (b.1, b.0)], style)),
-                )?;
+                ch.draw_series(lines.into_iter().map(|l| {
+                    PathElement::new(l.into_iter().map(|(vx, wz)| (wz, vx)).collect::<Vec<_>>(), style)
+                }))?;
             }
             u_outline(&mut ch, poly)?;
             if grid.values.iter().all(Option::is_none) {

@@ -5,13 +5,14 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::stats::{finite_values, histogram};
+use super::stats::{finite_values, histogram, quantile_sorted};
 use super::style::{
-    assign_colours, canvas_height, finite_extent, no_data, padded, render, title_legend_body, xy_chart,
-    DrawResult, Figure, FigureFiles, LegendEntry, Swatch,
+    assign_colours, canvas_height, finite_extent, no_data, note_style, padded, render, title_legend_body,
+    xy_chart, DrawResult, Figure, FigureFiles, LegendEntry, Swatch,
 };
 use super::{AxisLabel, Samples};
 use crate::{Error, Result};
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 /// One histogram panel: one quantity, one overlaid histogram per series.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -29,6 +30,8 @@ pub struct HistPanel {
 
 /// Colour of the limit lines (the paper's red).
 const LIMIT_COLOUR: RGBColor = RGBColor(220, 20, 20);
+/// Quantiles of the pooled samples that the x axis covers.
+const CENTRAL: (f64, f64) = (0.005, 0.995);
 const PANEL_W: u32 = 500;
 const PANEL_H: u32 = 440;
 
@@ -43,8 +46,26 @@ struct HistFig<'a> {
 impl HistFig<'_> {
     fn draw_panel<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>, p: &HistPanel) -> DrawResult {
         let lim = p.limit.filter(|l| l.is_finite()).map(f64::abs);
-        let values = p.series.iter().flat_map(|s| s.values.iter().copied());
-        let (lo, hi) = padded(values.chain(lim.into_iter().flat_map(|l| [-l, l])));
+        // Axis over the central 99 % of the pooled samples (and the limits): a few outliers
+        // (e.g. from differentiating a noisy pose) would otherwise squash every bar into one.
+        let (mut pooled, _) = finite_values(
+            &p.series
+                .iter()
+                .flat_map(|s| s.values.iter().copied())
+                .collect::<Vec<_>>(),
+        );
+        pooled.sort_by(f64::total_cmp);
+        let central = [
+            quantile_sorted(&pooled, CENTRAL.0),
+            quantile_sorted(&pooled, CENTRAL.1),
+        ];
+        let (lo, hi) = padded(
+            central
+                .into_iter()
+                .flatten()
+                .chain(lim.into_iter().flat_map(|l| [-l, l])),
+        );
+        let outside = pooled.iter().filter(|v| **v < lo || **v > hi).count();
         let w = (hi - lo) / self.bins as f64;
         let hists: Vec<(Vec<f64>, RGBColor)> = p
             .series
@@ -102,6 +123,13 @@ impl HistFig<'_> {
         if p.series.iter().all(|s| s.values.iter().all(|v| !v.is_finite())) {
             no_data(&mut ch, "")?;
         }
+        if outside > 0 {
+            ch.draw_series(std::iter::once(Text::new(
+                format!("{outside} samples beyond the axis"),
+                (hi - 0.02 * (hi - lo), ytop * 0.98),
+                note_style().pos(Pos::new(HPos::Right, VPos::Top)),
+            )))?;
+        }
         Ok(())
     }
 }
@@ -125,7 +153,8 @@ impl Figure for HistFig<'_> {
 /// Draws histogram panels side by side into `<dir>/<stem>.svg|png`.
 ///
 /// In each panel every series is a histogram of `bins` equal bins (as a fraction of that
-/// series' finite samples, so series of different sizes compare), drawn as a light fill with a
+/// series' finite samples, so series of different sizes compare) over the central 99 % of the
+/// pooled samples and the limits; samples beyond the axis are counted in a note, drawn as a light fill with a
 /// step outline in the series colour; the limit, if any, is two red dashed lines at ±limit.
 /// Errors if there is no panel or `bins` is 0.
 pub fn histograms(

@@ -39,13 +39,13 @@ mod style;
 
 pub use boxplot::{box_plots, BoxPanel};
 pub use command_space::{command_space_figure, CommandScenario};
-pub use contour::{contour_levels, contour_segments, ContourSegment, Grid2};
+pub use contour::{contour_levels, contour_polylines, contour_segments, ContourSegment, Grid2};
 pub use ellipse::{ellipse_axes, ellipse_points, EllipseAxes, CHI2_2DOF_95};
 pub use heatmap::{heat_maps, value_scatter, ColourScale, HeatPanel, ScatterPanel, ValuePoint};
 pub use histogram::{histograms, HistPanel};
 pub use html::{HtmlReport, KeyFigure};
-pub use lines::{line_bands, BandPoint, BandSeries};
-pub use risk::{risk_map, EnergyLimit, RiskScenario};
+pub use lines::{line_bands, BandPoint, BandSeries, LineAxes};
+pub use risk::{risk_map, EnergyAxis, EnergyLimit, RiskEllipse, RiskScenario};
 pub use style::{scenario_colour, ColourMap, FigureFiles};
 
 /// A quantity and its unit, for an axis or a colour bar (e.g. `longitudinal slip`, `m/s`).

@@ -3,14 +3,14 @@
 
 use std::path::Path;
 
-use plotters::coord::Shift;
+use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::ellipse::ellipse_points;
 use super::style::{
     canvas_height, finite_extent, note_style, outline_for, render, scenario_colour, title_legend_body, widen,
-    xy_chart, DrawResult, Figure, FigureFiles, LegendEntry, Swatch,
+    xy_chart_scaled, DrawResult, Figure, FigureFiles, LegendEntry, ScaledAxis, Swatch,
 };
 use crate::{Error, Result};
 
@@ -25,10 +25,24 @@ pub struct RiskScenario {
     pub median_rho: f64,
     /// Median measured kinetic energy (severity), J.
     pub median_energy_j: f64,
-    /// Covariance of (ρ, energy J): `[[var ρ, cov], [cov, var E]]`.
-    pub covariance: [[f64; 2]; 2],
+    /// The 95 % region of the scenario's distribution; `None` draws the median alone (e.g.
+    /// fewer than 3 steps).
+    pub ellipse: Option<RiskEllipse>,
     /// Dashed ellipse (the paper: dashed for rotation-dominant motion, solid for forward).
     pub dashed: bool,
+}
+
+/// A bivariate normal summary of a scenario: the ellipse `(p - c)ᵀ Σ⁻¹ (p - c) = chi2`.
+///
+/// Both are in the space of the energy axis: (ρ, E in J) for [`EnergyAxis::Linear`],
+/// (ρ, log10(E / 1 J)) for [`EnergyAxis::Log10`]. The centre is the mean of that fit (the
+/// paper's dot is the median, which a skewed distribution puts elsewhere).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RiskEllipse {
+    /// Centre (mean ρ, mean energy or mean log10 energy).
+    pub centre: (f64, f64),
+    /// Covariance `[[var ρ, cov], [cov, var E]]`.
+    pub covariance: [[f64; 2]; 2],
 }
 
 /// A horizontal reference line: a robot's maximum kinetic energy on flat ground.
@@ -40,33 +54,42 @@ pub struct EnergyLimit {
     pub energy_j: f64,
 }
 
+/// How the severity (kinetic energy) axis is scaled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum EnergyAxis {
+    /// Linear axis in J; [`RiskEllipse`] is in (ρ, E in J).
+    #[default]
+    Linear,
+    /// Logarithmic axis (robots of very different mass on one map: Husky about 40 J, Warthog
+    /// about 6 kJ); [`RiskEllipse`] is then in (ρ, log10(E / 1 J)), and is drawn as an
+    /// ellipse on the log axis.
+    Log10,
+}
+
+/// A scenario with its ellipse outline (in J; empty without an ellipse) and colour.
+type Placed<'a> = (&'a RiskScenario, Vec<(f64, f64)>, RGBColor);
+
 struct RiskFig<'a> {
     title: &'a str,
-    ellipses: Vec<(&'a RiskScenario, Vec<(f64, f64)>, RGBColor)>,
+    ellipses: Vec<Placed<'a>>,
     limits: Vec<(&'a EnergyLimit, RGBColor)>,
     x: (f64, f64),
     y: (f64, f64),
+    axis: EnergyAxis,
     legend: Vec<LegendEntry>,
 }
 
 const W: u32 = 900;
 const H: u32 = 620;
+const X_DESC: &str = "likelihood: unpredictability ρ [-]";
+const Y_DESC: &str = "severity: kinetic energy [J]";
 
-impl Figure for RiskFig<'_> {
-    fn size(&self) -> (u32, u32) {
-        (W, canvas_height(H, W, &self.legend))
-    }
-
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
-        let body = title_legend_body(root, self.title, &self.legend)?;
-        let mut ch = xy_chart(
-            &body,
-            "",
-            self.x,
-            self.y,
-            "likelihood: unpredictability ρ [-]",
-            "severity: kinetic energy [J]",
-        )?;
+impl RiskFig<'_> {
+    /// Draws limits, ellipses and medians on a chart of any y scale.
+    fn draw_content<DB: DrawingBackend, CT: CoordTranslate<From = (f64, f64)>>(
+        &self,
+        ch: &mut ChartContext<'_, DB, CT>,
+    ) -> DrawResult {
         for (l, c) in &self.limits {
             ch.draw_series(std::iter::once(PathElement::new(
                 vec![(self.x.0, l.energy_j), (self.x.1, l.energy_j)],
@@ -78,7 +101,7 @@ impl Figure for RiskFig<'_> {
                 note_style().pos(Pos::new(HPos::Right, VPos::Bottom)),
             )))?;
         }
-        for (s, pts, c) in &self.ellipses {
+        for (s, pts, c) in self.ellipses.iter().filter(|e| !e.1.is_empty()) {
             let style = c.stroke_width(2);
             if s.dashed {
                 ch.draw_series(DashedLineSeries::new(pts.iter().copied(), 8, 6, style))?;
@@ -99,13 +122,37 @@ impl Figure for RiskFig<'_> {
     }
 }
 
+impl Figure for RiskFig<'_> {
+    fn size(&self) -> (u32, u32) {
+        (W, canvas_height(H, W, &self.legend))
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult {
+        let body = title_legend_body(root, self.title, &self.legend)?;
+        let y = match self.axis {
+            EnergyAxis::Linear => ScaledAxis::linear(self.y.0, self.y.1),
+            EnergyAxis::Log10 => ScaledAxis::log(self.y.0, self.y.1),
+        };
+        let mut ch = xy_chart_scaled(
+            &body,
+            "",
+            ScaledAxis::linear(self.x.0, self.x.1),
+            y,
+            X_DESC,
+            Y_DESC,
+        )?;
+        self.draw_content(&mut ch)
+    }
+}
+
 /// Draws the risk map into `<dir>/<stem>.svg|png`.
 ///
-/// Each scenario: a dot at its median (ρ, kinetic energy) and the confidence ellipse
-/// `(p - m)ᵀ Σ⁻¹ (p - m) = chi2` of its covariance (`chi2` = [`super::CHI2_2DOF_95`] for
-/// 95 %), solid or dashed. Each limit: a horizontal line with its label. Scenarios with a
-/// non-finite median are skipped and counted. Errors if there is nothing to draw, a covariance
-/// is not a valid covariance, or `chi2` is not positive.
+/// Each scenario: a dot at its median (ρ, kinetic energy) and, if given, the confidence
+/// ellipse `(p - c)ᵀ Σ⁻¹ (p - c) = chi2` (`chi2` = [`super::CHI2_2DOF_95`] for 95 %), solid
+/// or dashed; with [`EnergyAxis::Log10`] the ellipse is in (ρ, log10 E).
+/// Each limit: a horizontal line with its label. Scenarios with a non-finite median (or a
+/// non-positive one on a log axis) are skipped and counted. Errors if there is nothing to
+/// draw, a covariance is not a valid covariance, or `chi2` is not positive.
 pub fn risk_map(
     dir: &Path,
     stem: &str,
@@ -113,22 +160,32 @@ pub fn risk_map(
     scenarios: &[RiskScenario],
     limits: &[EnergyLimit],
     chi2: f64,
+    axis: EnergyAxis,
 ) -> Result<FigureFiles> {
+    let log = axis == EnergyAxis::Log10;
     let mut skipped = 0;
     let mut ellipses = vec![];
     for s in scenarios {
-        if !(s.median_rho.is_finite() && s.median_energy_j.is_finite()) {
+        if !(s.median_rho.is_finite() && s.median_energy_j.is_finite()) || (log && s.median_energy_j <= 0.0) {
             skipped += 1;
             continue;
         }
-        let pts = ellipse_points((s.median_rho, s.median_energy_j), s.covariance, chi2, 120)
-            .map_err(|e| Error::Report(format!("{stem}: scenario `{}`: {e}", s.label)))?;
+        let mut pts = match &s.ellipse {
+            Some(e) => ellipse_points(e.centre, e.covariance, chi2, 120)
+                .map_err(|err| Error::Report(format!("{stem}: scenario `{}`: {err}", s.label)))?,
+            None => vec![],
+        };
+        if log {
+            for p in &mut pts {
+                p.1 = 10f64.powf(p.1);
+            }
+        }
         ellipses.push((s, pts, scenario_colour(&s.colour_key)));
     }
     let lims: Vec<(&EnergyLimit, RGBColor)> = limits
         .iter()
         .filter(|l| {
-            let ok = l.energy_j.is_finite();
+            let ok = l.energy_j.is_finite() && (!log || l.energy_j > 0.0);
             if !ok {
                 skipped += 1;
             }
@@ -139,14 +196,24 @@ pub fn risk_map(
     if ellipses.is_empty() && lims.is_empty() {
         return Err(Error::Report(format!("{stem}: no scenario or limit to draw")));
     }
-    let xs = ellipses.iter().flat_map(|e| e.1.iter().map(|p| p.0));
-    let (x0, x1) = finite_extent(xs.chain([0.0, 1.0])).unwrap_or((0.0, 1.0));
-    let ys = ellipses
+    let xs = ellipses
         .iter()
-        .flat_map(|e| e.1.iter().map(|p| p.1))
-        .chain(lims.iter().map(|l| l.0.energy_j));
-    let (y0, y1) = finite_extent(ys.chain([0.0])).unwrap_or((0.0, 1.0));
-    let (y0, y1) = widen(y0, y1);
+        .flat_map(|e| e.1.iter().map(|p| p.0).chain([e.0.median_rho]));
+    let (x0, x1) = finite_extent(xs.chain([0.0, 1.0])).unwrap_or((0.0, 1.0));
+    let ys: Vec<f64> = ellipses
+        .iter()
+        .flat_map(|e| e.1.iter().map(|p| p.1).chain([e.0.median_energy_j]))
+        .chain(lims.iter().map(|l| l.0.energy_j))
+        .collect();
+    let y = if log {
+        let (lo, hi) = finite_extent(ys.iter().copied().filter(|v| *v > 0.0)).unwrap_or((1.0, 10.0));
+        let (lo, hi) = if hi > lo { (lo, hi) } else { (lo / 10.0, hi * 10.0) };
+        (lo / 1.5, hi * 1.6)
+    } else {
+        let (y0, y1) = finite_extent(ys.iter().copied().chain([0.0])).unwrap_or((0.0, 1.0));
+        let (y0, y1) = widen(y0, y1);
+        (y0 - 0.03 * (y1 - y0), y1 + 0.08 * (y1 - y0))
+    };
     let pad = 0.03 * (x1 - x0);
     let mut legend: Vec<LegendEntry> = vec![];
     for (s, _, c) in &ellipses {
@@ -161,7 +228,8 @@ pub fn risk_map(
             ellipses,
             limits: lims,
             x: (x0 - pad, x1 + pad),
-            y: (y0 - 0.03 * (y1 - y0), y1 + 0.08 * (y1 - y0)),
+            y,
+            axis,
             legend,
         },
         skipped,

@@ -58,7 +58,7 @@ impl BoxStats {
 /// the range are not counted. Returns the counts.
 pub fn histogram(values: &[f64], lo: f64, hi: f64, bins: usize) -> Vec<usize> {
     let mut counts = vec![0usize; bins];
-    if bins == 0 || !(hi > lo) {
+    if bins == 0 || !(lo.is_finite() && hi.is_finite()) || hi <= lo {
         return counts;
     }
     let w = (hi - lo) / bins as f64;

@@ -27,7 +27,9 @@ pub(crate) const FONT: &str = "sans-serif";
 
 static FONTS: Once = Once::new();
 
-/// Registers DejaVu Sans (from the `dejavu` crate, embedded bytes) as plotters' `sans-serif`.
+/// Registers DejaVu Sans regular and bold (from the `dejavu` crate, embedded bytes; fonts under
+/// the Bitstream Vera licence, DejaVu changes public domain) as plotters' `sans-serif`. Other
+/// styles fall back to regular.
 ///
 /// The bitmap backend rasterizes text with ab_glyph, which has no system font lookup; the SVG
 /// backend also uses the registered metrics to lay out labels.
@@ -37,8 +39,6 @@ pub(crate) fn ensure_fonts() {
         // not user input, and would show as missing text rather than a panic.
         let _ = register_font(FONT, FontStyle::Normal, dejavu::sans::regular());
         let _ = register_font(FONT, FontStyle::Bold, dejavu::sans::bold());
-        let _ = register_font(FONT, FontStyle::Oblique, dejavu::sans::oblique());
-        let _ = register_font(FONT, FontStyle::Italic, dejavu::sans::oblique());
     });
 }
 
@@ -172,19 +172,16 @@ const KEYWORD_COLOURS: &[(&str, RGBColor)] = &[
     ("ideal", RGBColor(0, 0, 0)),
 ];
 
-/// Colour-blind-friendly fallback cycle (Tableau 10 without the keyword colours' duplicates
-/// first).
+/// Fallback cycle for labels without a keyword: none of the keyword colours, so that an
+/// unknown terrain never looks like a known one.
 const CYCLE: &[RGBColor] = &[
     RGBColor(214, 39, 40),
-    RGBColor(148, 103, 189),
+    RGBColor(27, 158, 119),
+    RGBColor(117, 112, 179),
+    RGBColor(231, 41, 138),
+    RGBColor(128, 0, 0),
+    RGBColor(85, 107, 47),
     RGBColor(227, 119, 194),
-    RGBColor(23, 190, 207),
-    RGBColor(188, 189, 34),
-    RGBColor(31, 119, 180),
-    RGBColor(255, 127, 14),
-    RGBColor(44, 160, 44),
-    RGBColor(140, 86, 75),
-    RGBColor(127, 127, 127),
 ];
 
 /// Colour of the pooled "all" group: white boxes with black outlines, as in the paper.
@@ -206,10 +203,10 @@ pub fn scenario_colour(label: &str) -> RGBColor {
     if words(label).any(|w| w == "all") {
         return ALL_COLOUR;
     }
-    for w in words(label) {
-        if let Some((_, c)) = KEYWORD_COLOURS.iter().find(|(k, _)| *k == w) {
-            return *c;
-        }
+    // Keywords in table order: a terrain wins over a robot name in "Warthog ice".
+    let ws: Vec<String> = words(label).collect();
+    if let Some((_, c)) = KEYWORD_COLOURS.iter().find(|(k, _)| ws.iter().any(|w| w == k)) {
+        return *c;
     }
     // FNV-1a: stable across runs and platforms, unlike std's RandomState.
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
@@ -321,6 +318,9 @@ pub(crate) fn widen(lo: f64, hi: f64) -> (f64, f64) {
     if !(lo.is_finite() && hi.is_finite()) {
         return (0.0, 1.0);
     }
+    // Keep spans (and 5 % margins) finite: axis tick generation loops on infinite spans.
+    const LIM: f64 = f64::MAX / 8.0;
+    let (lo, hi) = (lo.clamp(-LIM, LIM), hi.clamp(-LIM, LIM));
     if hi > lo {
         (lo, hi)
     } else {
@@ -509,14 +509,106 @@ pub(crate) fn canvas_height(body_h: u32, width: u32, legend: &[LegendEntry]) -> 
 
 // ---------------------------------------------------------------- axes
 
-/// The Cartesian chart every panel uses.
-pub(crate) type XyChart<'a, DB> = ChartContext<
-    'a,
-    DB,
-    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
->;
+/// A numeric axis, linear or logarithmic, with round tick values on both: plotters' own
+/// log axis puts too few labels on spans of one or two decades.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct ScaledAxis {
+    lo: f64,
+    hi: f64,
+    log: bool,
+}
 
-/// Builds a panel: caption, x/y ranges, light grid, tick labels and axis descriptions.
+impl ScaledAxis {
+    /// Linear axis over `[lo, hi]` (widened when degenerate).
+    pub(crate) fn linear(lo: f64, hi: f64) -> Self {
+        let (lo, hi) = widen(lo, hi);
+        Self { lo, hi, log: false }
+    }
+    /// Logarithmic axis over `[lo, hi]`, both positive (fixed up to a decade around 1 when not).
+    pub(crate) fn log(lo: f64, hi: f64) -> Self {
+        let ok = lo.is_finite() && hi.is_finite() && lo > 0.0 && hi > lo;
+        let (lo, hi) = if ok {
+            (lo, hi)
+        } else if lo.is_finite() && lo > 0.0 {
+            (lo / 2.0, lo * 2.0)
+        } else {
+            (1.0, 10.0)
+        };
+        Self { lo, hi, log: true }
+    }
+    fn t(&self, v: f64) -> f64 {
+        if self.log {
+            let v = v.max(self.lo * 1e-12);
+            (v.ln() - self.lo.ln()) / (self.hi.ln() - self.lo.ln())
+        } else {
+            (v - self.lo) / (self.hi - self.lo)
+        }
+    }
+}
+
+impl Ranged for ScaledAxis {
+    type FormatOption = plotters::coord::ranged1d::NoDefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        // Clamp so that far-away points cannot overflow pixel coordinates.
+        let t = self.t(*value).clamp(-100.0, 100.0);
+        limit.0 + (t * f64::from(limit.1 - limit.0)).round() as i32
+    }
+
+    fn key_points<Hint: plotters::coord::ranged1d::KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
+        if !self.log {
+            let inner: plotters::coord::types::RangedCoordf64 = (self.lo..self.hi).into();
+            return inner.key_points(hint);
+        }
+        let max = hint.max_num_points().max(2);
+        let d0 = self.lo.log10().floor() as i32;
+        let d1 = self.hi.log10().ceil() as i32;
+        // Richest mantissa set that fits the hint: 1-2-5, then 1 per decade, then every k-th.
+        for mantissas in [&[1.0, 2.0, 5.0][..], &[1.0][..]] {
+            let pts: Vec<f64> = (d0..=d1)
+                .flat_map(|d| mantissas.iter().map(move |m| m * 10f64.powi(d)))
+                .filter(|v| *v >= self.lo * (1.0 - 1e-12) && *v <= self.hi * (1.0 + 1e-12))
+                .collect();
+            if pts.len() <= max && pts.len() >= 2 {
+                return pts;
+            }
+            if pts.len() < 2 && mantissas.len() == 3 {
+                // Less than one 1-2-5 step in range: every integer mantissa.
+                let fine: Vec<f64> = (d0..=d1)
+                    .flat_map(|d| (1..10).map(move |m| f64::from(m) * 10f64.powi(d)))
+                    .filter(|v| *v >= self.lo && *v <= self.hi)
+                    .collect();
+                if fine.len() <= max {
+                    return fine;
+                }
+                return pts;
+            }
+        }
+        let step = ((d1 - d0) as usize).div_ceil(max).max(1);
+        (d0..=d1)
+            .step_by(step)
+            .map(|d| 10f64.powi(d))
+            .filter(|v| *v >= self.lo && *v <= self.hi)
+            .collect()
+    }
+
+    fn range(&self) -> std::ops::Range<f64> {
+        self.lo..self.hi
+    }
+}
+
+impl plotters::coord::ranged1d::ValueFormatter<f64> for ScaledAxis {
+    fn format_ext(&self, value: &f64) -> String {
+        fmt_tick(value)
+    }
+}
+
+/// The Cartesian chart every panel uses.
+pub(crate) type XyChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<ScaledAxis, ScaledAxis>>;
+
+/// Builds a panel with linear axes: caption, x/y ranges, light grid, tick labels and axis
+/// descriptions.
 pub(crate) fn xy_chart<'a, DB: DrawingBackend>(
     area: &'a DrawingArea<DB, Shift>,
     caption: &str,
@@ -525,8 +617,25 @@ pub(crate) fn xy_chart<'a, DB: DrawingBackend>(
     x_desc: &str,
     y_desc: &str,
 ) -> std::result::Result<XyChart<'a, DB>, DrawError> {
-    let (x0, x1) = widen(x.0, x.1);
-    let (y0, y1) = widen(y.0, y.1);
+    xy_chart_scaled(
+        area,
+        caption,
+        ScaledAxis::linear(x.0, x.1),
+        ScaledAxis::linear(y.0, y.1),
+        x_desc,
+        y_desc,
+    )
+}
+
+/// Builds a panel on given (linear or logarithmic) axes.
+pub(crate) fn xy_chart_scaled<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    caption: &str,
+    x: ScaledAxis,
+    y: ScaledAxis,
+    x_desc: &str,
+    y_desc: &str,
+) -> std::result::Result<XyChart<'a, DB>, DrawError> {
     let mut b = ChartBuilder::on(area);
     b.margin(12)
         .margin_right(22)
@@ -535,7 +644,7 @@ pub(crate) fn xy_chart<'a, DB: DrawingBackend>(
     if !caption.is_empty() {
         b.caption(caption, caption_style());
     }
-    let mut chart = b.build_cartesian_2d(x0..x1, y0..y1)?;
+    let mut chart = b.build_cartesian_2d(x, y)?;
     chart
         .configure_mesh()
         .light_line_style(WHITE.mix(0.0))
@@ -545,10 +654,8 @@ pub(crate) fn xy_chart<'a, DB: DrawingBackend>(
         .axis_desc_style(axis_desc_style())
         .x_desc(x_desc)
         .y_desc(y_desc)
-        .x_labels(7)
-        .y_labels(7)
-        .x_label_formatter(&fmt_tick)
-        .y_label_formatter(&fmt_tick)
+        .x_labels(8)
+        .y_labels(8)
         .draw()?;
     Ok(chart)
 }
@@ -573,4 +680,54 @@ pub(crate) fn closed(poly: &[(f64, f64)]) -> Vec<(f64, f64)> {
         v.push(p);
     }
     v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use plotters::coord::ranged1d::Ranged;
+
+    #[test]
+    fn log_axis_ticks_are_round() {
+        let a = ScaledAxis::log(10.0, 250.0);
+        assert_eq!(a.key_points(8usize), vec![10.0, 20.0, 50.0, 100.0, 200.0]);
+        // Six decades with room for 4 labels: one label every other decade.
+        let b = ScaledAxis::log(1.0, 1e6);
+        let k = b.key_points(4usize);
+        assert!(k.len() <= 4 && k.len() >= 2, "{k:?}");
+        assert!(k.iter().all(|v| (v.log10() - v.log10().round()).abs() < 1e-12));
+        // Less than one 1-2-5 step: every integer mantissa.
+        assert_eq!(ScaledAxis::log(2.5, 4.5).key_points(8usize), vec![3.0, 4.0]);
+        // Pixel mapping: the geometric mean is in the middle on a log axis.
+        assert_eq!(ScaledAxis::log(1.0, 100.0).map(&10.0, (0, 200)), 100);
+        assert_eq!(ScaledAxis::linear(0.0, 2.0).map(&0.5, (0, 200)), 50);
+        // Invalid log ranges fall back to a valid one.
+        assert!(ScaledAxis::log(-1.0, 5.0).range().start > 0.0);
+    }
+
+    #[test]
+    fn tick_format_and_colours() {
+        assert_eq!(fmt_tick(&-0.0), "0");
+        assert_eq!(fmt_tick(&0.25), "0.25");
+        assert_eq!(fmt_tick(&2.0), "2");
+        assert_eq!(fmt_tick(&1.0e-5), "1.0e-5");
+        assert_eq!(scenario_colour("Warthog ice"), scenario_colour("ice"));
+        assert_eq!(scenario_colour("all"), ALL_COLOUR);
+        assert_eq!(scenario_colour("my run"), scenario_colour("my run"));
+        // Unknown labels never take a keyword colour.
+        for l in ["unlabelled", "x", "dataset 7", "husky_2023"] {
+            let c = scenario_colour(l);
+            assert!(
+                KEYWORD_COLOURS.iter().all(|(_, k)| *k != c) || l.contains("husky"),
+                "{l}"
+            );
+        }
+        // Two labels whose keyword colours collide get different colours in one figure.
+        let c = assign_colours(&["Warthog ice", "Husky ice", "Warthog ice"]);
+        assert_ne!(c[0], c[1]);
+        assert_eq!(c[0], c[2]);
+        assert_eq!(ColourMap::Viridis.at(0.0), RGBColor(68, 1, 84));
+        assert_eq!(ColourMap::Viridis.at(2.0), RGBColor(254, 232, 37));
+        assert_eq!(ColourMap::Diverging.at(0.5), RGBColor(242, 242, 242));
+    }
 }
