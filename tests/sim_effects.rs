@@ -257,3 +257,31 @@ fn drive_protocol_on_ice_completes() {
     assert!(worst <= extra, "{worst} m beyond the border, bound {extra}");
     eprintln!("ice DRIVE: {summary:?}, worst excursion {worst:.2} m");
 }
+
+#[test]
+fn leaving_the_ground_for_good_is_a_divergence() {
+    // The gravel height field covers 2 x 45 + 20 m around the origin; 500 m away there is no
+    // ground: the robot falls and the simulator reports it instead of panicking.
+    let r = Robot::resolve("warthog").unwrap().0;
+    let t = Terrain::resolve("gravel").unwrap().0;
+    let mut s = Simulator::new(&r, &t, SimConfig::default()).unwrap();
+    let far = Pose {
+        x_m: 500.0,
+        ..Default::default()
+    };
+    s.reset(far, BodyVelocity::default(), WheelSpeeds::default());
+    let mut outcome = Ok(());
+    for _ in 0..100 {
+        outcome = s.advance(TICK_S);
+        if outcome.is_err() {
+            break;
+        }
+    }
+    match outcome {
+        Err(drive_sim::Error::Diverged { message, time_s, .. }) => {
+            assert!(message.contains("left the ground"), "{message}");
+            assert!(time_s > 1.0 && time_s < 1.2, "{time_s}");
+        }
+        other => panic!("{other:?}"),
+    }
+}

@@ -311,3 +311,35 @@ fn bad_files_and_settings_name_the_field() {
         other => panic!("{other:?}"),
     }
 }
+
+#[test]
+fn physics_rate_converges() {
+    // The default 100 Hz gives the same steady means as 400 Hz (the implicit tyre solve is not
+    // the accuracy bottleneck).
+    for (rname, tname, cmd) in [
+        ("warthog", "asphalt", WheelSpeeds::new(9.0, 16.0)),
+        ("husky", "gravel", WheelSpeeds::new(-2.0, 5.0)),
+        ("warthog", "ice", WheelSpeeds::new(12.0, 16.0)),
+    ] {
+        let (r, t) = (robot(rname), terrain(tname));
+        let at = |hz: f64| {
+            let cfg = SimConfig {
+                physics_hz: hz,
+                ..Default::default()
+            };
+            let mut s = sim(&r, &t, cfg);
+            means(&hold(&mut s, cmd, 6.0), 2.0, 6.0)
+        };
+        let (a, b) = (at(100.0), at(400.0));
+        let scale = a.v.vx_m_s.abs().max(a.v.wz_rad_s.abs()).max(0.1);
+        for (x, y) in [
+            (a.v.vx_m_s, b.v.vx_m_s),
+            (a.v.vy_m_s, b.v.vy_m_s),
+            (a.v.wz_rad_s, b.v.wz_rad_s),
+            (a.enc.left_rad_s / 3.0, b.enc.left_rad_s / 3.0),
+        ] {
+            eprintln!("{rname} {tname}: 100 Hz {x:.4}, 400 Hz {y:.4}");
+            assert!((x - y).abs() < 0.01 * scale, "{rname} {tname}: {x} vs {y}");
+        }
+    }
+}
