@@ -5,15 +5,15 @@ use super::CalibrationReport;
 use crate::error::Result;
 use crate::report::{
     box_plots, heat_maps, line_bands, AxisLabel, BandPoint, BandSeries, BoxGroup, BoxPanel, ColourMap,
-    ColourScale, FigureFiles, Grid2, HeatPanel, HtmlReport, KeyFigure,
+    ColourScale, FigureFiles, Grid2, HeatPanel, HtmlReport, KeyFigure, LineAxes,
 };
 use std::path::{Path, PathBuf};
 
-/// Converts a residual map (rows = wz) to the report's grid (vx major, wz minor).
+/// Converts a residual map (rows = wz) to the report's grid (wz major, vx minor).
 fn grid2(m: &ResidualMap) -> Grid2 {
     let mut values = Vec::with_capacity(m.vx_m_s.len() * m.wz_rad_s.len());
-    for i in 0..m.vx_m_s.len() {
-        for j in 0..m.wz_rad_s.len() {
+    for j in 0..m.wz_rad_s.len() {
+        for i in 0..m.vx_m_s.len() {
             values.push(m.values.get(j).and_then(|row| row.get(i)).copied().flatten());
         }
     }
@@ -111,8 +111,12 @@ pub fn write_figures(report: &CalibrationReport, dir: &Path) -> Result<Vec<(Stri
                 "{}: {} residual over the step (mean ± sd over held-out steps)",
                 report.dataset, names[c]
             ),
-            &AxisLabel::new("time in step", "s"),
-            &AxisLabel::new(format!("{} residual (measured − model)", names[c]), units[c]),
+            &LineAxes {
+                x: AxisLabel::new("time in step", "s"),
+                y: AxisLabel::new(format!("{} residual (measured − model)", names[c]), units[c]),
+                log_x: false,
+                log_y: false,
+            },
             &series,
         )?;
         out.push((format!("{} residual against time in step.", names[c]), files));
