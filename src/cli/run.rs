@@ -163,7 +163,17 @@ pub fn run(args: &RunArgs) -> Result<RunReport> {
         bar,
     };
     let t0 = Instant::now();
-    let summary = run_drive(&mut sim, &robot, sampler.as_mut(), &protocol, &mut sink)?;
+    let summary = match run_drive(&mut sim, &robot, sampler.as_mut(), &protocol, &mut sink) {
+        Ok(s) => s,
+        Err(e) => {
+            sink.bar.abandon();
+            eprintln!(
+                "drive-sim: run failed; what was simulated is kept in {} (not a complete log)",
+                sink.writer.partial_path().display()
+            );
+            return Err(e);
+        }
+    };
     let Sink { writer, bar } = sink;
     let McapSummary {
         path,

@@ -12,7 +12,7 @@
 //! | topic | type | content |
 //! |---|---|---|
 //! | `/drive/marker` | `drive_sim_msgs/msg/DriveMarker` | protocol phase (`step`/`reorient`/`idle`), step, attempt, window, k, time in step, exact log time |
-//! | `/cmd_vel` | `geometry_msgs/msg/TwistStamped` | body command: the wheel command through the declared IDD ([`Nominal::idd`]), frame `base_link` |
+//! | `/cmd_vel` | `geometry_msgs/msg/TwistStamped` | body command: the wheel command through the declared IDD ([`Nominal::idd`](super::Nominal::idd)), frame `base_link` |
 //! | `/wheel_cmd` | `sensor_msgs/msg/JointState` | commanded wheel speeds, `velocity` in rad/s for joints `left_wheel`, `right_wheel` |
 //! | `/joint_states` | `sensor_msgs/msg/JointState` | encoder wheel speeds, same joints (no position or effort) |
 //! | `/icp_odom` | `nav_msgs/msg/Odometry` | lidar/ICP pose, frame `odom`, child `base_link`; twist = the source's own body-velocity estimate, or NaN with `twist.covariance[0] = -1` when it has none |

@@ -16,6 +16,10 @@ use crate::sim::plant::{wrap_angle, Plant};
 use sampler::{Sampler, SamplingContext, StepOutcome};
 use serde::{Deserialize, Serialize};
 
+/// Interrupted attempts of one step (over all the commands drawn for it) after which the run
+/// stops: the safe area is too small for the commands, or the robot cannot move.
+const MAX_ATTEMPTS_PER_STEP: u32 = 50;
+
 /// Protocol parameters (the paper's defaults).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ProtocolConfig {
@@ -83,6 +87,9 @@ pub struct RunSummary {
     pub interruptions: u32,
     /// Commands given up after `max_attempts` interruptions (a new one was drawn).
     pub abandoned_commands: u32,
+    /// Re-orientations that gave up before reaching the chosen heading (the robot could not
+    /// turn there within `max_reorient_s`); the command restarted from where it stood.
+    pub incomplete_reorientations: u32,
     /// Total protocol time, s.
     pub total_time_s: f64,
     /// Time spent in completed steps, s.
@@ -204,6 +211,19 @@ impl Runner<'_> {
                     AttemptEnd::Interrupted => {
                         self.summary.interruptions += 1;
                         attempt += 1;
+                        if attempt >= MAX_ATTEMPTS_PER_STEP {
+                            return Err(Error::Diverged {
+                                step,
+                                time_s: self.plant.time_s(),
+                                message: format!(
+                                    "{attempt} interrupted attempts in one step: no drawn command fits in the safe area \
+                                     ({} x {} m) from where the robot can be placed (pose {:?})",
+                                    self.robot.safe_area.length_m,
+                                    self.robot.safe_area.width_m,
+                                    self.plant.true_pose()
+                                ),
+                            });
+                        }
                         attempts_of_cmd += 1;
                         self.reorient(step, cmd)?;
                         if attempts_of_cmd >= self.cfg.max_attempts {
@@ -301,47 +321,81 @@ impl Runner<'_> {
         sx.abs() > hx - m || sy.abs() > hy - m
     }
 
-    /// Stops the robot, brings it back inside if it is out, and turns it so that `cmd` drives
-    /// towards the centre of the safe area.
+    /// The operator's re-orientation after an interruption: stop; if no heading lets `cmd`
+    /// run a whole step inside the area from where the robot stands (it stopped near the
+    /// border, or slid out), drive it towards the centre until one does; then turn it to the
+    /// heading from which the command stays inside longest (ties: facing the centre with the
+    /// side the command drives towards, the paper's rule).
     fn reorient(&mut self, step: u32, cmd: WheelSpeeds) -> Result<()> {
         let phase = Phase::Reorient { step };
-        let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
-        let idd = self.space.idd;
         let max_wz = (0.5 * self.space.max_ang_rad_s).min(1.0);
-        let stuck = |t: f64| t > deadline;
+        let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
         self.stop(phase, step, deadline)?;
-        // Outside the area (it slid out): drive back towards the centre at a walking pace.
-        let (hx, hy) = self.half_extents();
-        let inside = |p: Pose| {
-            p.x_m.abs() < hx - 2.0 * self.cfg.border_margin_m
-                && p.y_m.abs() < hy - 2.0 * self.cfg.border_margin_m
-        };
-        if !inside(self.plant.true_pose()) {
-            self.turn_to(phase, step, |p| (-p.y_m).atan2(-p.x_m), max_wz, deadline)?;
-            while !inside(self.plant.true_pose()) {
-                let p = self.plant.true_pose();
-                let err = wrap_angle((-p.y_m).atan2(-p.x_m) - p.yaw_rad);
-                let vx = 0.3 * self.space.max_lin_m_s.min(2.0);
-                let c = idd.wheels_from_body(BodyVelocity::new(vx, 0.0, (2.0 * err).clamp(-max_wz, max_wz)));
-                self.tick(phase, c, step)?;
-                if stuck(self.plant.time_s()) {
-                    return Err(self.stuck_error(step));
-                }
-            }
+        if !self.best_heading(self.plant.true_pose(), cmd).1 {
+            let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
+            self.drive_towards_centre(phase, step, cmd, max_wz, deadline)?;
+            let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
             self.stop(phase, step, deadline)?;
         }
-        // Face the heading from which the command's ideal path stays inside longest.
-        let p = self.plant.true_pose();
-        let heading = self.best_heading(p, cmd);
+        let (heading, _) = self.best_heading(self.plant.true_pose(), cmd);
+        let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
         self.turn_to(phase, step, move |_| heading, max_wz, deadline)?;
+        let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
         self.stop(phase, step, deadline)
     }
 
-    /// The operator's choice of heading before restarting `cmd` from `p`: the one (every 5°)
-    /// whose ideal differential-drive path of a whole step stays longest inside the shrunk safe
-    /// area; among equals, the one closest to facing the centre with the side the command
-    /// drives towards (the paper's rule).
-    fn best_heading(&self, p: Pose, cmd: WheelSpeeds) -> f64 {
+    /// Drives towards the centre of the safe area at a walking pace until `cmd` fits from the
+    /// robot's position (checked every 0.5 s) or it is within 1 m of the centre. It drives
+    /// straight, forward or backward, whichever faces the centre, steering only gently, and
+    /// turns in place first only if the centre is nearly abeam: a skid-steer on soft ground may
+    /// not turn at all, but it can drive straight.
+    fn drive_towards_centre(
+        &mut self,
+        phase: Phase,
+        step: u32,
+        cmd: WheelSpeeds,
+        max_wz: f64,
+        deadline: f64,
+    ) -> Result<()> {
+        let idd = self.space.idd;
+        let check_every = (0.5 * self.cfg.rate_hz).round().max(1.0) as u32;
+        let mut ticks = 0u32;
+        loop {
+            let p = self.plant.true_pose();
+            if p.x_m.hypot(p.y_m) < 1.0 {
+                return Ok(());
+            }
+            if ticks % check_every == 0 && ticks > 0 && self.best_heading(p, cmd).1 {
+                return Ok(());
+            }
+            let err = wrap_angle((-p.y_m).atan2(-p.x_m) - p.yaw_rad);
+            let (dir, err) = if err.abs() <= std::f64::consts::FRAC_PI_2 {
+                (1.0, err)
+            } else {
+                (-1.0, wrap_angle(err + std::f64::consts::PI))
+            };
+            // Nearly abeam (|err| near 90°): driving would run along the border; turn first.
+            let vx = if err.abs() > 1.2 {
+                0.0
+            } else {
+                dir * 0.3 * self.space.max_lin_m_s.min(2.0)
+            };
+            let wz = (1.5 * err).clamp(-max_wz, max_wz);
+            let c = idd.wheels_from_body(BodyVelocity::new(vx, 0.0, wz));
+            self.tick(phase, c, step)?;
+            ticks += 1;
+            if self.plant.time_s() > deadline {
+                self.summary.incomplete_reorientations += 1;
+                return Ok(());
+            }
+        }
+    }
+
+    /// The heading (every 5°) from which the ideal differential-drive path of `cmd` stays
+    /// longest inside the safe area shrunk by the margin and the stopping distance, and whether
+    /// it fits a whole step with time to spare; among equals, the one closest to facing the
+    /// centre with the side the command drives towards.
+    fn best_heading(&self, p: Pose, cmd: WheelSpeeds) -> (f64, bool) {
         let v = self.space.idd.body_from_wheels(cmd);
         let backward = v.vx_m_s < 0.0;
         let to_centre = (-p.y_m).atan2(-p.x_m);
@@ -352,12 +406,14 @@ impl Runner<'_> {
         };
         let (hx, hy) = self.half_extents();
         let m = self.cfg.border_margin_m + v.vx_m_s.powi(2) / (2.0 * self.cfg.operator_decel_m_s2);
-        let horizon_s = self.cfg.window_s * self.cfg.windows_per_step as f64;
+        // One second beyond the step: the real robot lags the ideal path it is planned on.
+        let step_s = self.cfg.window_s * self.cfg.windows_per_step as f64;
+        let horizon_s = step_s + 1.0;
         let dt = 0.1;
         let time_inside = |heading: f64| {
             let (mut x, mut y, mut yaw) = (p.x_m, p.y_m, heading);
             let mut t = 0.0;
-            while t < horizon_s {
+            while t < horizon_s - 1e-9 {
                 x += v.vx_m_s * yaw.cos() * dt;
                 y += v.vx_m_s * yaw.sin() * dt;
                 yaw += v.wz_rad_s * dt;
@@ -377,7 +433,7 @@ impl Runner<'_> {
                 best = (t, off, h);
             }
         }
-        best.2
+        (best.2, best.0 >= step_s + 0.5)
     }
 
     fn stuck_error(&self, step: u32) -> Error {
@@ -405,6 +461,10 @@ impl Runner<'_> {
         }
     }
 
+    /// Turns towards `target(pose)`. In place first; if the yaw stops progressing for
+    /// `STALL_S` (a skid-steer on soft ground may not be able to skid its tyres sideways), as
+    /// an arc turn at walking pace, which needs far less skid. Gives up at `deadline` and
+    /// returns whether the heading was reached: a run continues from where the robot is.
     fn turn_to(
         &mut self,
         phase: Phase,
@@ -412,18 +472,34 @@ impl Runner<'_> {
         target: impl Fn(Pose) -> f64,
         max_wz: f64,
         deadline: f64,
-    ) -> Result<()> {
+    ) -> Result<bool> {
+        const STALL_S: f64 = 3.0;
         let idd = self.space.idd;
+        let mut best_err = f64::INFINITY;
+        let mut last_progress_s = self.plant.time_s();
+        let mut arc = false;
         loop {
             let p = self.plant.true_pose();
             let err = wrap_angle(target(p) - p.yaw_rad);
             if err.abs() < 0.1 {
-                return Ok(());
+                return Ok(true);
             }
-            let c = idd.wheels_from_body(BodyVelocity::new(0.0, 0.0, (1.5 * err).clamp(-max_wz, max_wz)));
+            if err.abs() < best_err - 0.02 {
+                best_err = err.abs();
+                last_progress_s = self.plant.time_s();
+            } else if self.plant.time_s() - last_progress_s > STALL_S {
+                arc = true;
+            }
+            let vx = if arc {
+                0.3 * self.space.max_lin_m_s.min(2.0)
+            } else {
+                0.0
+            };
+            let c = idd.wheels_from_body(BodyVelocity::new(vx, 0.0, (1.5 * err).clamp(-max_wz, max_wz)));
             self.tick(phase, c, step)?;
             if self.plant.time_s() > deadline {
-                return Err(self.stuck_error(step));
+                self.summary.incomplete_reorientations += 1;
+                return Ok(false);
             }
         }
     }

@@ -300,8 +300,15 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
         ("slip_wz_rad_s", "angular slip", "rad/s", Some(0.2)),
         ("rho", "ρ", "", Some(0.1)),
     ];
-    for (name, quantity, unit, spacing) in channels {
-        let panels: Vec<HeatPanel> = analyses.iter().filter_map(|a| heat_panel(a, name)).collect();
+    // One figure per robot and channel: U and the slip magnitudes differ between robots.
+    for (robot, (name, quantity, unit, spacing)) in
+        robots.iter().flat_map(|r| channels.iter().map(move |c| (r, *c)))
+    {
+        let panels: Vec<HeatPanel> = analyses
+            .iter()
+            .filter(|a| a.robot == *robot)
+            .filter_map(|a| heat_panel(a, name))
+            .collect();
         if panels.is_empty() {
             continue;
         }
@@ -325,7 +332,7 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
         )?;
         html.figure(
             format!("Smoothed steady-state {quantity} over U (kernel Σ = diag({}, {})), contour lines every {} {unit}.",
-                analyses[0].params.smoother.covariance.var_vx, analyses[0].params.smoother.covariance.var_wz, spacing.unwrap_or(0.0)),
+                panels_cov(&analyses, robot).0, panels_cov(&analyses, robot).1, spacing.unwrap_or(0.0)),
             &f,
         )?;
         figures.push(f);
@@ -433,6 +440,19 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
     })
 }
 
+/// Kernel variances used for a robot's logs (the first of them).
+fn panels_cov(analyses: &[&Analysis], robot: &str) -> (f64, f64) {
+    analyses
+        .iter()
+        .find(|a| a.robot == robot)
+        .map_or((f64::NAN, f64::NAN), |a| {
+            (
+                a.params.smoother.covariance.var_vx,
+                a.params.smoother.covariance.var_wz,
+            )
+        })
+}
+
 fn verdict_text(v: &crate::analysis::crosscheck::Verdict) -> String {
     use crate::analysis::crosscheck::Verdict;
     match v {
@@ -480,12 +500,28 @@ fn key_figures(log: &DriveLog, a: &Analysis) -> Vec<KeyFigure> {
             ),
             "",
         ),
-        KeyFigure::new("median slip vx", format!("{:.3}", med(s.vx_m_s)), "m/s"),
-        KeyFigure::new("median slip vy", format!("{:.3}", med(s.vy_m_s)), "m/s"),
-        KeyFigure::new("median slip wz", format!("{:.3}", med(s.wz_rad_s)), "rad/s"),
         KeyFigure::new(
-            "median slip left / right",
-            format!("{:.2} / {:.2}", med(s.left_rad_s), med(s.right_rad_s)),
+            "median slip vx (along the command)",
+            format!("{:.3}", med(s.along_command.vx_m_s)),
+            "m/s",
+        ),
+        KeyFigure::new(
+            "median |slip vy|",
+            format!("{:.3}", med(s.along_command.vy_abs_m_s)),
+            "m/s",
+        ),
+        KeyFigure::new(
+            "median slip wz (along the command)",
+            format!("{:.3}", med(s.along_command.wz_rad_s)),
+            "rad/s",
+        ),
+        KeyFigure::new(
+            "median slip left / right (along the command)",
+            format!(
+                "{:.2} / {:.2}",
+                med(s.along_command.left_rad_s),
+                med(s.along_command.right_rad_s)
+            ),
             "rad/s",
         ),
         KeyFigure::new("median ρ", format!("{:.3}", med(s.rho)), ""),

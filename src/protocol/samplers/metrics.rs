@@ -288,6 +288,7 @@ mod tests {
             steps_completed: 4,
             interruptions: 2,
             abandoned_commands: 1,
+            incomplete_reorientations: 0,
             total_time_s: 48.0,
             productive_time_s: 24.0,
             time_efficiency: 0.5,
