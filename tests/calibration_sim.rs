@@ -135,7 +135,7 @@ fn cheap_options() -> CalibrationOptions {
 #[test]
 fn simulator_with_a_weak_left_motor_is_diagnosed() {
     let t0 = std::time::Instant::now();
-    let (log, robot, terrain) = synthetic_log(&[("motor_gain_left", 0.8)], 16, 21);
+    let (log, robot, terrain) = synthetic_log(&[("motor_gain_left", 0.8)], 24, 21);
     let r = calibrate(&log, &robot, &terrain, &SimFactory::default(), &cheap_options()).unwrap();
     summary(
         "synthetic simulator, motor_gain_left = 0.8",
