@@ -5,6 +5,7 @@
 //! calibration ([`calibration`]) → figures and reports ([`report`]). The [`cli`] wires them.
 
 pub mod analysis;
+pub mod calibration;
 pub mod cli;
 pub mod config;
 pub mod error;

@@ -1,0 +1,230 @@
+//! Calibration on the measured datasets, with the kinematic model (cheap enough for CI).
+//!
+//! Independent check: the IMU yaw rate of `warthog_gravel` and `warthog_ice` has the opposite
+//! sign of the yaw rate of the lidar poses (computed here directly from the samples, with
+//! nothing from the calibration module), while `warthog_asphalt` and `husky_2023` agree.
+//! `calibrate` must find the flip from the residual alone where it is, and not where it is not.
+//! Run with `--nocapture` to see each dataset's before/after table.
+
+use drive_sim::calibration::{
+    calibrate, calibrate_file, models_for_log, replay_and_compare, write_report, CalibrationOptions,
+    CalibrationReport, KinematicFactory, ModelKind,
+};
+use drive_sim::log::csv::read_measured_csv;
+use drive_sim::log::DriveLog;
+
+const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured");
+
+/// Least-squares slope of the window-mean IMU yaw rate on the lidar yaw rate (yaw change over
+/// the window / its duration), over the steady windows.
+fn imu_vs_lidar_slope(log: &DriveLog) -> f64 {
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for w in log
+        .samples
+        .chunk_by(|a, b| (a.step, a.window) == (b.step, b.window))
+    {
+        if w[0].window == 0 || w.len() < 2 {
+            continue;
+        }
+        let mut dyaw = 0.0;
+        for p in w.windows(2) {
+            let d = p[1].m.pose.yaw_rad - p[0].m.pose.yaw_rad;
+            dyaw += (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+        }
+        let lidar = dyaw / (w[w.len() - 1].t_in_step_s - w[0].t_in_step_s);
+        let imu = w.iter().map(|s| s.m.imu.wz_rad_s).sum::<f64>() / w.len() as f64;
+        sxy += lidar * imu;
+        sxx += lidar * lidar;
+    }
+    sxy / sxx
+}
+
+fn run(name: &str) -> (DriveLog, CalibrationReport) {
+    let t0 = std::time::Instant::now();
+    let log = read_measured_csv(format!("{DATA}/{name}.csv")).unwrap();
+    let (robot, terrain, _) = models_for_log(&log).unwrap();
+    let r = calibrate(
+        &log,
+        &robot,
+        &terrain,
+        &KinematicFactory,
+        &CalibrationOptions::default(),
+    )
+    .unwrap();
+    eprintln!(
+        "== {name}: {:.1} s, status {:?}",
+        t0.elapsed().as_secs_f64(),
+        r.status
+    );
+    for row in &r.table {
+        eprintln!(
+            "{:26} {:>5}  IDD {:9.4}  before {:9.4}  after {:9.4}  floor {:8.4}",
+            row.metric, row.unit, row.idd, row.sim_before, row.sim_after, row.floor
+        );
+    }
+    for p in r.terrain_fit.iter().flat_map(|f| &f.params) {
+        eprintln!(
+            "  fitted {} = {:.4} (was {:?}, at bound: {})",
+            p.name, p.value, p.initial, p.at_bound
+        );
+    }
+    for e in r.rounds[0].ranking.iter().take(4) {
+        eprintln!(
+            "  candidate {:30} held-out reduction {:9.3} ± {:7.3}, share {:.2}, {:?}",
+            e.effect,
+            e.reduction,
+            e.reduction_se,
+            e.share,
+            e.params
+                .iter()
+                .map(|p| (p.name.as_str(), p.value))
+                .collect::<Vec<_>>()
+        );
+    }
+    eprintln!(
+        "  effects {:?}",
+        r.effects
+            .iter()
+            .map(|e| (e.name.as_str(), e.value))
+            .collect::<Vec<_>>()
+    );
+    (log, r)
+}
+
+fn has_flip(r: &CalibrationReport) -> bool {
+    r.effects
+        .iter()
+        .any(|e| e.name == "effect.imu_yaw_rate_sign_flip" && e.value == 1.0)
+}
+
+fn common_checks(r: &CalibrationReport) {
+    // Calibration never makes the held-out score worse, and beats the IDD on steady yaw rate.
+    assert!(
+        r.after.score <= r.before.score,
+        "{} -> {}",
+        r.before.score,
+        r.after.score
+    );
+    assert!(r.after.steady_wz_rad_s < r.idd.steady_wz_rad_s);
+    // Held-out and training steps are disjoint and cover the log.
+    assert!(r.train_steps.iter().all(|s| !r.heldout_steps.contains(s)));
+}
+
+#[test]
+fn gravel_and_ice_imu_sign_is_flipped() {
+    for name in ["warthog_gravel", "warthog_ice"] {
+        let (log, r) = run(name);
+        let slope = imu_vs_lidar_slope(&log);
+        assert!(slope < -0.8, "{name}: independent IMU/lidar slope {slope}");
+        assert_eq!(r.rounds[0].ranking[0].effect, "imu_yaw_rate_sign_flip", "{name}");
+        assert!(has_flip(&r), "{name}: {:?}", r.effects);
+        common_checks(&r);
+        // With the flip, the IMU agrees with the lidar far better than before.
+        assert!(r.after.steady_imu_wz_rad_s < 0.5 * r.before.steady_imu_wz_rad_s);
+    }
+}
+
+#[test]
+fn asphalt_and_husky_imu_sign_is_not_flipped() {
+    for name in ["warthog_asphalt", "husky_2023"] {
+        let (log, r) = run(name);
+        let slope = imu_vs_lidar_slope(&log);
+        assert!(slope > 0.8, "{name}: independent IMU/lidar slope {slope}");
+        assert!(!has_flip(&r), "{name}: {:?}", r.effects);
+        common_checks(&r);
+    }
+}
+
+#[test]
+fn report_is_written_as_json_and_terrain_toml() {
+    let (_, r) = run("warthog_ice");
+    let dir = tempfile::tempdir().unwrap();
+    // CALIB_OUT=<dir> keeps a copy of the report for inspection.
+    if let Ok(keep) = std::env::var("CALIB_OUT") {
+        write_report(&r, std::path::Path::new(&keep)).unwrap();
+    }
+    let paths = write_report(&r, dir.path()).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&paths[0]).unwrap()).unwrap();
+    assert_eq!(json["dataset"], "warthog_ice");
+    assert_eq!(json["table"].as_array().unwrap().len(), r.table.len());
+    // The fitted terrain reads back as a terrain file.
+    let text = std::fs::read_to_string(&paths[1]).unwrap();
+    assert!(text.starts_with("# Fitted to `warthog_ice` by drive-sim calibrate"));
+    let t: drive_sim::terrain::Terrain = toml::from_str(&text).unwrap();
+    assert_eq!(t, r.model_after.terrain);
+    // Figures (SVG + PNG) and the HTML page exist and are not empty.
+    let html = paths.last().unwrap();
+    assert!(html.ends_with("report.html"));
+    let page = std::fs::read_to_string(html).unwrap();
+    assert!(page.contains("imu_yaw_rate_sign_flip") && page.contains("<svg"));
+    for p in &paths {
+        assert!(std::fs::metadata(p).unwrap().len() > 0, "{p:?}");
+    }
+    assert!(paths.iter().any(|p| p.ends_with("residual_map_wz.png")));
+}
+
+#[test]
+fn replay_keeps_the_structure_and_the_idd_error_matches_a_hand_computation() {
+    let log = read_measured_csv(format!("{DATA}/warthog_asphalt.csv")).unwrap();
+    let c = replay_and_compare(&log, ModelKind::Kinematic).unwrap();
+    assert_eq!(c.replayed.samples.len(), log.samples.len());
+    assert_eq!(c.replayed.steps(), log.steps());
+    for (a, b) in c.replayed.samples.iter().zip(&log.samples) {
+        assert_eq!((a.step, a.window, a.k, a.m.cmd), (b.step, b.window, b.k, b.m.cmd));
+    }
+    // The IDD's wheels follow the command exactly: its steady wheel RMSE is the RMS of
+    // (window-mean encoder - window-mean command) over steady windows and both sides.
+    let (mut sq, mut n) = (0.0, 0usize);
+    for w in log
+        .samples
+        .chunk_by(|a, b| (a.step, a.window) == (b.step, b.window))
+    {
+        if w[0].window == 0 {
+            continue;
+        }
+        let m = w.len() as f64;
+        let enc_l = w.iter().map(|s| s.m.enc.left_rad_s).sum::<f64>() / m;
+        let enc_r = w.iter().map(|s| s.m.enc.right_rad_s).sum::<f64>() / m;
+        let cmd_l = w.iter().map(|s| s.m.cmd.left_rad_s).sum::<f64>() / m;
+        let cmd_r = w.iter().map(|s| s.m.cmd.right_rad_s).sum::<f64>() / m;
+        sq += (enc_l - cmd_l).powi(2) + (enc_r - cmd_r).powi(2);
+        n += 2;
+    }
+    let by_hand = (sq / n as f64).sqrt();
+    assert!(
+        (c.idd.steady_wheel_rad_s - by_hand).abs() < 1e-9,
+        "{} vs {by_hand}",
+        c.idd.steady_wheel_rad_s
+    );
+}
+
+#[test]
+fn bad_inputs_are_clear_errors() {
+    let e = calibrate_file(
+        std::path::Path::new("/nonexistent/x.csv"),
+        ModelKind::Kinematic,
+        &Default::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("/nonexistent/x"), "{e}");
+    let e = ModelKind::parse("physx").unwrap_err().to_string();
+    assert!(e.contains("simulator") && e.contains("kinematic"), "{e}");
+    let log = read_measured_csv(format!("{DATA}/warthog_ice.csv")).unwrap();
+    let (robot, terrain, _) = models_for_log(&log).unwrap();
+    let bad = CalibrationOptions {
+        train_fraction: 1.0,
+        ..Default::default()
+    };
+    let e = calibrate(&log, &robot, &terrain, &KinematicFactory, &bad)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("train fraction"), "{e}");
+    // Three steps are too few to split and judge.
+    let mut short = log.clone();
+    short.samples.retain(|s| s.step < 3);
+    let e = calibrate(&short, &robot, &terrain, &KinematicFactory, &Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("at least 4"), "{e}");
+}

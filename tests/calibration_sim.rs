@@ -1,0 +1,218 @@
+//! Calibration with the rapier simulator as the model.
+//!
+//! CI: a synthetic DRIVE run of the simulator carrying an undeclared effect (sensor noise on)
+//! must be diagnosed by `calibrate` with the simulator as the model. The full measured-data
+//! runs are `#[ignore]`d (minutes each); reproduce them with
+//! `CALIB_OUT=/tmp/calib cargo test --test calibration_sim -- --ignored --nocapture`
+//! (`DATASETS=warthog_ice,...` to choose).
+
+use drive_sim::calibration::{
+    calibrate, models_for_log, write_report, CalibrationOptions, CalibrationReport, FitOptions, SimFactory,
+};
+use drive_sim::log::csv::read_measured_csv;
+use drive_sim::log::{DriveLog, LogMeta, Nominal, Origin};
+use drive_sim::protocol::sampler::UniformWheel;
+use drive_sim::protocol::{run_drive, ProtocolConfig};
+use drive_sim::robot::Robot;
+use drive_sim::sim::{Effects, SensorNoise, SimConfig, Simulator};
+use drive_sim::terrain::Terrain;
+
+const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured");
+
+fn summary(name: &str, r: &CalibrationReport, secs: f64) {
+    eprintln!("== {name}: {secs:.1} s, status {:?}", r.status);
+    for row in &r.table {
+        eprintln!(
+            "{:26} {:>5}  IDD {:9.4}  before {:9.4}  after {:9.4}  floor {:8.4}",
+            row.metric, row.unit, row.idd, row.sim_before, row.sim_after, row.floor
+        );
+    }
+    for p in r.terrain_fit.iter().flat_map(|f| &f.params) {
+        eprintln!(
+            "  fitted {} = {:.4} (was {:?}, at bound: {})",
+            p.name, p.value, p.initial, p.at_bound
+        );
+    }
+    for e in r.rounds[0].ranking.iter().take(5) {
+        eprintln!(
+            "  candidate {:30} held-out reduction {:9.3} ± {:7.3}, share {:.2}, {:?}",
+            e.effect,
+            e.reduction,
+            e.reduction_se,
+            e.share,
+            e.params
+                .iter()
+                .map(|p| (p.name.as_str(), p.value))
+                .collect::<Vec<_>>()
+        );
+    }
+    eprintln!(
+        "  effects {:?}",
+        r.effects
+            .iter()
+            .map(|e| (e.name.as_str(), e.value))
+            .collect::<Vec<_>>()
+    );
+}
+
+/// A simulated DRIVE run on asphalt with `effects` injected but not declared.
+fn synthetic_log(effects: &[(&str, f64)], steps: u32, seed: u64) -> (DriveLog, Robot, Terrain) {
+    let (robot, _) = Robot::resolve("warthog").unwrap();
+    let (terrain, _) = Terrain::resolve("asphalt").unwrap();
+    let mut e = Effects::default();
+    for (n, v) in effects {
+        e.set(n, *v).unwrap();
+    }
+    let cfg = SimConfig {
+        seed,
+        noise: SensorNoise {
+            encoder_rad_s: 0.1,
+            pose_position_m: 0.01,
+            pose_yaw_rad: 0.005,
+            imu_gyro_rad_s: 0.02,
+            imu_accel_m_s2: 0.1,
+        },
+        effects: e,
+        ..SimConfig::default()
+    };
+    let mut sim = Simulator::new(&robot, &terrain, cfg).unwrap();
+    let pc = ProtocolConfig {
+        steps,
+        ..ProtocolConfig::default()
+    };
+    let mut frames = Vec::new();
+    run_drive(&mut sim, &robot, &mut UniformWheel::new(seed), &pc, &mut frames).unwrap();
+    let meta = LogMeta {
+        name: "synthetic_sim".into(),
+        robot: robot.name.clone(),
+        terrain: terrain.name.clone(),
+        rate_hz: pc.rate_hz,
+        window_s: pc.window_s,
+        windows_per_step: pc.windows_per_step,
+        samples_per_window: pc.samples_per_window(),
+        nominal: Nominal::from_robot(&robot),
+        origin: Origin::Simulated {
+            seed,
+            robot_file: "warthog".into(),
+            terrain_file: "asphalt".into(),
+            sampler: "uniform-wheel".into(),
+            // The injected effect is declared nowhere calibrate could read it.
+            injected: Vec::new(),
+        },
+    };
+    (DriveLog::from_frames(meta, &frames), robot, terrain)
+}
+
+fn cheap_options() -> CalibrationOptions {
+    let budget = |max_iters| FitOptions {
+        max_iters,
+        sd_tolerance: 1e-3,
+    };
+    CalibrationOptions {
+        seed: 3,
+        terrain_fit: budget(25),
+        effect_fit: budget(20),
+        final_fit: budget(30),
+        max_effects: 1,
+        grid_step: 0.5,
+        // The full candidate list is exercised by the kinematic-model tests; here the
+        // simulator's own effects (turning resistance, torsion) against their look-alikes.
+        candidates: Some(
+            [
+                "motor_gain",
+                "wheel_radius_scale",
+                "encoder_scale",
+                "turning_resistance_scale",
+                "suspension_torsion_m",
+            ]
+            .map(String::from)
+            .to_vec(),
+        ),
+        ..CalibrationOptions::default()
+    }
+}
+
+#[test]
+fn simulator_with_a_weak_left_motor_is_diagnosed() {
+    let t0 = std::time::Instant::now();
+    let (log, robot, terrain) = synthetic_log(&[("motor_gain_left", 0.8)], 24, 21);
+    let r = calibrate(&log, &robot, &terrain, &SimFactory::default(), &cheap_options()).unwrap();
+    summary(
+        "synthetic simulator, motor_gain_left = 0.8",
+        &r,
+        t0.elapsed().as_secs_f64(),
+    );
+    assert_eq!(
+        r.rounds[0].ranking[0].effect, "motor_gain",
+        "{:#?}",
+        r.rounds[0].ranking
+    );
+    let gain = |n: &str| r.effects.iter().find(|e| e.name == n).map(|e| e.value);
+    let (l, rr) = (
+        gain("effect.motor_gain_left").unwrap(),
+        gain("effect.motor_gain_right").unwrap(),
+    );
+    assert!((l - 0.8).abs() < 0.05 && (rr - 1.0).abs() < 0.05, "{l} {rr}");
+    assert!(
+        r.after.score < 0.2 * r.before.score,
+        "{} -> {}",
+        r.before.score,
+        r.after.score
+    );
+}
+
+#[test]
+fn simulator_with_nothing_injected_adds_nothing() {
+    let t0 = std::time::Instant::now();
+    let (log, robot, terrain) = synthetic_log(&[], 16, 22);
+    let r = calibrate(&log, &robot, &terrain, &SimFactory::default(), &cheap_options()).unwrap();
+    summary(
+        "synthetic simulator, nothing injected",
+        &r,
+        t0.elapsed().as_secs_f64(),
+    );
+    assert!(r.effects.is_empty(), "{:?}", r.effects);
+}
+
+/// Options of the measured-data runs: the cost is evaluated on 30 training steps (seeded
+/// subset) to keep a dataset to minutes; everything is reported on all held-out steps.
+fn measured_options() -> CalibrationOptions {
+    CalibrationOptions {
+        max_fit_steps: Some(30),
+        effect_fit: FitOptions {
+            max_iters: 25,
+            sd_tolerance: 1e-3,
+        },
+        ..CalibrationOptions::default()
+    }
+}
+
+#[test]
+#[ignore = "minutes per dataset; run by hand (see the module doc)"]
+fn measured_datasets_with_the_simulator() {
+    let names = std::env::var("DATASETS")
+        .unwrap_or_else(|_| "warthog_asphalt,warthog_gravel,warthog_ice,husky_2023".into());
+    let mut worse: Vec<String> = Vec::new();
+    for name in names.split(',') {
+        let t0 = std::time::Instant::now();
+        let log = read_measured_csv(format!("{DATA}/{name}.csv")).unwrap();
+        let (robot, terrain, _) = models_for_log(&log).unwrap();
+        let r = calibrate(
+            &log,
+            &robot,
+            &terrain,
+            &SimFactory::default(),
+            &measured_options(),
+        )
+        .unwrap();
+        summary(name, &r, t0.elapsed().as_secs_f64());
+        if let Ok(dir) = std::env::var("CALIB_OUT") {
+            write_report(&r, &std::path::Path::new(&dir).join(name)).unwrap();
+        }
+        if r.after.score > r.before.score {
+            worse.push(format!("{name}: {} -> {}", r.before.score, r.after.score));
+        }
+    }
+    // The held-out score is never worse after calibration.
+    assert!(worse.is_empty(), "{worse:?}");
+}
