@@ -1,6 +1,7 @@
 //! The `drive-sim` command line: what each subcommand does, and how it reports progress.
 
 pub mod analyze;
+pub mod calibrate;
 pub mod demo;
 pub mod run;
 pub mod samplers;
@@ -28,6 +29,12 @@ pub enum Command {
     Demo(demo::DemoArgs),
     /// Runs DRIVE in closed loop on a simulated robot and terrain; writes an MCAP log.
     Run(run::RunArgs),
+    /// Replays the commands of a measured (or simulated) log on the declared model and reports
+    /// the error beside the ideal differential drive and the noise floor.
+    Replay(calibrate::ReplayArgs),
+    /// Closes the loop: baseline error, terrain calibration, residual, effects selected with
+    /// evidence, error after, all on held-out steps; JSON + HTML report and a fitted terrain file.
+    Calibrate(calibrate::CalibrateArgs),
     /// Lists the robots (built-in and ./robots/*.toml).
     Robots,
     /// Lists the terrains (built-in and ./terrains/*.toml).
@@ -76,6 +83,8 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
             println!("{}", run::describe(&r));
             Ok(())
         }
+        Some(Command::Replay(a)) => calibrate::replay(&a),
+        Some(Command::Calibrate(a)) => calibrate::calibrate(&a),
         Some(Command::Robots) => list_robots(),
         Some(Command::Terrains) => list_terrains(),
         Some(Command::Analyze(a)) => analyze::analyze(&a),

@@ -1,0 +1,235 @@
+//! `drive-sim replay` and `drive-sim calibrate`: the simulator against measured data (or any
+//! DRIVE log, e.g. a simulated one carrying an undeclared `--inject`ed effect).
+
+use crate::calibration::{self, CalibrationOptions, CalibrationReport, ModelKind};
+use crate::error::Result;
+use crate::log::{mcap::write_mcap, read_log, Frame, Origin, Phase};
+use std::io::Write;
+use std::path::PathBuf;
+
+/// Options of `drive-sim replay`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ReplayArgs {
+    /// The log whose commands are replayed (measured `.csv` or simulated `.mcap`).
+    pub log: PathBuf,
+    /// Output directory.
+    #[arg(long, default_value = "out/replay")]
+    pub out: PathBuf,
+    /// Model replayed: `simulator` (rapier) or `kinematic` (grey-box, fast).
+    #[arg(long, default_value = "simulator")]
+    pub model: String,
+}
+
+/// Options of `drive-sim calibrate`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct CalibrateArgs {
+    /// The log to calibrate on (measured `.csv` or simulated `.mcap`).
+    pub log: PathBuf,
+    /// Output directory.
+    #[arg(long, default_value = "out/calibration")]
+    pub out: PathBuf,
+    /// Model calibrated: `simulator` (rapier) or `kinematic` (grey-box, fast).
+    #[arg(long, default_value = "simulator")]
+    pub model: String,
+    /// Seed of the training / held-out split and of the bootstrap.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Most effects added.
+    #[arg(long, default_value_t = 3)]
+    pub max_effects: usize,
+    /// Fit on at most this many training steps per evaluation (all by default).
+    #[arg(long)]
+    pub max_fit_steps: Option<usize>,
+}
+
+/// Replays a log on the declared model and reports how far it is, beside the IDD and the floor.
+pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
+    let kind = ModelKind::parse(&args.model)?;
+    eprintln!("drive-sim: reading {}", args.log.display());
+    let log = read_log(&args.log)?;
+    eprintln!(
+        "drive-sim: replaying {} steps of {} on the {} model",
+        log.steps().len(),
+        log.meta.name,
+        args.model
+    );
+    let cmp = calibration::replay_and_compare(&log, kind)?;
+    std::fs::create_dir_all(&args.out).map_err(|e| crate::Error::io(&args.out, e))?;
+    // The replay as a log of its own, readable by `analyze` and Foxglove.
+    let mut meta = cmp.replayed.meta.clone();
+    meta.name = format!("{}_replay", log.meta.name);
+    if let Origin::Measured { file } = &log.meta.origin {
+        meta.origin = Origin::Measured {
+            file: format!("replay of {file} on the {} model", args.model),
+        };
+    }
+    let frames: Vec<Frame> = cmp
+        .replayed
+        .samples
+        .iter()
+        .map(|s| Frame {
+            stamp_s: s.stamp_s,
+            phase: Phase::Step {
+                step: s.step,
+                attempt: 0,
+                window: s.window,
+                k: s.k,
+                t_in_step_s: s.t_in_step_s,
+            },
+            m: s.m,
+        })
+        .collect();
+    let mcap = args.out.join(format!("{}.mcap", meta.name));
+    write_mcap(&mcap, &meta, &frames)?;
+    super::run::write_json(
+        &args.out.join("replay.json"),
+        &serde_json::json!({"model": cmp.model, "idd": cmp.idd, "floor": cmp.floor}),
+    )?;
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "{:<28} {:>10} {:>10} {:>10}",
+        "all steps", "IDD", "model", "floor"
+    )?;
+    for (name, unit, f) in error_rows() {
+        writeln!(
+            out,
+            "{:<28} {:>10.4} {:>10.4} {:>10.4}",
+            format!("{name} [{unit}]"),
+            f(&cmp.idd),
+            f(&cmp.model),
+            f(&cmp.floor)
+        )?;
+    }
+    eprintln!(
+        "drive-sim: wrote {} and {}",
+        mcap.display(),
+        args.out.join("replay.json").display()
+    );
+    Ok(())
+}
+
+type Row = (&'static str, &'static str, fn(&calibration::ErrorSummary) -> f64);
+
+fn error_rows() -> Vec<Row> {
+    vec![
+        ("steady vx RMSE", "m/s", |e| e.steady_vx_m_s),
+        ("steady vy RMSE", "m/s", |e| e.steady_vy_m_s),
+        ("steady wz RMSE", "rad/s", |e| e.steady_wz_rad_s),
+        ("steady wheel RMSE", "rad/s", |e| e.steady_wheel_rad_s),
+        ("transient vx RMSE", "m/s", |e| e.transient_vx_m_s),
+        ("transient wheel RMSE", "rad/s", |e| e.transient_wheel_rad_s),
+        ("pose error over 2 s", "m", |e| e.pose_translation_2s_m),
+        ("yaw error over 2 s", "rad", |e| e.pose_rotation_2s_rad),
+    ]
+}
+
+/// Runs the whole loop and writes its report.
+pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
+    let kind = ModelKind::parse(&args.model)?;
+    eprintln!("drive-sim: reading {}", args.log.display());
+    let log = read_log(&args.log)?;
+    let (robot, terrain, notes) = calibration::models_for_log(&log)?;
+    let opts = CalibrationOptions {
+        seed: args.seed,
+        max_effects: args.max_effects,
+        max_fit_steps: args.max_fit_steps,
+        ..CalibrationOptions::default()
+    };
+    eprintln!(
+        "drive-sim: calibrating the {} model of {} on {} ({} steps; fit on {:.0} %, report on the rest)",
+        args.model,
+        robot.name,
+        terrain.name,
+        log.steps().len(),
+        100.0 * opts.train_fraction
+    );
+    let mut report = calibration::calibrate(&log, &robot, &terrain, kind.factory().as_ref(), &opts)?;
+    report.status.notes.splice(0..0, notes);
+    report.reproduce = format!(
+        "drive-sim calibrate {} --model {} --seed {} --max-effects {} --out {}",
+        args.log.display(),
+        args.model,
+        args.seed,
+        args.max_effects,
+        args.out.display()
+    );
+    let files = calibration::write_report(&report, &args.out)?;
+    print_report(&report)?;
+    eprintln!(
+        "drive-sim: wrote {} files into {}",
+        files.len(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+fn print_report(r: &CalibrationReport) -> Result<(), std::io::Error> {
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "{} ({} model): {} held-out steps",
+        r.dataset,
+        r.model_kind,
+        r.heldout_steps.len()
+    )?;
+    writeln!(
+        out,
+        "{:<34} {:>10} {:>10} {:>10} {:>10}",
+        "held-out", "IDD", "before", "after", "floor"
+    )?;
+    for row in &r.table {
+        writeln!(
+            out,
+            "{:<34} {:>10.4} {:>10.4} {:>10.4} {:>10.4}",
+            format!("{} [{}]", row.metric, row.unit),
+            row.idd,
+            row.sim_before,
+            row.sim_after,
+            row.floor
+        )?;
+    }
+    if let Some(round) = r.rounds.first() {
+        writeln!(
+            out,
+            "candidate effects, ranked by held-out reduction (first round):"
+        )?;
+        writeln!(
+            out,
+            "  {:<30} {:>24} {:>18} {:>7}  fitted",
+            "effect", "held-out score before→after", "reduction ± se", "share"
+        )?;
+        for c in &round.ranking {
+            let fitted: Vec<String> = c
+                .params
+                .iter()
+                .map(|p| format!("{}={:.4}", p.name.trim_start_matches("effect."), p.value))
+                .collect();
+            writeln!(
+                out,
+                "  {:<30} {:>11.3} → {:>10.3} {:>9.3} ± {:<6.3} {:>6.1}%{}  {}",
+                c.effect,
+                c.heldout_before,
+                c.heldout_after,
+                c.reduction,
+                c.reduction_se,
+                100.0 * c.share,
+                if c.significant { "*" } else { " " },
+                fitted.join(", ")
+            )?;
+        }
+        writeln!(out, "  (* = passes the selection rule)")?;
+    }
+    if r.effects.is_empty() {
+        writeln!(out, "effects added: none")?;
+    } else {
+        for e in &r.effects {
+            writeln!(out, "effect added: {} = {:.4}", e.name, e.value)?;
+        }
+    }
+    writeln!(out, "converged: {}", r.status.converged)?;
+    for n in &r.status.notes {
+        writeln!(out, "  note: {n}")?;
+    }
+    Ok(())
+}
