@@ -19,7 +19,7 @@ use drive_sim::terrain::Terrain;
 const STEPS: u32 = 30;
 
 /// A DRIVE run of the warthog with `effects` set (`name`, value) but not declared.
-fn synthetic_log(effects: &[(&str, f64)], seed: u64) -> (DriveLog, Robot) {
+fn synthetic_log(effects: &[(&str, f64)], seed: u64, steps: u32) -> (DriveLog, Robot) {
     let (robot, _) = Robot::resolve("warthog").unwrap();
     let mut e = KinematicEffects::default();
     for (n, v) in effects {
@@ -34,7 +34,7 @@ fn synthetic_log(effects: &[(&str, f64)], seed: u64) -> (DriveLog, Robot) {
     };
     let mut plant = KinematicPlant::new(robot.idd(), robot.powertrain.time_constant_s, e, Some(noise));
     let cfg = ProtocolConfig {
-        steps: STEPS,
+        steps,
         ..ProtocolConfig::default()
     };
     let mut frames = Vec::new();
@@ -89,8 +89,12 @@ fn options() -> CalibrationOptions {
 }
 
 fn run(effects: &[(&str, f64)], seed: u64) -> CalibrationReport {
-    let (log, robot) = synthetic_log(effects, seed);
-    assert_eq!(log.steps().len(), STEPS as usize);
+    run_steps(effects, seed, STEPS)
+}
+
+fn run_steps(effects: &[(&str, f64)], seed: u64, steps: u32) -> CalibrationReport {
+    let (log, robot) = synthetic_log(effects, seed, steps);
+    assert_eq!(log.steps().len(), steps as usize);
     let (terrain, _) = Terrain::resolve("asphalt").unwrap();
     let r = calibrate(&log, &robot, &terrain, &KinematicFactory, &options()).unwrap();
     // Shown with --nocapture: the figures quoted in the calibration report to the lead.
@@ -201,4 +205,68 @@ fn nothing_injected_nothing_added() {
     assert!(r.rounds[0].added.is_none());
     // The declared model is already at the floor.
     assert!(r.before.score < 2.0, "{}", r.before.score);
+}
+
+/// Every kinematic effect, injected alone and undeclared, over three seeds (60 steps, 18 held
+/// out). All must be ranked first. Where the value is checked, it must be recovered within the
+/// stated absolute tolerance and the held-out score must end below the stated multiple of the
+/// noise floor.
+///
+/// Known limits, asserted as such rather than hidden: a wheel-speed saturation at 10 rad/s is
+/// ranked first on every seed but fitted at 11.1–11.5 rad/s and not added, because it changes
+/// only the few steps commanded above it and the bootstrap standard error of the heavy-tailed
+/// held-out score stays above half the reduction; a wheel radius scale of 0.9 is recovered on 2
+/// of 3 seeds. An encoder scale is recovered exactly but the score ends at 2.1–2.6 × the floor
+/// (a small pose latency is added next to it).
+#[test]
+fn each_effect_over_three_seeds() {
+    // (effect, injected value, candidate name, tolerance on the value (None: ranking only),
+    //  score bound)
+    let cases: &[(&str, f64, &str, Option<f64>, f64)] = &[
+        (
+            "wheel_speed_saturation_rad_s",
+            10.0,
+            "wheel_speed_saturation_rad_s",
+            None,
+            f64::INFINITY,
+        ),
+        ("motor_gain_right", 0.85, "motor_gain", Some(0.01), 2.0),
+        (
+            "wheel_radius_scale",
+            0.9,
+            "wheel_radius_scale",
+            None,
+            f64::INFINITY,
+        ),
+        ("dead_time_s", 0.2, "dead_time_s", Some(0.01), 2.0),
+        (
+            "imu_yaw_rate_bias_rad_s",
+            0.1,
+            "imu_yaw_rate_bias_rad_s",
+            Some(0.005),
+            2.0,
+        ),
+        ("imu_yaw_rate_scale", 0.8, "imu_yaw_rate_scale", Some(0.005), 2.0),
+        ("encoder_scale", 1.1, "encoder_scale", Some(0.005), 3.0),
+    ];
+    let mut failures = Vec::new();
+    for &(name, value, candidate, tol, score_bound) in cases {
+        for seed in [21, 22, 23] {
+            let r = run_steps(&[(name, value)], seed, 60);
+            let first = first_ranked(&r).to_string();
+            let got = r
+                .effects
+                .iter()
+                .find(|e| e.name == format!("effect.{name}"))
+                .map(|e| e.value);
+            let value_ok = tol.is_none_or(|t| got.is_some_and(|g| (g - value).abs() <= t));
+            if first != candidate || !value_ok || r.after.score >= score_bound {
+                failures.push(format!(
+                    "{name}={value} seed {seed}: first {first}, recovered {got:?}, held-out score {:.2}",
+                    r.after.score
+                ));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
 }
