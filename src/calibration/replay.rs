@@ -5,7 +5,7 @@
 use super::model::{ModelParams, PlantFactory};
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, WheelSpeeds};
-use crate::log::{DriveLog, Frame, LogMeta, Origin, Phase, Pose, Sample};
+use crate::log::{DriveLog, Frame, LogMeta, Origin, Pose, Sample};
 use crate::sim::Plant;
 use rayon::prelude::*;
 
@@ -147,21 +147,7 @@ pub fn replay_log(
         }
     };
     let replayed = replay_steps(&chosen, factory, params, log.meta.rate_hz)?;
-    let frames: Vec<Frame> = replayed
-        .iter()
-        .flatten()
-        .map(|s| Frame {
-            stamp_s: s.stamp_s,
-            phase: Phase::Step {
-                step: s.step,
-                attempt: 0,
-                window: s.window,
-                k: s.k,
-                t_in_step_s: s.t_in_step_s,
-            },
-            m: s.m,
-        })
-        .collect();
+    let frames: Vec<Frame> = replayed.iter().flatten().map(|s| s.to_frame()).collect();
     let meta = LogMeta {
         name: format!("{}_replay_{}", log.meta.name, factory.name()),
         origin: Origin::Simulated {

@@ -3,7 +3,7 @@
 
 use crate::calibration::{self, CalibrationOptions, CalibrationReport, ModelKind};
 use crate::error::Result;
-use crate::log::{mcap::write_mcap, read_log, Frame, Origin, Phase};
+use crate::log::{mcap::write_mcap, read_log, Origin};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -63,22 +63,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
             file: format!("replay of {file} on the {} model", args.model),
         };
     }
-    let frames: Vec<Frame> = cmp
-        .replayed
-        .samples
-        .iter()
-        .map(|s| Frame {
-            stamp_s: s.stamp_s,
-            phase: Phase::Step {
-                step: s.step,
-                attempt: 0,
-                window: s.window,
-                k: s.k,
-                t_in_step_s: s.t_in_step_s,
-            },
-            m: s.m,
-        })
-        .collect();
+    let frames: Vec<_> = cmp.replayed.samples.iter().map(|s| s.to_frame()).collect();
     let mcap = args.out.join(format!("{}.mcap", meta.name));
     write_mcap(&mcap, &meta, &frames)?;
     super::run::write_json(

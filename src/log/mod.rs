@@ -141,6 +141,24 @@ pub struct Sample {
     pub m: Measurement,
 }
 
+impl Sample {
+    /// The frame of this sample, as the completed (final) attempt of its step: what a log of
+    /// completed steps (a replay, a measured run) writes to MCAP.
+    pub fn to_frame(&self) -> Frame {
+        Frame {
+            stamp_s: self.stamp_s,
+            phase: Phase::Step {
+                step: self.step,
+                attempt: 0,
+                window: self.window,
+                k: self.k,
+                t_in_step_s: self.t_in_step_s,
+            },
+            m: self.m,
+        }
+    }
+}
+
 /// An interrupted attempt: the robot was about to leave the safe area.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Interruption {
