@@ -247,3 +247,52 @@ fn analyze_rejects_bad_logs() {
         assert!(e.contains(f) && !e.contains("panicked"), "{e}");
     }
 }
+
+/// `analyze` on logs of two robots: one transfer-function figure per robot and channel (none
+/// overwrites another), the summary names both datasets.
+#[test]
+fn analyze_two_robots_writes_a_figure_per_robot() {
+    let dir = tempfile::tempdir().unwrap();
+    for (robot, terrain) in [("warthog", "asphalt"), ("husky", "grass")] {
+        let o = drive_sim(
+            &[
+                "run",
+                "--robot",
+                robot,
+                "--terrain",
+                terrain,
+                "--steps",
+                "12",
+                "--seed",
+                "2",
+                "--out",
+                "logs",
+                "--quiet",
+            ],
+            dir.path(),
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let o = drive_sim(
+        &[
+            "analyze",
+            "logs/warthog_asphalt_s2.mcap",
+            "logs/husky_grass_s2.mcap",
+            "--out",
+            "a",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    for robot in ["warthog", "husky"] {
+        for ch in ["slip_vx_m_s", "slip_vy_m_s", "slip_wz_rad_s", "rho"] {
+            for ext in ["svg", "png"] {
+                let f = dir.path().join(format!("a/tf_{ch}_{robot}.{ext}"));
+                assert!(f.exists(), "{} missing", f.display());
+            }
+        }
+    }
+    let summary = std::fs::read_to_string(dir.path().join("a/summary.json")).unwrap();
+    assert!(summary.contains("warthog_asphalt_s2") && summary.contains("husky_grass_s2"));
+    assert!(dir.path().join("a/report.html").exists());
+}

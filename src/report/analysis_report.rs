@@ -323,11 +323,12 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
             },
             range: if name == "rho" { Some((0.0, 1.0)) } else { None },
         };
-        let stem = format!("tf_{name}");
+        // Robot in the stem: a report of several robots writes one figure each.
+        let stem = format!("tf_{name}_{robot}");
         let f = heat_maps(
             dir,
             &stem,
-            &format!("Transfer function: {quantity}"),
+            &format!("{robot}: transfer function of the {quantity}"),
             &panels,
             &scale,
             spacing,
