@@ -95,17 +95,21 @@ fn axis(lo: f64, hi: f64, n: usize) -> Vec<f64> {
         .collect()
 }
 
+/// U's bounding box in the body frame: (vx range, wz range).
+fn body_box(space: &CommandSpace) -> ((f64, f64), (f64, f64)) {
+    space
+        .polygon_body()
+        .iter()
+        .fold(((f64::MAX, f64::MIN), (f64::MAX, f64::MIN)), |(v, w), p| {
+            ((v.0.min(p.0), v.1.max(p.0)), (w.0.min(p.1), w.1.max(p.1)))
+        })
+}
+
 impl Grid {
     /// Grid over U's bounding box (in B) with the given resolutions, starting at the box's
     /// lower corner.
     pub fn over_space(space: &CommandSpace, res_vx_m_s: f64, res_wz_rad_s: f64) -> Self {
-        let poly = space.polygon_body();
-        let (lo_v, hi_v) = poly
-            .iter()
-            .fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.0), a.1.max(p.0)));
-        let (lo_w, hi_w) = poly
-            .iter()
-            .fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.1), a.1.max(p.1)));
+        let ((lo_v, hi_v), (lo_w, hi_w)) = body_box(space);
         let nv = ((hi_v - lo_v) / res_vx_m_s + 1e-9).floor() as usize + 1;
         let nw = ((hi_w - lo_w) / res_wz_rad_s + 1e-9).floor() as usize + 1;
         let vx: Vec<f64> = (0..nv).map(|i| lo_v + i as f64 * res_vx_m_s).collect();
@@ -114,13 +118,7 @@ impl Grid {
     }
     /// `nvx × nwz` grid spanning U's bounding box (used by the benches: 101², 1001²).
     pub fn with_counts(space: &CommandSpace, nvx: usize, nwz: usize) -> Self {
-        let poly = space.polygon_body();
-        let (lo_v, hi_v) = poly
-            .iter()
-            .fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.0), a.1.max(p.0)));
-        let (lo_w, hi_w) = poly
-            .iter()
-            .fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p.1), a.1.max(p.1)));
+        let ((lo_v, hi_v), (lo_w, hi_w)) = body_box(space);
         Self::with_axes(space, axis(lo_v, hi_v, nvx), axis(lo_w, hi_w, nwz))
     }
     /// Grid on given axes, masked by U.
