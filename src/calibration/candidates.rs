@@ -1,9 +1,10 @@
-//! Candidate effects and the evidence for each: fit its parameter(s) alone on the training
-//! steps, then measure the error reduction on the held-out steps, with a bootstrap standard
-//! error over held-out steps. Ranked by held-out reduction.
+//! Candidate effects and the evidence for each: fit its parameter(s) on the training steps
+//! (with the terrain / robot parameters refit beside them), then measure the error reduction on
+//! the held-out steps, with a bootstrap standard error over held-out steps. Ranked by held-out
+//! reduction.
 
-use super::fit::{fit, mean_score, FitOptions, FittedParam, StepSet};
-use super::metrics::{NoiseFloor, StepErrors};
+use super::fit::{fit, FitOptions, FittedParam, StepSet};
+use super::metrics::{score, NoiseFloor, StepErrors};
 use super::model::{ModelParams, ParamSpec, PlantFactory};
 use crate::error::Result;
 use rand::{RngExt, SeedableRng};
@@ -19,12 +20,23 @@ pub struct EffectCandidate {
     pub params: Vec<ParamSpec>,
 }
 
-/// Search boxes of the known effects. `max_cmd_rad_s` is the largest commanded wheel speed of
-/// the log (a saturation is searched below it). Effects the plant implements but that have no
-/// known box are returned by name in the second list (reported as not evaluated).
+/// How far a log's commands reach: limits are searched below these.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CommandReach {
+    /// Largest commanded wheel speed, rad/s.
+    pub wheel_rad_s: f64,
+    /// Largest commanded forward speed (nominal geometry), m/s.
+    pub speed_m_s: f64,
+    /// Largest commanded yaw rate (nominal geometry), rad/s.
+    pub yaw_rate_rad_s: f64,
+}
+
+/// Search boxes of the known effects, limits below what the log commands (`reach`). Effects
+/// the plant implements but that have no known box are returned by name in the second list
+/// (reported as not evaluated).
 pub fn default_candidates(
     effect_names: &[String],
-    max_cmd_rad_s: f64,
+    reach: &CommandReach,
 ) -> (Vec<EffectCandidate>, Vec<String>) {
     let has = |n: &str| effect_names.iter().any(|e| e == n);
     let one = |n: &str, lo: f64, hi: f64, start: f64| EffectCandidate {
@@ -33,9 +45,19 @@ pub fn default_candidates(
     };
     let mut out = Vec::new();
     let mut known: Vec<&str> = Vec::new();
-    let wmax = max_cmd_rad_s.max(1e-3);
-    let singles: [(&str, f64, f64, f64); 11] = [
-        ("wheel_speed_saturation_rad_s", 0.2 * wmax, wmax, wmax),
+    let wmax = reach.wheel_rad_s.max(1e-3);
+    let vmax = reach.speed_m_s.max(1e-3);
+    let yaw_max = reach.yaw_rate_rad_s.max(1e-3);
+    // Limits start mid-box: near the largest command the cost is flat (few commands reach
+    // there), and a simplex started in a flat region stops at once.
+    let limit = |n: &'static str, lo: f64, hi: f64| (n, lo, hi, (lo + hi) / 2.0);
+    let singles: [(&str, f64, f64, f64); 14] = [
+        limit("wheel_speed_saturation_rad_s", 0.2 * wmax, wmax),
+        limit("controller_wheel_limit_rad_s", 0.2 * wmax, wmax),
+        // A controller's body-space limits can sit far below what a protocol commands (a
+        // Husky commanded at 8.7 rad/s turns at under 2): searched down to a tenth.
+        limit("command_speed_limit_m_s", 0.1 * vmax, vmax),
+        limit("command_yaw_rate_limit_rad_s", 0.1 * yaw_max, yaw_max),
         ("wheel_radius_scale", 0.7, 1.3, 1.0),
         ("dead_time_s", 0.0, 0.6, 0.0),
         ("time_constant_scale", 0.2, 5.0, 1.0),
@@ -69,6 +91,17 @@ pub fn default_candidates(
             ],
         });
     }
+    // The controller's own kinematics: speed and turning gains together (2-D).
+    known.extend(["controller_radius_scale", "controller_baseline_scale"]);
+    if has("controller_radius_scale") && has("controller_baseline_scale") {
+        out.push(EffectCandidate {
+            name: "controller_kinematics".into(),
+            params: vec![
+                ParamSpec::new("effect.controller_radius_scale", 0.4, 2.0).with_start(1.0),
+                ParamSpec::new("effect.controller_baseline_scale", 0.3, 3.0).with_start(1.0),
+            ],
+        });
+    }
     let unknown = effect_names
         .iter()
         .filter(|n| !known.contains(&n.as_str()))
@@ -77,27 +110,31 @@ pub fn default_candidates(
     (out, unknown)
 }
 
-/// Standard error of the mean of `diffs` by bootstrap over its entries (seeded).
-pub fn bootstrap_se(diffs: &[f64], samples: usize, seed: u64) -> f64 {
-    let n = diffs.len();
+/// Bootstrap standard error of the score reduction `score(before) - score(after)` over the
+/// same steps: the steps are resampled with replacement (paired: a resample takes a step's
+/// errors under both models) and the reduction is recomputed on each resample (seeded).
+/// Infinite with fewer than two steps.
+pub fn bootstrap_reduction_se(
+    before: &[StepErrors],
+    after: &[StepErrors],
+    floor: &NoiseFloor,
+    samples: usize,
+    seed: u64,
+) -> f64 {
+    let n = before.len().min(after.len());
     if n < 2 || samples < 2 {
         return f64::INFINITY;
     }
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let means: Vec<f64> = (0..samples)
-        .map(|_| (0..n).map(|_| diffs[rng.random_range(0..n)]).sum::<f64>() / n as f64)
+    let mut idx = vec![0usize; n];
+    let reductions: Vec<f64> = (0..samples)
+        .map(|_| {
+            idx.iter_mut().for_each(|i| *i = rng.random_range(0..n));
+            score(idx.iter().map(|&i| &before[i]), floor) - score(idx.iter().map(|&i| &after[i]), floor)
+        })
         .collect();
-    let m = means.iter().sum::<f64>() / samples as f64;
-    (means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (samples - 1) as f64).sqrt()
-}
-
-/// Paired per-step score differences `before - after` (positive: `after` is better).
-pub fn paired_diffs(before: &[StepErrors], after: &[StepErrors], floor: &NoiseFloor) -> Vec<f64> {
-    before
-        .iter()
-        .zip(after)
-        .map(|(b, a)| b.score(floor) - a.score(floor))
-        .collect()
+    let m = reductions.iter().sum::<f64>() / samples as f64;
+    (reductions.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (samples - 1) as f64).sqrt()
 }
 
 /// When an improvement counts: beyond `k_se` bootstrap standard errors of the held-out score
@@ -131,7 +168,7 @@ impl Default for SelectionRule {
 pub struct CandidateEvidence {
     /// Candidate name.
     pub effect: String,
-    /// Its fitted parameters (fitted alone, everything else fixed).
+    /// Its fitted parameters (fitted with the terrain / robot parameters refit).
     pub params: Vec<FittedParam>,
     /// Training score before and after fitting it.
     pub train_score_before: f64,
@@ -156,34 +193,73 @@ pub struct CandidateEvidence {
     pub fit_status: String,
 }
 
-/// Tries each candidate alone on top of `current`, ranks them by held-out reduction (best
-/// first), and returns each with the model it produced.
+/// Tries each candidate on top of `current`, its parameters fitted together with the
+/// `refit` parameters (the terrain / robot ones), ranks them by held-out reduction (best
+/// first), and returns each with the model it produced. With `refit_from`, each candidate is
+/// also fitted starting from that model's values of the `refit` parameters (the declared
+/// ones), and the better fit on the training steps is kept.
+///
+/// Why refit: the terrain fit has already absorbed what it could of a missing effect (a
+/// smaller wheel radius into a wider baseline, say); fitting the effect alone on top of that
+/// compensation would find no gain, while the nested comparison (terrain vs terrain + effect,
+/// both fitted) measures what the effect adds.
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate_candidates(
     train: &StepSet<'_>,
     test: &StepSet<'_>,
     factory: &dyn PlantFactory,
     current: &ModelParams,
+    refit: &[ParamSpec],
+    refit_from: Option<&ModelParams>,
     floor: &NoiseFloor,
     candidates: &[EffectCandidate],
     fit_opts: &FitOptions,
     rule: &SelectionRule,
 ) -> Result<Vec<(CandidateEvidence, ModelParams)>> {
     let before = test.errors(factory, current)?;
-    let heldout_before = mean_score(&before, floor);
+    let heldout_before = score(&before, floor);
     let mut out = Vec::new();
     for (i, c) in candidates.iter().enumerate() {
-        let (model, res) = fit(train, factory, current, &c.params, floor, fit_opts)?;
+        let specs: Vec<ParamSpec> = c.params.iter().chain(refit).cloned().collect();
+        let (mut model, mut res) = fit(train, factory, current, &specs, floor, fit_opts)?;
+        if let Some(alt) = refit_from {
+            // Also from the declared values of the refit parameters: the compensation the
+            // terrain fit found (a wide baseline standing in for a yaw-rate limit) can be a
+            // valley the simplex does not leave. Keep the better end on the training steps.
+            let mut start = current.clone();
+            for p in refit {
+                if let Some(v) = alt.get(&p.name)? {
+                    start.set(&p.name, v)?;
+                }
+            }
+            let (m2, mut r2) = fit(train, factory, &start, &specs, floor, fit_opts)?;
+            r2.evaluations += res.evaluations;
+            if r2.score < res.score {
+                r2.initial_score = res.initial_score;
+                (model, res) = (m2, r2);
+            } else {
+                res.evaluations = r2.evaluations;
+            }
+        }
         let after = test.errors(factory, &model)?;
-        let heldout_after = mean_score(&after, floor);
-        let diffs = paired_diffs(&before, &after, floor);
+        let heldout_after = score(&after, floor);
         let reduction = heldout_before - heldout_after;
-        let se = bootstrap_se(&diffs, rule.bootstrap_samples, rule.seed.wrapping_add(i as u64));
+        let se = bootstrap_reduction_se(
+            &before,
+            &after,
+            floor,
+            rule.bootstrap_samples,
+            rule.seed.wrapping_add(i as u64),
+        );
         let excess = heldout_before - 1.0;
         out.push((
             CandidateEvidence {
                 effect: c.name.clone(),
-                params: res.params,
+                params: res
+                    .params
+                    .into_iter()
+                    .filter(|p| c.params.iter().any(|s| s.name == p.name))
+                    .collect(),
                 train_score_before: res.initial_score,
                 train_score_after: res.score,
                 heldout_before,
@@ -208,14 +284,47 @@ pub fn evaluate_candidates(
 mod tests {
     use super::*;
 
+    /// A step whose 6 steady channels all have mean squared error `r` (floors 1, one window,
+    /// no transient): its score is `r`, and a pooled score is the mean of the steps' `r`.
+    fn step(r: f64) -> StepErrors {
+        StepErrors {
+            step: 0,
+            steady_sq: [r; 6],
+            n_steady: 1,
+            transient_sq: [0.0; 4],
+            n_transient: 0,
+            pose_sq: [0.0; 2],
+            n_windows: 0,
+        }
+    }
+
+    fn unit_floor() -> NoiseFloor {
+        NoiseFloor {
+            steady: [1.0; 6],
+            series: [1.0; 4],
+            pose: [1.0; 2],
+            steps_used: 0,
+        }
+    }
+
     #[test]
     fn bootstrap_se_matches_the_formula() {
-        // SE of a mean of n iid values ≈ s / √n (population s with bootstrap).
-        let d: Vec<f64> = (0..50).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
-        let se = bootstrap_se(&d, 4000, 1);
-        let expected = 1.0 / 50f64.sqrt();
+        // Equal channels: the pooled score is the mean of the steps' r. `after` halves every
+        // error, so each resample's reduction is mean(r) / 2 and its SE half that of a mean:
+        // (s / √n) / 2, s the population standard deviation of r (values 1 and 3: s = 1).
+        let before: Vec<StepErrors> = (0..50)
+            .map(|i| step(if i % 2 == 0 { 1.0 } else { 3.0 }))
+            .collect();
+        let after: Vec<StepErrors> = (0..50)
+            .map(|i| step(if i % 2 == 0 { 0.5 } else { 1.5 }))
+            .collect();
+        let floor = unit_floor();
+        assert!((score(&before, &floor) - 2.0).abs() < 1e-12);
+        let se = bootstrap_reduction_se(&before, &after, &floor, 4000, 1);
+        let expected = 0.5 / 50f64.sqrt();
         assert!((se - expected).abs() < 0.1 * expected, "{se} vs {expected}");
-        assert!(bootstrap_se(&[1.0], 100, 0).is_infinite());
+        assert_eq!(bootstrap_reduction_se(&before, &before, &floor, 100, 0), 0.0);
+        assert!(bootstrap_reduction_se(&before[..1], &after[..1], &floor, 100, 0).is_infinite());
     }
 
     #[test]
@@ -229,7 +338,12 @@ mod tests {
         .iter()
         .map(|s| s.to_string())
         .collect();
-        let (c, unknown) = default_candidates(&names, 10.0);
+        let reach = CommandReach {
+            wheel_rad_s: 10.0,
+            speed_m_s: 3.0,
+            yaw_rate_rad_s: 2.0,
+        };
+        let (c, unknown) = default_candidates(&names, &reach);
         let n: Vec<&str> = c.iter().map(|c| c.name.as_str()).collect();
         assert_eq!(n, ["dead_time_s", "motor_gain"]);
         assert_eq!(c[1].params.len(), 2);

@@ -2,7 +2,7 @@
 //! a cost that replays the training steps in parallel and scores them against the noise floor,
 //! and argmin's Nelder-Mead over the parameters scaled to their search box.
 
-use super::metrics::{step_errors, step_features, NoiseFloor, StepErrors, StepFeatures};
+use super::metrics::{score, step_errors, step_features, NoiseFloor, StepErrors, StepFeatures};
 use super::model::{ModelParams, ParamSpec, PlantFactory};
 use super::replay::{replay_step, StepSlice};
 use crate::error::{Error, Result};
@@ -81,19 +81,11 @@ impl<'a> StepSet<'a> {
             .collect()
     }
 
-    /// Mean step score of a model (see [`super::metrics`]).
+    /// Score of a model on these steps ([`super::metrics::score`]).
     pub fn score(&self, factory: &dyn PlantFactory, params: &ModelParams, floor: &NoiseFloor) -> Result<f64> {
         let e = self.errors(factory, params)?;
-        Ok(mean_score(&e, floor))
+        Ok(score(&e, floor))
     }
-}
-
-/// Mean of the per-step scores.
-pub fn mean_score(errors: &[StepErrors], floor: &NoiseFloor) -> f64 {
-    if errors.is_empty() {
-        return f64::NAN;
-    }
-    errors.iter().map(|e| e.score(floor)).sum::<f64>() / errors.len() as f64
 }
 
 /// Optimizer budget.
@@ -202,9 +194,48 @@ fn start_value(base: &ModelParams, spec: &ParamSpec) -> f64 {
     }
 }
 
+/// One Nelder-Mead run from `x0` with a simplex of side `step` (normalized units): the best
+/// cost and point, and why it stopped if not by convergence. An optimizer failure keeps `x0`.
+fn nelder_mead(
+    problem: &Problem<'_, '_>,
+    x0: &[f64],
+    step: f64,
+    opts: &FitOptions,
+) -> Result<(f64, Vec<f64>, Option<String>)> {
+    let mut simplex = vec![x0.to_vec()];
+    for i in 0..x0.len() {
+        let mut v = x0.to_vec();
+        v[i] += if v[i] + step <= 1.0 { step } else { -step };
+        simplex.push(v);
+    }
+    let solver = NelderMead::new(simplex)
+        .with_sd_tolerance(opts.sd_tolerance)
+        .map_err(|e| Error::Analysis(format!("optimizer setup: {e}")))?;
+    let run = Executor::new(problem, solver)
+        .configure(|s| s.max_iters(opts.max_iters))
+        .run();
+    Ok(match run {
+        Ok(res) => {
+            let st = res.state();
+            let stop = match st.get_termination_reason() {
+                Some(TerminationReason::SolverConverged) => None,
+                Some(r) => Some(format!("Nelder-Mead stopped: {}", r.text())),
+                None => Some("Nelder-Mead stopped without a reason".to_string()),
+            };
+            let x = st.get_best_param().cloned().unwrap_or_else(|| x0.to_vec());
+            (st.get_best_cost(), x, stop)
+        }
+        Err(e) => (
+            problem.eval(x0),
+            x0.to_vec(),
+            Some(format!("Nelder-Mead failed: {e}; kept the start values")),
+        ),
+    })
+}
+
 /// Fits `specs` on the steps of `data`, starting from `base` (current values, or each spec's
 /// start for an absent effect). Discrete parameters are enumerated at both bounds; continuous
-/// ones go to Nelder-Mead. Returns the best model found and what happened; a failed or
+/// ones go to Nelder-Mead, restarted once with a smaller simplex after it converges. Returns the best model found and what happened; a failed or
 /// unconverged optimization is reported in [`FitResult`], not as an error.
 pub fn fit(
     data: &StepSet<'_>,
@@ -244,38 +275,30 @@ pub fn fit(
         let (cost, x) = if continuous.is_empty() {
             (problem.eval(&[]), Vec::new())
         } else {
-            let mut simplex = vec![x0.clone()];
-            for i in 0..x0.len() {
-                let mut v = x0.clone();
-                v[i] += if v[i] + 0.2 <= 1.0 { 0.2 } else { -0.2 };
-                simplex.push(v);
-            }
-            let solver = NelderMead::new(simplex)
-                .with_sd_tolerance(opts.sd_tolerance)
-                .map_err(|e| Error::Analysis(format!("optimizer setup: {e}")))?;
-            let run = Executor::new(&problem, solver)
-                .configure(|s| s.max_iters(opts.max_iters))
-                .run();
-            match run {
-                Ok(res) => {
-                    let st = res.state();
-                    match st.get_termination_reason() {
-                        Some(TerminationReason::SolverConverged) => {}
-                        Some(r) => {
-                            converged = false;
-                            status.push(format!("Nelder-Mead stopped: {}", r.text()));
-                        }
-                        None => converged = false,
+            let first = nelder_mead(&problem, &x0, 0.2, opts)?;
+            // A simplex can collapse before the minimum (a valley across its axes): restart
+            // once, smaller, from where it stopped, and keep the better end. Only after a
+            // converged run: a run that used its budget has nothing left to confirm with.
+            let (cost, x, stop) = match first {
+                (c, x, None) => {
+                    let half = FitOptions {
+                        max_iters: (opts.max_iters / 2).max(1),
+                        ..opts.clone()
+                    };
+                    let second = nelder_mead(&problem, &x, 0.05, &half)?;
+                    if second.0 < c {
+                        second
+                    } else {
+                        (c, x, None)
                     }
-                    let x = st.get_best_param().cloned().unwrap_or(x0.clone());
-                    (st.get_best_cost(), x)
                 }
-                Err(e) => {
-                    converged = false;
-                    status.push(format!("Nelder-Mead failed: {e}; kept the start values"));
-                    (problem.eval(&x0), x0.clone())
-                }
+                other => other,
+            };
+            if let Some(why) = stop {
+                converged = false;
+                status.push(why);
             }
+            (cost, x)
         };
         evaluations += problem.evals.load(Ordering::Relaxed);
         if best.as_ref().is_none_or(|b| cost < b.0) {

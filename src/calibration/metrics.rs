@@ -22,9 +22,11 @@
 //! 2 s displacement uses the window-1 vs window-2 difference in the same way. With fewer than
 //! two steady windows, the steady floor falls back to the per-sample scatter / √n.
 //!
-//! **Score.** One number per step: the mean over the 10 velocity channels of the squared error
-//! divided by that channel's squared floor. A model at the noise floor scores about 1. It is what
-//! the optimizer minimizes and what the bootstrap compares.
+//! **Score.** One number per set of steps ([`score`]): for each of the 10 velocity channels the
+//! pooled mean squared error over the channel's squared floor, then the geometric mean over the
+//! channels (a concentrated Gaussian likelihood; see [`score`] for why not an arithmetic
+//! mean). A model at the noise floor scores about 1. It is what the optimizer minimizes and
+//! what the bootstrap (over steps) compares.
 
 use super::replay::StepSlice;
 use crate::analysis::velocity::window_kinematics;
@@ -312,27 +314,62 @@ pub fn step_errors(sim: &StepFeatures, meas: &StepFeatures) -> Result<StepErrors
 }
 
 impl StepErrors {
-    /// The step's score: mean over the 10 velocity channels of (mean squared error / floor²).
+    /// This step's own score (see [`score`]), for per-step distributions.
     pub fn score(&self, floor: &NoiseFloor) -> f64 {
-        let mut sum = 0.0;
-        let mut n = 0usize;
-        if self.n_steady > 0 {
-            for c in 0..6 {
-                sum += self.steady_sq[c] / self.n_steady as f64 / floor.steady[c].powi(2);
-                n += 1;
-            }
+        score(std::iter::once(self), floor)
+    }
+}
+
+/// Below this share of its squared floor a channel stops counting as better: a channel that
+/// happens to match far below its noise would otherwise pull the geometric mean at will.
+const MIN_CHANNEL_RATIO: f64 = 1e-2;
+
+/// The score of a model over a set of steps (the same step may appear several times, as in a
+/// bootstrap resample): for each of the 10 velocity channels, the mean squared error pooled
+/// over the steps divided by the channel's squared floor; then the geometric mean over the
+/// channels. 1 means at the noise floor.
+///
+/// Why a geometric mean: with Gaussian errors of an unknown variance per channel, the
+/// likelihood maximised over those variances is `-Σ_c (n_c / 2) log MSE_c`, so a fit that
+/// lowers it lowers every channel's error *relative to itself*. An arithmetic mean of the
+/// floor-normalised errors would instead let the channels with the tightest floors (the
+/// encoders) decide alone and trade body velocity for wheel speed. Channels with no sample are
+/// left out; no channel at all gives NaN.
+pub fn score<'a>(errors: impl IntoIterator<Item = &'a StepErrors>, floor: &NoiseFloor) -> f64 {
+    let mut steady = [0.0; 6];
+    let mut transient = [0.0; 4];
+    let (mut ns, mut nt) = (0usize, 0usize);
+    for e in errors {
+        for (acc, v) in steady.iter_mut().zip(&e.steady_sq) {
+            *acc += v;
         }
-        if self.n_transient > 0 {
-            for c in 0..4 {
-                sum += self.transient_sq[c] / self.n_transient as f64 / floor.series[c].powi(2);
-                n += 1;
-            }
+        for (acc, v) in transient.iter_mut().zip(&e.transient_sq) {
+            *acc += v;
         }
-        if n == 0 {
-            0.0
-        } else {
-            sum / n as f64
+        ns += e.n_steady;
+        nt += e.n_transient;
+    }
+    let mut log_sum = 0.0;
+    let mut n = 0usize;
+    let mut add = |sq: f64, count: usize, floor: f64| {
+        let ratio = sq / count as f64 / floor.powi(2);
+        log_sum += ratio.max(MIN_CHANNEL_RATIO).ln();
+        n += 1;
+    };
+    if ns > 0 {
+        for (sq, f) in steady.iter().zip(&floor.steady) {
+            add(*sq, ns, *f);
         }
+    }
+    if nt > 0 {
+        for (sq, f) in transient.iter().zip(&floor.series) {
+            add(*sq, nt, *f);
+        }
+    }
+    if n == 0 {
+        f64::NAN
+    } else {
+        (log_sum / n as f64).exp()
     }
 }
 
@@ -376,7 +413,7 @@ pub struct ErrorSummary {
     pub pose_translation_2s_m: f64,
     /// RMS rotation error of the displacement over one window (2 s), rad.
     pub pose_rotation_2s_rad: f64,
-    /// Mean step score (1 ≈ at the noise floor).
+    /// Score of the steps pooled ([`score`]; 1 ≈ at the noise floor).
     pub score: f64,
 }
 
@@ -401,11 +438,7 @@ impl ErrorSummary {
             nw += e.n_windows;
         }
         let r = |s: f64, n: usize| if n == 0 { f64::NAN } else { (s / n as f64).sqrt() };
-        let score = if errors.is_empty() {
-            f64::NAN
-        } else {
-            errors.iter().map(|e| e.score(floor)).sum::<f64>() / errors.len() as f64
-        };
+        let score = score(errors, floor);
         Self {
             steps: errors.len(),
             steady_vx_m_s: r(ss[0], ns),

@@ -6,8 +6,9 @@
 //! 2. estimate the noise floor from the whole recording ([`metrics::NoiseFloor`]);
 //! 3. score the IDD and the declared model on the held-out steps (baseline);
 //! 4. fit the terrain / uncertain robot parameters the plant exposes, on the training steps;
-//! 5. residual analysis ([`residual`]) and ranking of candidate effects, each fitted alone on
-//!    the training steps and judged by its held-out error reduction ([`candidates`]);
+//! 5. residual analysis ([`residual`]) and ranking of candidate effects, each fitted on the
+//!    training steps with the terrain / robot parameters refit beside it, and judged by its
+//!    held-out error reduction ([`candidates`]);
 //! 6. greedy forward selection: add the best effect if it passes the [`SelectionRule`]
 //!    (reduction > k bootstrap standard errors and > a minimum relative gain), refit it jointly
 //!    with the terrain parameters (those may have absorbed part of the effect), re-rank the
@@ -30,7 +31,7 @@ pub mod replay;
 pub mod residual;
 pub mod surrogate;
 
-pub use candidates::{CandidateEvidence, EffectCandidate, SelectionRule};
+pub use candidates::{CandidateEvidence, CommandReach, EffectCandidate, SelectionRule};
 pub use fit::{FitOptions, FitResult, FittedParam};
 pub use metrics::{ErrorSummary, NoiseFloor};
 pub use model::{IddFactory, KinematicFactory, ModelParams, ParamSpec, PlantFactory, SimFactory};
@@ -89,7 +90,7 @@ impl Default for CalibrationOptions {
                 max_iters: 100,
                 sd_tolerance: 1e-3,
             },
-            max_effects: 3,
+            max_effects: 4,
             rule: SelectionRule::default(),
             candidates: None,
             grid_step: 0.1,
@@ -305,7 +306,7 @@ pub fn calibrate(
     };
     let train_score = |p: &ModelParams| -> Result<f64> {
         let set = train_full.as_ref().unwrap_or(&train);
-        Ok(fit::mean_score(&set.errors(factory, p)?, &floor))
+        Ok(metrics::score(&set.errors(factory, p)?, &floor))
     };
     let test = fit::StepSet::new(&slices, &test_ids, rate)?;
 
@@ -367,12 +368,24 @@ pub fn calibrate(
     );
 
     // Candidate effects, greedy forward selection.
-    let max_cmd = log
-        .samples
-        .iter()
-        .map(|s| s.m.cmd.left_rad_s.abs().max(s.m.cmd.right_rad_s.abs()))
-        .fold(0.0, f64::max);
-    let (mut pool, not_evaluated) = candidates::default_candidates(&factory.effect_names(), max_cmd);
+    let nominal = robot.idd();
+    let reach = log.samples.iter().fold(
+        CommandReach {
+            wheel_rad_s: 0.0,
+            speed_m_s: 0.0,
+            yaw_rate_rad_s: 0.0,
+        },
+        |r, s| {
+            let c = s.m.cmd;
+            let v = nominal.body_from_wheels(c);
+            CommandReach {
+                wheel_rad_s: r.wheel_rad_s.max(c.left_rad_s.abs()).max(c.right_rad_s.abs()),
+                speed_m_s: r.speed_m_s.max(v.vx_m_s.abs()),
+                yaw_rate_rad_s: r.yaw_rate_rad_s.max(v.wz_rad_s.abs()),
+            }
+        },
+    );
+    let (mut pool, not_evaluated) = candidates::default_candidates(&factory.effect_names(), &reach);
     if let Some(only) = &opts.candidates {
         pool.retain(|c| only.contains(&c.name));
     }
@@ -387,6 +400,8 @@ pub fn calibrate(
             &test,
             factory,
             &current,
+            &specs,
+            terrain_fit_kept.then_some(&declared),
             &floor,
             &pool,
             &opts.effect_fit,
@@ -459,9 +474,14 @@ pub fn calibrate(
         before: before_errors.iter().map(|e| e.score(&floor)).collect(),
         after: after_errors.iter().map(|e| e.score(&floor)).collect(),
     };
-    let diffs = candidates::paired_diffs(&before_errors, &after_errors, &floor);
     let total_reduction = before.score - after.score;
-    let total_reduction_se = candidates::bootstrap_se(&diffs, opts.rule.bootstrap_samples, opts.seed);
+    let total_reduction_se = candidates::bootstrap_reduction_se(
+        &before_errors,
+        &after_errors,
+        &floor,
+        opts.rule.bootstrap_samples,
+        opts.seed,
+    );
     let residual_after = residual::analyse(
         &sim_feats(&current)?,
         &test.features,

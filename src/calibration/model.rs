@@ -3,7 +3,7 @@
 //! (`terrain.friction.peak_longitudinal`, `robot.wheels.baseline_m`, `effect.dead_time_s`) so
 //! the optimizer never needs to know which struct holds them.
 
-use super::surrogate::{KinematicEffects, KinematicPlant};
+use super::surrogate::KinematicPlant;
 use crate::config::Validate;
 use crate::error::{Error, Result};
 use crate::robot::Robot;
@@ -32,6 +32,15 @@ impl ModelParams {
             terrain,
             effects: BTreeMap::new(),
         }
+    }
+
+    /// The effects as the simulator's [`Effects`] (validated by [`Effects::set`]).
+    pub fn sim_effects(&self) -> Result<Effects> {
+        let mut effects = Effects::default();
+        for (name, value) in &self.effects {
+            effects.set(name, *value)?;
+        }
+        Ok(effects)
     }
 
     /// Current value of a named parameter (an absent effect reads as `None`).
@@ -197,19 +206,19 @@ impl PlantFactory for KinematicFactory {
         "kinematic".into()
     }
     fn build(&self, params: &ModelParams) -> Result<Box<dyn Plant>> {
-        let mut effects = KinematicEffects::default();
-        for (name, value) in &params.effects {
-            effects.set(name, *value)?;
-        }
         Ok(Box::new(KinematicPlant::new(
             params.robot.idd(),
             params.robot.powertrain.time_constant_s,
-            effects,
+            params.sim_effects()?,
             None,
-        )))
+        )?))
     }
     fn effect_names(&self) -> Vec<String> {
-        KinematicEffects::NAMES.iter().map(|s| s.to_string()).collect()
+        Effects::NAMES
+            .iter()
+            .filter(|n| !Effects::CONTACT.contains(n))
+            .map(|s| s.to_string())
+            .collect()
     }
     fn calibration_params(&self, params: &ModelParams) -> Vec<ParamSpec> {
         let b = params.robot.wheels.baseline_m;
@@ -245,10 +254,7 @@ impl PlantFactory for SimFactory {
         "simulator".into()
     }
     fn build(&self, params: &ModelParams) -> Result<Box<dyn Plant>> {
-        let mut effects = Effects::default();
-        for (name, value) in &params.effects {
-            effects.set(name, *value)?;
-        }
+        let effects = params.sim_effects()?;
         let cfg = SimConfig {
             seed: 0,
             physics_hz: self.physics_hz,

@@ -77,7 +77,8 @@ pub fn step_start(samples: &[Sample]) -> Result<StepStart> {
 /// command, measure, advance to the next sample time (the protocol runner's order).
 pub fn replay_step(plant: &mut dyn Plant, step: StepSlice<'_>, rate_hz: f64) -> Result<Vec<Sample>> {
     let start = step_start(step.samples)?;
-    plant.reset(start.pose, start.velocity, start.wheels);
+    let wheels = plant.wheels_from_encoders(start.wheels);
+    plant.reset(start.pose, start.velocity, wheels);
     let mut out = Vec::with_capacity(step.samples.len());
     for (i, s) in step.samples.iter().enumerate() {
         plant.command(s.m.cmd);

@@ -1,6 +1,6 @@
 //! A kinematic grey-box plant: ideal differential drive, first-order wheel-speed lag, and the
-//! named effects of the simulator's `Effects` that act outside the wheel-terrain contact
-//! (powertrain, wheel size, sensors). It runs in microseconds per step, so the calibration
+//! simulator's [`Effects`] that act outside the wheel-terrain contact (controller, powertrain,
+//! wheel size, sensors; everything but [`Effects::CONTACT`]), through the same code. It runs in microseconds per step, so the calibration
 //! machinery (replay, metrics, optimizer, effect selection) can be tested end to end on it,
 //! and it is the fast model `calibrate` can fall back to.
 
@@ -8,103 +8,11 @@ use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use crate::log::{GroundTruth, ImuReading, Measurement, Pose};
 use crate::sim::plant::{wrap_angle, Plant};
+use crate::sim::Effects;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use std::collections::VecDeque;
-
-/// Effects of the kinematic plant; names and meanings follow the simulator's `Effects`.
-/// All neutral by default.
-#[derive(Debug, Clone, PartialEq)]
-pub struct KinematicEffects {
-    /// Wheel speed saturates at this magnitude, rad/s (below the commanded one).
-    pub wheel_speed_saturation_rad_s: Option<f64>,
-    /// Left motor reaches `gain * command`.
-    pub motor_gain_left: f64,
-    /// Right motor reaches `gain * command`.
-    pub motor_gain_right: f64,
-    /// True wheel radius over the nominal one.
-    pub wheel_radius_scale: f64,
-    /// Pure delay between command and motor, s.
-    pub dead_time_s: f64,
-    /// Powertrain time constant over the robot file's.
-    pub time_constant_scale: f64,
-    /// IMU yaw-rate gain.
-    pub imu_yaw_rate_scale: f64,
-    /// IMU yaw rate reported with the wrong sign.
-    pub imu_yaw_rate_sign_flip: bool,
-    /// IMU yaw-rate bias, rad/s.
-    pub imu_yaw_rate_bias_rad_s: f64,
-    /// Pose (lidar) latency, s.
-    pub pose_latency_s: f64,
-    /// Encoder reading over the true wheel speed.
-    pub encoder_scale: f64,
-}
-
-impl Default for KinematicEffects {
-    fn default() -> Self {
-        Self {
-            wheel_speed_saturation_rad_s: None,
-            motor_gain_left: 1.0,
-            motor_gain_right: 1.0,
-            wheel_radius_scale: 1.0,
-            dead_time_s: 0.0,
-            time_constant_scale: 1.0,
-            imu_yaw_rate_scale: 1.0,
-            imu_yaw_rate_sign_flip: false,
-            imu_yaw_rate_bias_rad_s: 0.0,
-            pose_latency_s: 0.0,
-            encoder_scale: 1.0,
-        }
-    }
-}
-
-impl KinematicEffects {
-    /// Names accepted by [`KinematicEffects::set`].
-    pub const NAMES: &'static [&'static str] = &[
-        "wheel_speed_saturation_rad_s",
-        "motor_gain_left",
-        "motor_gain_right",
-        "wheel_radius_scale",
-        "dead_time_s",
-        "time_constant_scale",
-        "imu_yaw_rate_scale",
-        "imu_yaw_rate_sign_flip",
-        "imu_yaw_rate_bias_rad_s",
-        "pose_latency_s",
-        "encoder_scale",
-    ];
-
-    /// Sets an effect by name; a sign flip is on for any value >= 0.5.
-    pub fn set(&mut self, name: &str, value: f64) -> Result<()> {
-        let bad = |m: &str| Err(Error::Analysis(format!("effect `{name}` = {value}: {m}")));
-        if !value.is_finite() {
-            return bad("not finite");
-        }
-        let positive = value > 0.0;
-        match name {
-            "wheel_speed_saturation_rad_s" if positive => self.wheel_speed_saturation_rad_s = Some(value),
-            "motor_gain_left" if positive => self.motor_gain_left = value,
-            "motor_gain_right" if positive => self.motor_gain_right = value,
-            "wheel_radius_scale" if positive => self.wheel_radius_scale = value,
-            "dead_time_s" if value >= 0.0 => self.dead_time_s = value,
-            "time_constant_scale" if positive => self.time_constant_scale = value,
-            "imu_yaw_rate_scale" => self.imu_yaw_rate_scale = value,
-            "imu_yaw_rate_sign_flip" => self.imu_yaw_rate_sign_flip = value >= 0.5,
-            "imu_yaw_rate_bias_rad_s" => self.imu_yaw_rate_bias_rad_s = value,
-            "pose_latency_s" if value >= 0.0 => self.pose_latency_s = value,
-            "encoder_scale" if positive => self.encoder_scale = value,
-            n if Self::NAMES.contains(&n) => return bad("out of range"),
-            _ => {
-                return Err(Error::Analysis(format!(
-                    "unknown effect `{name}`; known: {}",
-                    Self::NAMES.join(", ")
-                )))
-            }
-        }
-        Ok(())
-    }
-}
 
 /// Standard deviations of the measurement noise of a [`KinematicPlant`] (for synthetic logs).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -124,12 +32,12 @@ pub struct KinematicNoise {
 /// Internal integration step, s: fine enough that dead time and latency act continuously.
 const SUBSTEP_S: f64 = 0.005;
 
-/// IDD + first-order lag + [`KinematicEffects`]; see the module doc.
+/// IDD + first-order lag + [`Effects`] (but the contact ones); see the module doc.
 #[derive(Debug, Clone)]
 pub struct KinematicPlant {
     idd: IdealDiffDrive,
     time_constant_s: f64,
-    effects: KinematicEffects,
+    effects: Effects,
     noise: Option<(KinematicNoise, ChaCha8Rng)>,
     /// Commands with the time they were given, oldest first (for the dead time).
     cmds: VecDeque<(f64, WheelSpeeds)>,
@@ -143,13 +51,23 @@ pub struct KinematicPlant {
 
 impl KinematicPlant {
     /// A plant at rest at the origin. `idd` is the nominal geometry; the effects change the
-    /// truth around it.
+    /// truth around it. Fails on an effect of the wheel-terrain contact, which this plant has
+    /// not got.
     pub fn new(
         idd: IdealDiffDrive,
         time_constant_s: f64,
-        effects: KinematicEffects,
+        effects: Effects,
         noise: Option<KinematicNoise>,
-    ) -> Self {
+    ) -> Result<Self> {
+        if let Some((name, _)) = effects
+            .declared()
+            .into_iter()
+            .find(|(n, _)| Effects::CONTACT.contains(n))
+        {
+            return Err(Error::Analysis(format!(
+                "the kinematic model has no tyre model and cannot represent the effect `{name}`"
+            )));
+        }
         let mut p = Self {
             idd,
             time_constant_s,
@@ -163,7 +81,7 @@ impl KinematicPlant {
             velocity: BodyVelocity::default(),
         };
         p.reset(Pose::default(), BodyVelocity::default(), WheelSpeeds::default());
-        p
+        Ok(p)
     }
 
     /// The command acting on the motors at time `t` (dead time applied).
@@ -181,15 +99,7 @@ impl KinematicPlant {
     }
 
     fn target(&self, cmd: WheelSpeeds) -> WheelSpeeds {
-        let e = &self.effects;
-        let sat = |w: f64| match e.wheel_speed_saturation_rad_s {
-            Some(s) => w.clamp(-s, s),
-            None => w,
-        };
-        WheelSpeeds::new(
-            sat(e.motor_gain_left * cmd.left_rad_s),
-            sat(e.motor_gain_right * cmd.right_rad_s),
-        )
+        self.effects.wheel_targets(cmd, &self.idd)
     }
 
     fn true_idd(&self) -> IdealDiffDrive {
@@ -290,12 +200,8 @@ impl Plant for KinematicPlant {
     fn measure(&mut self) -> Measurement {
         let e = self.effects.clone();
         let v = self.velocity;
-        let sign = if e.imu_yaw_rate_sign_flip { -1.0 } else { 1.0 };
-        let mut enc = WheelSpeeds::new(
-            e.encoder_scale * self.wheels.left_rad_s,
-            e.encoder_scale * self.wheels.right_rad_s,
-        );
-        let mut wz = sign * e.imu_yaw_rate_scale * v.wz_rad_s + e.imu_yaw_rate_bias_rad_s;
+        let mut enc = e.encoders(self.wheels);
+        let mut wz = e.imu_yaw_rate(v.wz_rad_s);
         let mut pose = if e.pose_latency_s > 0.0 {
             self.pose_at(self.time_s - e.pose_latency_s)
         } else {
@@ -347,6 +253,10 @@ impl Plant for KinematicPlant {
         self.time_s
     }
 
+    fn wheels_from_encoders(&self, encoders: WheelSpeeds) -> WheelSpeeds {
+        self.effects.wheels_from_encoders(encoders)
+    }
+
     fn reset(&mut self, pose: Pose, velocity: BodyVelocity, wheels: WheelSpeeds) {
         // Kinematic: the wheels define the body velocity; `velocity` has no independent state.
         let _ = velocity;
@@ -372,8 +282,8 @@ mod tests {
         }
     }
 
-    fn run(effects: KinematicEffects, cmd: WheelSpeeds, t_s: f64) -> KinematicPlant {
-        let mut p = KinematicPlant::new(idd(), 0.1, effects, None);
+    fn run(effects: Effects, cmd: WheelSpeeds, t_s: f64) -> KinematicPlant {
+        let mut p = KinematicPlant::new(idd(), 0.1, effects, None).unwrap();
         p.command(cmd);
         for _ in 0..(t_s / 0.05).round() as usize {
             p.advance(0.05).unwrap();
@@ -385,14 +295,14 @@ mod tests {
     fn neutral_effects_follow_the_idd() {
         // 1 s at (2, 2) rad/s with tau = 0.1 s: wheel = 2 (1 - e^-10) ~ 2; distance
         // r * ∫ 2 (1 - e^{-t/τ}) dt = 0.3 * 2 * (1 - 0.1 (1 - e^-10)) = 0.54 m.
-        let p = run(KinematicEffects::default(), WheelSpeeds::new(2.0, 2.0), 1.0);
+        let p = run(Effects::default(), WheelSpeeds::new(2.0, 2.0), 1.0);
         assert!((p.true_pose().x_m - 0.54).abs() < 1e-3, "{:?}", p.true_pose());
         assert!((p.true_velocity().vx_m_s - 0.6).abs() < 1e-3);
     }
 
     #[test]
     fn effects_act_as_named() {
-        let mut e = KinematicEffects::default();
+        let mut e = Effects::default();
         e.set("motor_gain_left", 0.5).unwrap();
         e.set("wheel_speed_saturation_rad_s", 3.0).unwrap();
         let p = run(e, WheelSpeeds::new(4.0, 4.0), 3.0);
@@ -401,13 +311,13 @@ mod tests {
         assert!((v.vx_m_s - 0.75).abs() < 1e-6 && (v.wz_rad_s - 0.3 / 1.08).abs() < 1e-6);
 
         // Dead time 0.5 s: after 0.4 s nothing moved.
-        let mut e = KinematicEffects::default();
+        let mut e = Effects::default();
         e.set("dead_time_s", 0.5).unwrap();
         let p = run(e, WheelSpeeds::new(2.0, 2.0), 0.4);
         assert_eq!(p.true_pose().x_m, 0.0);
 
         // Sensors: encoder scale and IMU sign flip change readings, not the truth.
-        let mut e = KinematicEffects::default();
+        let mut e = Effects::default();
         e.set("encoder_scale", 1.1).unwrap();
         e.set("imu_yaw_rate_sign_flip", 1.0).unwrap();
         let mut p = run(e, WheelSpeeds::new(-1.0, 1.0), 3.0);
@@ -416,13 +326,17 @@ mod tests {
         assert!((m.imu.wz_rad_s + 0.6 / 1.08).abs() < 1e-6);
         assert!((p.true_velocity().wz_rad_s - 0.6 / 1.08).abs() < 1e-6);
 
-        assert!(KinematicEffects::default().set("warp_drive", 1.0).is_err());
-        assert!(KinematicEffects::default().set("dead_time_s", -1.0).is_err());
+        let mut torsion = Effects::default();
+        torsion.set("suspension_torsion_m", 0.3).unwrap();
+        let msg = KinematicPlant::new(idd(), 0.1, torsion, None)
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("suspension_torsion_m"), "{msg}");
     }
 
     #[test]
     fn pose_latency_delays_the_pose() {
-        let mut e = KinematicEffects::default();
+        let mut e = Effects::default();
         e.set("pose_latency_s", 0.2).unwrap();
         let mut p = run(e, WheelSpeeds::new(2.0, 2.0), 2.0);
         // Steady at 0.6 m/s: the reported pose lags 0.2 s * 0.6 m/s = 0.12 m.

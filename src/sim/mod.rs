@@ -31,7 +31,7 @@ pub use effects::Effects;
 pub use plant::{IdealPlant, Plant};
 
 use crate::error::{Error, Result};
-use crate::kinematics::{BodyVelocity, WheelSpeeds};
+use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use crate::log::{GroundTruth, ImuReading, Measurement, Pose};
 use crate::robot::Robot;
 use crate::terrain::Terrain;
@@ -174,6 +174,8 @@ pub struct Simulator {
     com_height_m: f64,
     sinkage_m: f64,
     tyre: TyreParams,
+    /// The robot file's geometry: what commands are computed with.
+    nominal: IdealDiffDrive,
     effects: Effects,
     noise: SensorNoise,
     physics_hz: f64,
@@ -357,6 +359,7 @@ impl Simulator {
             com_height_m: b.com_height_m,
             sinkage_m,
             tyre: TyreParams::new(terrain, radius_m, w.width_m, effects.turning_resistance_scale),
+            nominal: robot.idd(),
             effects,
             noise: cfg.noise,
             physics_hz: cfg.physics_hz,
@@ -449,16 +452,8 @@ impl Simulator {
                 break;
             }
         }
-        let e = &self.effects;
-        let mut target = [
-            self.applied.left_rad_s * e.motor_gain_left,
-            self.applied.right_rad_s * e.motor_gain_right,
-        ];
-        if let Some(sat) = e.wheel_speed_saturation_rad_s {
-            for t in &mut target {
-                *t = t.clamp(-sat, sat);
-            }
-        }
+        let t = self.effects.wheel_targets(self.applied, &self.nominal);
+        let target = [t.left_rad_s, t.right_rad_s];
         let dmax = self.accel_limit_rad_s2 * dt;
         for (r, t) in self.ramp.iter_mut().zip(target) {
             *r += (t - *r).clamp(-dmax, dmax);
@@ -873,6 +868,9 @@ impl Plant for Simulator {
     fn reset(&mut self, pose: Pose, velocity: BodyVelocity, wheels: WheelSpeeds) {
         Simulator::reset(self, pose, velocity, wheels)
     }
+    fn wheels_from_encoders(&self, encoders: WheelSpeeds) -> WheelSpeeds {
+        self.effects.wheels_from_encoders(encoders)
+    }
     fn command(&mut self, cmd: WheelSpeeds) {
         self.cmd = cmd;
         if self.effects.dead_time_s > 0.0 {
@@ -909,7 +907,7 @@ impl Plant for Simulator {
         };
         let e = self.effects.clone();
         let nz = self.noise;
-        let mut enc = WheelSpeeds::new(self.omega[0] * e.encoder_scale, self.omega[1] * e.encoder_scale);
+        let mut enc = e.encoders(WheelSpeeds::new(self.omega[0], self.omega[1]));
         if nz.encoder_rad_s > 0.0 {
             enc.left_rad_s += nz.encoder_rad_s * self.normal();
             enc.right_rad_s += nz.encoder_rad_s * self.normal();
@@ -928,9 +926,8 @@ impl Plant for Simulator {
         let a = self.accel_world;
         let f_world = Vector::new(a[0] as f32, a[1] as f32, (a[2] + GRAVITY_M_S2) as f32);
         let f_body = inv * f_world;
-        let sign = if e.imu_yaw_rate_sign_flip { -1.0 } else { 1.0 };
         let mut imu = ImuReading {
-            wz_rad_s: sign * e.imu_yaw_rate_scale * w_body.z as f64 + e.imu_yaw_rate_bias_rad_s,
+            wz_rad_s: e.imu_yaw_rate(w_body.z as f64),
             ax_m_s2: f_body.x as f64,
             ay_m_s2: f_body.y as f64,
             az_m_s2: f_body.z as f64,

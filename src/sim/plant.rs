@@ -22,6 +22,11 @@ pub trait Plant {
     /// Puts the robot at `pose` (on the ground), moving at `velocity` (body frame) with its
     /// wheels at `wheels`, and the wheel-speed targets at `wheels`: the start of a replayed step.
     fn reset(&mut self, pose: Pose, velocity: BodyVelocity, wheels: WheelSpeeds);
+    /// The wheel spins at which this plant's encoders read `encoders` (a plant with an encoder
+    /// fault inverts it): a replay starts from measured readings, not from the truth.
+    fn wheels_from_encoders(&self, encoders: WheelSpeeds) -> WheelSpeeds {
+        encoders
+    }
 }
 
 /// A robot that follows the ideal differential drive exactly, with a first-order lag on the
