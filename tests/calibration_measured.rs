@@ -13,6 +13,8 @@ use drive_sim::calibration::{
 use drive_sim::log::csv::read_measured_csv;
 use drive_sim::log::DriveLog;
 
+mod common;
+
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured");
 
 /// Least-squares slope of the window-mean IMU yaw rate on the lidar yaw rate (yaw change over
@@ -51,43 +53,7 @@ fn run(name: &str) -> (DriveLog, CalibrationReport) {
         &CalibrationOptions::default(),
     )
     .unwrap();
-    eprintln!(
-        "== {name}: {:.1} s, status {:?}",
-        t0.elapsed().as_secs_f64(),
-        r.status
-    );
-    for row in &r.table {
-        eprintln!(
-            "{:26} {:>5}  IDD {:9.4}  before {:9.4}  after {:9.4}  floor {:8.4}",
-            row.metric, row.unit, row.idd, row.sim_before, row.sim_after, row.floor
-        );
-    }
-    for p in r.terrain_fit.iter().flat_map(|f| &f.params) {
-        eprintln!(
-            "  fitted {} = {:.4} (was {:?}, at bound: {})",
-            p.name, p.value, p.initial, p.at_bound
-        );
-    }
-    for e in r.rounds[0].ranking.iter().take(4) {
-        eprintln!(
-            "  candidate {:30} held-out reduction {:9.3} ± {:7.3}, share {:.2}, {:?}",
-            e.effect,
-            e.reduction,
-            e.reduction_se,
-            e.share,
-            e.params
-                .iter()
-                .map(|p| (p.name.as_str(), p.value))
-                .collect::<Vec<_>>()
-        );
-    }
-    eprintln!(
-        "  effects {:?}",
-        r.effects
-            .iter()
-            .map(|e| (e.name.as_str(), e.value))
-            .collect::<Vec<_>>()
-    );
+    common::print_summary(name, &r, t0.elapsed().as_secs_f64());
     (log, r)
 }
 
@@ -227,4 +193,66 @@ fn bad_inputs_are_clear_errors() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("at least 4"), "{e}");
+}
+
+/// The Husky's wheels do not follow their commands: over the steady windows that stay clear of
+/// any limit, the sum of the encoder speeds is a fixed multiple of the sum of the commands and
+/// the difference a fixed multiple of the difference (computed here by least squares through
+/// the origin, nothing from the calibration module). That is a controller converting the
+/// command with its own wheel radius and separation, and `calibrate` must find it as the
+/// `controller_kinematics` effect with matching gains.
+#[test]
+fn husky_controller_kinematics_match_a_direct_fit() {
+    let log = read_measured_csv(format!("{DATA}/husky_2023.csv")).unwrap();
+    let n = &log.meta.nominal;
+    let (mut s_xy, mut s_xx, mut d_xy, mut d_xx) = (0.0, 0.0, 0.0, 0.0);
+    let mut used = 0;
+    for w in log
+        .samples
+        .chunk_by(|a, b| (a.step, a.window) == (b.step, b.window))
+    {
+        if w[0].window == 0 {
+            continue;
+        }
+        let m = w.len() as f64;
+        let mean = |f: &dyn Fn(&drive_sim::log::Sample) -> f64| w.iter().map(f).sum::<f64>() / m;
+        let (cl, cr) = (mean(&|s| s.m.cmd.left_rad_s), mean(&|s| s.m.cmd.right_rad_s));
+        let (el, er) = (mean(&|s| s.m.enc.left_rad_s), mean(&|s| s.m.enc.right_rad_s));
+        let yaw_rate = n.wheel_radius_m * (er - el) / n.baseline_m;
+        // Clear of the wheel limit (~6.1 rad/s) and of the yaw-rate limit (~1.8 rad/s).
+        if el.abs().max(er.abs()) > 5.5 || yaw_rate.abs() > 1.6 {
+            continue;
+        }
+        s_xy += (cl + cr) * (el + er);
+        s_xx += (cl + cr).powi(2);
+        d_xy += (cr - cl) * (er - el);
+        d_xx += (cr - cl).powi(2);
+        used += 1;
+    }
+    let (sum_gain, diff_gain) = (s_xy / s_xx, d_xy / d_xx);
+    eprintln!("direct fit on {used} windows: sum gain {sum_gain:.3}, difference gain {diff_gain:.3}");
+    assert!(used > 40, "{used}");
+    assert!((sum_gain - 1.81).abs() < 0.05 && (diff_gain - 0.795).abs() < 0.05);
+
+    let (_, r) = run("husky_2023");
+    let value = |n: &str| {
+        r.effects
+            .iter()
+            .find(|e| e.name == format!("effect.{n}"))
+            .unwrap_or_else(|| panic!("{n} not found: {:?}", r.effects))
+            .value
+    };
+    // Controller radius r_c = k_r r and separation b_c = k_b b: sum gain 1 / k_r, difference
+    // gain k_b / k_r.
+    let (k_r, k_b) = (
+        value("controller_radius_scale"),
+        value("controller_baseline_scale"),
+    );
+    assert!(
+        ((1.0 / k_r) / sum_gain - 1.0).abs() < 0.05 && ((k_b / k_r) / diff_gain - 1.0).abs() < 0.08,
+        "calibrate: sum gain {:.3}, difference gain {:.3}",
+        1.0 / k_r,
+        k_b / k_r
+    );
+    common_checks(&r);
 }

@@ -7,53 +7,19 @@
 //! (`DATASETS=warthog_ice,...` to choose).
 
 use drive_sim::calibration::{
-    calibrate, models_for_log, write_report, CalibrationOptions, CalibrationReport, FitOptions, SimFactory,
+    calibrate, models_for_log, write_report, CalibrationOptions, FitOptions, SimFactory,
 };
 use drive_sim::log::csv::read_measured_csv;
-use drive_sim::log::{DriveLog, LogMeta, Nominal, Origin};
+use drive_sim::log::DriveLog;
 use drive_sim::protocol::sampler::UniformWheel;
 use drive_sim::protocol::{run_drive, ProtocolConfig};
 use drive_sim::robot::Robot;
 use drive_sim::sim::{Effects, SensorNoise, SimConfig, Simulator};
 use drive_sim::terrain::Terrain;
 
-const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured");
+mod common;
 
-fn summary(name: &str, r: &CalibrationReport, secs: f64) {
-    eprintln!("== {name}: {secs:.1} s, status {:?}", r.status);
-    for row in &r.table {
-        eprintln!(
-            "{:26} {:>5}  IDD {:9.4}  before {:9.4}  after {:9.4}  floor {:8.4}",
-            row.metric, row.unit, row.idd, row.sim_before, row.sim_after, row.floor
-        );
-    }
-    for p in r.terrain_fit.iter().flat_map(|f| &f.params) {
-        eprintln!(
-            "  fitted {} = {:.4} (was {:?}, at bound: {})",
-            p.name, p.value, p.initial, p.at_bound
-        );
-    }
-    for e in r.rounds[0].ranking.iter().take(5) {
-        eprintln!(
-            "  candidate {:30} held-out reduction {:9.3} ± {:7.3}, share {:.2}, {:?}",
-            e.effect,
-            e.reduction,
-            e.reduction_se,
-            e.share,
-            e.params
-                .iter()
-                .map(|p| (p.name.as_str(), p.value))
-                .collect::<Vec<_>>()
-        );
-    }
-    eprintln!(
-        "  effects {:?}",
-        r.effects
-            .iter()
-            .map(|e| (e.name.as_str(), e.value))
-            .collect::<Vec<_>>()
-    );
-}
+const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured");
 
 /// A simulated DRIVE run on asphalt with `effects` injected but not declared.
 fn synthetic_log(effects: &[(&str, f64)], steps: u32, seed: u64) -> (DriveLog, Robot, Terrain) {
@@ -82,25 +48,8 @@ fn synthetic_log(effects: &[(&str, f64)], steps: u32, seed: u64) -> (DriveLog, R
     };
     let mut frames = Vec::new();
     run_drive(&mut sim, &robot, &mut UniformWheel::new(seed), &pc, &mut frames).unwrap();
-    let meta = LogMeta {
-        name: "synthetic_sim".into(),
-        robot: robot.name.clone(),
-        terrain: terrain.name.clone(),
-        rate_hz: pc.rate_hz,
-        window_s: pc.window_s,
-        windows_per_step: pc.windows_per_step,
-        samples_per_window: pc.samples_per_window(),
-        nominal: Nominal::from_robot(&robot),
-        origin: Origin::Simulated {
-            seed,
-            robot_file: "warthog".into(),
-            terrain_file: "asphalt".into(),
-            sampler: "uniform-wheel".into(),
-            // The injected effect is declared nowhere calibrate could read it.
-            injected: Vec::new(),
-        },
-    };
-    (DriveLog::from_frames(meta, &frames), robot, terrain)
+    let log = common::undeclared_log("synthetic_sim", &robot, seed, &pc, &frames);
+    (log, robot, terrain)
 }
 
 fn cheap_options() -> CalibrationOptions {
@@ -137,7 +86,7 @@ fn simulator_with_a_weak_left_motor_is_diagnosed() {
     let t0 = std::time::Instant::now();
     let (log, robot, terrain) = synthetic_log(&[("motor_gain_left", 0.8)], 24, 21);
     let r = calibrate(&log, &robot, &terrain, &SimFactory::default(), &cheap_options()).unwrap();
-    summary(
+    common::print_summary(
         "synthetic simulator, motor_gain_left = 0.8",
         &r,
         t0.elapsed().as_secs_f64(),
@@ -161,12 +110,56 @@ fn simulator_with_a_weak_left_motor_is_diagnosed() {
     );
 }
 
+/// A wheel-speed saturation, undeclared, against the effects that look like it in the
+/// residual (the curvature-preserving controller limit, a weak motor, a smaller wheel).
+#[test]
+fn simulator_with_a_saturated_motor_is_diagnosed() {
+    let t0 = std::time::Instant::now();
+    let (log, robot, terrain) = synthetic_log(&[("wheel_speed_saturation_rad_s", 10.0)], 24, 23);
+    let opts = CalibrationOptions {
+        candidates: Some(
+            [
+                "wheel_speed_saturation_rad_s",
+                "controller_wheel_limit_rad_s",
+                "motor_gain",
+                "wheel_radius_scale",
+            ]
+            .map(String::from)
+            .to_vec(),
+        ),
+        ..cheap_options()
+    };
+    let r = calibrate(&log, &robot, &terrain, &SimFactory::default(), &opts).unwrap();
+    common::print_summary(
+        "synthetic simulator, wheel_speed_saturation_rad_s = 10",
+        &r,
+        t0.elapsed().as_secs_f64(),
+    );
+    assert_eq!(
+        r.rounds[0].ranking[0].effect, "wheel_speed_saturation_rad_s",
+        "{:#?}",
+        r.rounds[0].ranking
+    );
+    let sat = r
+        .effects
+        .iter()
+        .find(|e| e.name == "effect.wheel_speed_saturation_rad_s")
+        .map(|e| e.value);
+    assert!(sat.is_some_and(|v| (v - 10.0).abs() < 0.3), "{:?}", r.effects);
+    assert!(
+        r.after.score < 0.2 * r.before.score,
+        "{} -> {}",
+        r.before.score,
+        r.after.score
+    );
+}
+
 #[test]
 fn simulator_with_nothing_injected_adds_nothing() {
     let t0 = std::time::Instant::now();
     let (log, robot, terrain) = synthetic_log(&[], 16, 22);
     let r = calibrate(&log, &robot, &terrain, &SimFactory::default(), &cheap_options()).unwrap();
-    summary(
+    common::print_summary(
         "synthetic simulator, nothing injected",
         &r,
         t0.elapsed().as_secs_f64(),
@@ -205,7 +198,7 @@ fn measured_datasets_with_the_simulator() {
             &measured_options(),
         )
         .unwrap();
-        summary(name, &r, t0.elapsed().as_secs_f64());
+        common::print_summary(name, &r, t0.elapsed().as_secs_f64());
         if let Ok(dir) = std::env::var("CALIB_OUT") {
             write_report(&r, &std::path::Path::new(&dir).join(name)).unwrap();
         }

@@ -10,12 +10,14 @@ use drive_sim::calibration::surrogate::{KinematicNoise, KinematicPlant};
 use drive_sim::calibration::{
     calibrate, CalibrationOptions, CalibrationReport, FitOptions, KinematicFactory,
 };
-use drive_sim::log::{DriveLog, LogMeta, Nominal, Origin};
+use drive_sim::log::DriveLog;
 use drive_sim::protocol::sampler::UniformWheel;
 use drive_sim::protocol::{run_drive, ProtocolConfig};
 use drive_sim::robot::Robot;
 use drive_sim::sim::Effects;
 use drive_sim::terrain::Terrain;
+
+mod common;
 
 const STEPS: u32 = 30;
 
@@ -48,25 +50,10 @@ fn synthetic_log(effects: &[(&str, f64)], seed: u64, steps: u32) -> (DriveLog, R
         &mut frames,
     )
     .unwrap();
-    let meta = LogMeta {
-        name: "synthetic".into(),
-        robot: robot.name.clone(),
-        terrain: "asphalt".into(),
-        rate_hz: cfg.rate_hz,
-        window_s: cfg.window_s,
-        windows_per_step: cfg.windows_per_step,
-        samples_per_window: cfg.samples_per_window(),
-        nominal: Nominal::from_robot(&robot),
-        origin: Origin::Simulated {
-            seed,
-            robot_file: "warthog".into(),
-            terrain_file: "asphalt".into(),
-            sampler: "uniform-wheel".into(),
-            // Deliberately not declaring the injected effect anywhere calibrate could read it.
-            injected: Vec::new(),
-        },
-    };
-    (DriveLog::from_frames(meta, &frames), robot)
+    (
+        common::undeclared_log("synthetic", &robot, seed, &cfg, &frames),
+        robot,
+    )
 }
 
 fn options() -> CalibrationOptions {

@@ -90,7 +90,7 @@ impl Default for CalibrationOptions {
                 max_iters: 100,
                 sd_tolerance: 1e-3,
             },
-            max_effects: 4,
+            max_effects: 3,
             rule: SelectionRule::default(),
             candidates: None,
             grid_step: 0.1,
@@ -260,6 +260,19 @@ pub fn calibrate(
     factory: &dyn PlantFactory,
     opts: &CalibrationOptions,
 ) -> Result<CalibrationReport> {
+    calibrate_with_progress(log, robot, terrain, factory, opts, &mut |_| {})
+}
+
+/// [`calibrate`], telling `progress` in a line what each stage found as it ends (for a CLI:
+/// a simulator calibration takes minutes).
+pub fn calibrate_with_progress(
+    log: &DriveLog,
+    robot: &Robot,
+    terrain: &Terrain,
+    factory: &dyn PlantFactory,
+    opts: &CalibrationOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<CalibrationReport> {
     if !(opts.train_fraction > 0.0 && opts.train_fraction < 1.0) {
         return Err(Error::Analysis(format!(
             "train fraction must be in (0, 1), got {}",
@@ -318,6 +331,12 @@ pub fn calibrate(
         };
     let (idd, idd_errors) = summary(&declared, &IddFactory)?;
     let (before, before_errors) = summary(&declared, factory)?;
+    progress(&format!(
+        "baseline on {} held-out steps: score IDD {:.1}, declared model {:.1} (1 = noise floor)",
+        test_ids.len(),
+        idd.score,
+        before.score
+    ));
 
     // Terrain / robot parameters.
     let specs = factory.calibration_params(&declared);
@@ -344,6 +363,11 @@ pub fn calibrate(
         }
     };
     let (after_terrain, _) = summary(&current, factory)?;
+    progress(&format!(
+        "terrain fit {}: held-out score {:.1}",
+        if terrain_fit_kept { "kept" } else { "not kept" },
+        after_terrain.score
+    ));
     let sim_feats = |p: &ModelParams| -> Result<Vec<metrics::StepFeatures>> {
         let replayed = replay::replay_steps(&test.steps, factory, p, rate)?;
         replayed
@@ -410,6 +434,21 @@ pub fn calibrate(
                 ..opts.rule
             },
         )?;
+        if let Some((ev, _)) = ranked.first() {
+            progress(&format!(
+                "round {round}: {} candidates, best {} (held-out {:.1} -> {:.1}, ± {:.1}){}",
+                ranked.len(),
+                ev.effect,
+                ev.heldout_before,
+                ev.heldout_after,
+                ev.reduction_se,
+                if ev.significant {
+                    ", added"
+                } else {
+                    ", not significant: stop"
+                }
+            ));
+        }
         for (ev, _) in &ranked {
             if !ev.converged {
                 notes.push(format!("round {round}, {}: {}", ev.effect, ev.fit_status));

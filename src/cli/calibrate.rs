@@ -35,7 +35,7 @@ pub struct CalibrateArgs {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Most effects added.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = CalibrationOptions::default().max_effects)]
     pub max_effects: usize,
     /// Fit on at most this many training steps per evaluation (all by default).
     #[arg(long)]
@@ -129,7 +129,15 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
         log.steps().len(),
         100.0 * opts.train_fraction
     );
-    let mut report = calibration::calibrate(&log, &robot, &terrain, kind.factory().as_ref(), &opts)?;
+    let t0 = std::time::Instant::now();
+    let mut report = calibration::calibrate_with_progress(
+        &log,
+        &robot,
+        &terrain,
+        kind.factory().as_ref(),
+        &opts,
+        &mut |line| eprintln!("drive-sim: [{:>6.0} s] {line}", t0.elapsed().as_secs_f64()),
+    )?;
     report.status.notes.splice(0..0, notes);
     report.reproduce = format!(
         "drive-sim calibrate {} --model {} --seed {} --max-effects {} --out {}",
