@@ -82,7 +82,19 @@ fn gravel_and_ice_imu_sign_is_flipped() {
         let (log, r) = run(name);
         let slope = imu_vs_lidar_slope(&log);
         assert!(slope < -0.8, "{name}: independent IMU/lidar slope {slope}");
-        assert_eq!(r.rounds[0].ranking[0].effect, "imu_yaw_rate_sign_flip", "{name}");
+        // The flip passes the selection rule against the terrain-calibrated model, and ends in
+        // the final model. (On ice a wheel-speed saturation near 13.1 rad/s, which the
+        // simulator model finds too, can rank above it.)
+        let flip = r.rounds[0]
+            .ranking
+            .iter()
+            .position(|e| e.effect == "imu_yaw_rate_sign_flip")
+            .unwrap();
+        assert!(
+            flip <= 1 && r.rounds[0].ranking[flip].significant,
+            "{name}: {:#?}",
+            r.rounds[0].ranking
+        );
         assert!(has_flip(&r), "{name}: {:?}", r.effects);
         common_checks(&r);
         // With the flip, the IMU agrees with the lidar far better than before.

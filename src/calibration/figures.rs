@@ -175,7 +175,8 @@ pub fn write_html(
             report.status.notes.join("; ")
         ))
         .table(
-            "Held-out score (mean over steps of squared error / noise floor²; 1 = noise floor)",
+            "Held-out score (geometric mean over the 10 velocity channels of the pooled squared \
+             error / noise floor²; 1 = noise floor)",
             &[
                 KeyFigure::new("IDD", format!("{:.3}", report.idd.score), ""),
                 KeyFigure::new("model before", format!("{:.3}", report.before.score), ""),

@@ -6,6 +6,7 @@
 //! 2. estimate the noise floor from the whole recording ([`metrics::NoiseFloor`]);
 //! 3. score the IDD and the declared model on the held-out steps (baseline);
 //! 4. fit the terrain / uncertain robot parameters the plant exposes, on the training steps;
+//!    the fit is kept if it lowers the score on all training steps and on the held-out ones;
 //! 5. residual analysis ([`residual`]) and ranking of candidate effects, each fitted on the
 //!    training steps with the terrain / robot parameters refit beside it, and judged by its
 //!    held-out error reduction ([`candidates`]);
@@ -18,9 +19,9 @@
 //!
 //! Nothing reads what a log says was injected: the effects are found from the data alone.
 //!
-//! Caveat: the held-out steps decide which effect is added (that is the evidence asked for),
-//! so the final held-out score is slightly optimistic for the selected model; the terrain fit
-//! and the joint refits never see the held-out steps.
+//! Caveat: the held-out steps decide which effect is added and whether the terrain fit is kept
+//! (that is the evidence asked for), so the final held-out score is slightly optimistic for the
+//! selected model; no fit (terrain, effect, joint refit) ever sees the held-out steps.
 
 pub mod candidates;
 pub mod figures;
@@ -184,8 +185,8 @@ pub struct CalibrationReport {
     pub total_reduction_se: f64,
     /// Terrain / robot-parameter fit.
     pub terrain_fit: Option<FitResult>,
-    /// The terrain fit was kept (false: it did not lower the score on all training steps, the
-    /// declared values were kept).
+    /// The terrain fit was kept (false: it did not lower the score on all training steps, or
+    /// on the held-out steps; the declared values were kept).
     pub terrain_fit_kept: bool,
     /// Selection rounds; the first one's ranking is the ranked list of candidate effects
     /// against the terrain-calibrated model.
@@ -353,8 +354,18 @@ pub fn calibrate_with_progress(
             notes.push(format!("terrain fit: {}", r.status));
         }
         let (old, new) = (train_score(&declared)?, train_score(&m)?);
-        if new <= old {
+        // Like an effect, the fitted terrain is a model change: it stays only if it also
+        // lowers the held-out score (a fit that helps the training steps and hurts the others
+        // has fitted their noise).
+        let heldout = summary(&m, factory)?.0.score;
+        if new <= old && heldout <= before.score {
             (m, Some(r), true)
+        } else if new <= old {
+            notes.push(format!(
+                "terrain fit discarded: held-out score {:.3} -> {heldout:.3} (training {old:.3} -> {new:.3})",
+                before.score
+            ));
+            (declared.clone(), Some(r), false)
         } else {
             notes.push(format!(
                 "terrain fit discarded: training score {old:.3} -> {new:.3} on all training steps"
