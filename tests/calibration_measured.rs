@@ -10,12 +10,30 @@ use drive_sim::calibration::{
     calibrate, calibrate_file, models_for_log, replay_and_compare, write_report, CalibrationOptions,
     CalibrationReport, KinematicFactory, ModelKind,
 };
+use drive_sim::kinematics::WheelSpeeds;
 use drive_sim::log::csv::read_measured_csv;
-use drive_sim::log::DriveLog;
+use drive_sim::log::{DriveLog, Sample};
 
 mod common;
 
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured");
+
+/// (mean command, mean encoder reading) of every steady window (windows 1..), computed from
+/// the samples directly.
+fn steady_window_means(log: &DriveLog) -> Vec<(WheelSpeeds, WheelSpeeds)> {
+    log.samples
+        .chunk_by(|a, b| (a.step, a.window) == (b.step, b.window))
+        .filter(|w| w[0].window > 0)
+        .map(|w| {
+            let m = w.len() as f64;
+            let mean = |f: fn(&Sample) -> f64| w.iter().map(f).sum::<f64>() / m;
+            (
+                WheelSpeeds::new(mean(|s| s.m.cmd.left_rad_s), mean(|s| s.m.cmd.right_rad_s)),
+                WheelSpeeds::new(mean(|s| s.m.enc.left_rad_s), mean(|s| s.m.enc.right_rad_s)),
+            )
+        })
+        .collect()
+}
 
 /// Least-squares slope of the window-mean IMU yaw rate on the lidar yaw rate (yaw change over
 /// the window / its duration), over the steady windows.
@@ -153,19 +171,8 @@ fn replay_keeps_the_structure_and_the_idd_error_matches_a_hand_computation() {
     // The IDD's wheels follow the command exactly: its steady wheel RMSE is the RMS of
     // (window-mean encoder - window-mean command) over steady windows and both sides.
     let (mut sq, mut n) = (0.0, 0usize);
-    for w in log
-        .samples
-        .chunk_by(|a, b| (a.step, a.window) == (b.step, b.window))
-    {
-        if w[0].window == 0 {
-            continue;
-        }
-        let m = w.len() as f64;
-        let enc_l = w.iter().map(|s| s.m.enc.left_rad_s).sum::<f64>() / m;
-        let enc_r = w.iter().map(|s| s.m.enc.right_rad_s).sum::<f64>() / m;
-        let cmd_l = w.iter().map(|s| s.m.cmd.left_rad_s).sum::<f64>() / m;
-        let cmd_r = w.iter().map(|s| s.m.cmd.right_rad_s).sum::<f64>() / m;
-        sq += (enc_l - cmd_l).powi(2) + (enc_r - cmd_r).powi(2);
+    for (cmd, enc) in steady_window_means(&log) {
+        sq += (enc.left_rad_s - cmd.left_rad_s).powi(2) + (enc.right_rad_s - cmd.right_rad_s).powi(2);
         n += 2;
     }
     let by_hand = (sq / n as f64).sqrt();
@@ -219,17 +226,8 @@ fn husky_controller_kinematics_match_a_direct_fit() {
     let n = &log.meta.nominal;
     let (mut s_xy, mut s_xx, mut d_xy, mut d_xx) = (0.0, 0.0, 0.0, 0.0);
     let mut used = 0;
-    for w in log
-        .samples
-        .chunk_by(|a, b| (a.step, a.window) == (b.step, b.window))
-    {
-        if w[0].window == 0 {
-            continue;
-        }
-        let m = w.len() as f64;
-        let mean = |f: &dyn Fn(&drive_sim::log::Sample) -> f64| w.iter().map(f).sum::<f64>() / m;
-        let (cl, cr) = (mean(&|s| s.m.cmd.left_rad_s), mean(&|s| s.m.cmd.right_rad_s));
-        let (el, er) = (mean(&|s| s.m.enc.left_rad_s), mean(&|s| s.m.enc.right_rad_s));
+    for (cmd, enc) in steady_window_means(&log) {
+        let (cl, cr, el, er) = (cmd.left_rad_s, cmd.right_rad_s, enc.left_rad_s, enc.right_rad_s);
         let yaw_rate = n.wheel_radius_m * (er - el) / n.baseline_m;
         // Clear of the wheel limit (~6.1 rad/s) and of the yaw-rate limit (~1.8 rad/s).
         if el.abs().max(er.abs()) > 5.5 || yaw_rate.abs() > 1.6 {
