@@ -7,7 +7,7 @@
 //! (`DATASETS=warthog_ice,...` to choose).
 
 use drive_sim::calibration::{
-    calibrate, models_for_log, write_report, CalibrationOptions, FitOptions, SimFactory,
+    calibrate, models_for_log, write_report, CalibrationOptions, CalibrationReport, FitOptions, SimFactory,
 };
 use drive_sim::log::csv::read_measured_csv;
 use drive_sim::log::DriveLog;
@@ -81,27 +81,27 @@ fn cheap_options() -> CalibrationOptions {
     }
 }
 
-#[test]
-fn simulator_with_a_weak_left_motor_is_diagnosed() {
+/// Calibrates the simulator on a synthetic run of `steps` steps carrying `effects`
+/// (undeclared), and prints the report.
+fn diagnose(effects: &[(&str, f64)], steps: u32, seed: u64, opts: &CalibrationOptions) -> CalibrationReport {
     let t0 = std::time::Instant::now();
-    let (log, robot, terrain) = synthetic_log(&[("motor_gain_left", 0.8)], 24, 21);
-    let r = calibrate(&log, &robot, &terrain, &SimFactory::default(), &cheap_options()).unwrap();
+    let (log, robot, terrain) = synthetic_log(effects, steps, seed);
+    let r = calibrate(&log, &robot, &terrain, &SimFactory::default(), opts).unwrap();
     common::print_summary(
-        "synthetic simulator, motor_gain_left = 0.8",
+        &format!("synthetic simulator, injected {effects:?}"),
         &r,
         t0.elapsed().as_secs_f64(),
     );
+    r
+}
+
+/// `candidate` ranked first, and the held-out score cut to a fifth.
+fn assert_found(r: &CalibrationReport, candidate: &str) {
     assert_eq!(
-        r.rounds[0].ranking[0].effect, "motor_gain",
+        r.rounds[0].ranking[0].effect, candidate,
         "{:#?}",
         r.rounds[0].ranking
     );
-    let gain = |n: &str| r.effects.iter().find(|e| e.name == n).map(|e| e.value);
-    let (l, rr) = (
-        gain("effect.motor_gain_left").unwrap(),
-        gain("effect.motor_gain_right").unwrap(),
-    );
-    assert!((l - 0.8).abs() < 0.05 && (rr - 1.0).abs() < 0.05, "{l} {rr}");
     assert!(
         r.after.score < 0.2 * r.before.score,
         "{} -> {}",
@@ -110,12 +110,25 @@ fn simulator_with_a_weak_left_motor_is_diagnosed() {
     );
 }
 
+fn fitted(r: &CalibrationReport, name: &str) -> Option<f64> {
+    r.effects.iter().find(|e| e.name == name).map(|e| e.value)
+}
+
+#[test]
+fn simulator_with_a_weak_left_motor_is_diagnosed() {
+    let r = diagnose(&[("motor_gain_left", 0.8)], 24, 21, &cheap_options());
+    assert_found(&r, "motor_gain");
+    let (l, rr) = (
+        fitted(&r, "effect.motor_gain_left").unwrap(),
+        fitted(&r, "effect.motor_gain_right").unwrap(),
+    );
+    assert!((l - 0.8).abs() < 0.05 && (rr - 1.0).abs() < 0.05, "{l} {rr}");
+}
+
 /// A wheel-speed saturation, undeclared, against the effects that look like it in the
 /// residual (the curvature-preserving controller limit, a weak motor, a smaller wheel).
 #[test]
 fn simulator_with_a_saturated_motor_is_diagnosed() {
-    let t0 = std::time::Instant::now();
-    let (log, robot, terrain) = synthetic_log(&[("wheel_speed_saturation_rad_s", 10.0)], 24, 23);
     let opts = CalibrationOptions {
         candidates: Some(
             [
@@ -129,41 +142,15 @@ fn simulator_with_a_saturated_motor_is_diagnosed() {
         ),
         ..cheap_options()
     };
-    let r = calibrate(&log, &robot, &terrain, &SimFactory::default(), &opts).unwrap();
-    common::print_summary(
-        "synthetic simulator, wheel_speed_saturation_rad_s = 10",
-        &r,
-        t0.elapsed().as_secs_f64(),
-    );
-    assert_eq!(
-        r.rounds[0].ranking[0].effect, "wheel_speed_saturation_rad_s",
-        "{:#?}",
-        r.rounds[0].ranking
-    );
-    let sat = r
-        .effects
-        .iter()
-        .find(|e| e.name == "effect.wheel_speed_saturation_rad_s")
-        .map(|e| e.value);
+    let r = diagnose(&[("wheel_speed_saturation_rad_s", 10.0)], 24, 23, &opts);
+    assert_found(&r, "wheel_speed_saturation_rad_s");
+    let sat = fitted(&r, "effect.wheel_speed_saturation_rad_s");
     assert!(sat.is_some_and(|v| (v - 10.0).abs() < 0.3), "{:?}", r.effects);
-    assert!(
-        r.after.score < 0.2 * r.before.score,
-        "{} -> {}",
-        r.before.score,
-        r.after.score
-    );
 }
 
 #[test]
 fn simulator_with_nothing_injected_adds_nothing() {
-    let t0 = std::time::Instant::now();
-    let (log, robot, terrain) = synthetic_log(&[], 16, 22);
-    let r = calibrate(&log, &robot, &terrain, &SimFactory::default(), &cheap_options()).unwrap();
-    common::print_summary(
-        "synthetic simulator, nothing injected",
-        &r,
-        t0.elapsed().as_secs_f64(),
-    );
+    let r = diagnose(&[], 16, 22, &cheap_options());
     assert!(r.effects.is_empty(), "{:?}", r.effects);
 }
 

@@ -6,8 +6,8 @@
 
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
-use crate::log::{GroundTruth, ImuReading, Measurement, Pose};
-use crate::sim::plant::{wrap_angle, Plant};
+use crate::log::{GroundTruth, Measurement, Pose};
+use crate::sim::plant::{integrate_unicycle, kinematic_measurement, wrap_angle, Plant};
 use crate::sim::Effects;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -98,10 +98,6 @@ impl KinematicPlant {
         c
     }
 
-    fn target(&self, cmd: WheelSpeeds) -> WheelSpeeds {
-        self.effects.wheel_targets(cmd, &self.idd)
-    }
-
     fn true_idd(&self) -> IdealDiffDrive {
         IdealDiffDrive {
             wheel_radius_m: self.idd.wheel_radius_m * self.effects.wheel_radius_scale,
@@ -159,7 +155,9 @@ impl Plant for KinematicPlant {
         let a = if tau > 0.0 { 1.0 - (-h / tau).exp() } else { 1.0 };
         let idd = self.true_idd();
         for _ in 0..n {
-            let target = self.target(self.delayed_cmd(self.time_s));
+            let target = self
+                .effects
+                .wheel_targets(self.delayed_cmd(self.time_s), &self.idd);
             let before = self.wheels;
             self.wheels.left_rad_s += a * (target.left_rad_s - self.wheels.left_rad_s);
             self.wheels.right_rad_s += a * (target.right_rad_s - self.wheels.right_rad_s);
@@ -168,20 +166,7 @@ impl Plant for KinematicPlant {
                 (before.left_rad_s + self.wheels.left_rad_s) / 2.0,
                 (before.right_rad_s + self.wheels.right_rad_s) / 2.0,
             );
-            let v = idd.body_from_wheels(mid);
-            let (yaw, dyaw) = (self.pose.yaw_rad, v.wz_rad_s * h);
-            let (dx, dy) = if dyaw.abs() < 1e-9 {
-                (v.vx_m_s * h * yaw.cos(), v.vx_m_s * h * yaw.sin())
-            } else {
-                let rho = v.vx_m_s / v.wz_rad_s;
-                (
-                    rho * ((yaw + dyaw).sin() - yaw.sin()),
-                    -rho * ((yaw + dyaw).cos() - yaw.cos()),
-                )
-            };
-            self.pose.x_m += dx;
-            self.pose.y_m += dy;
-            self.pose.yaw_rad = wrap_angle(yaw + dyaw);
+            integrate_unicycle(&mut self.pose, idd.body_from_wheels(mid), h);
             self.time_s += h;
             self.velocity = idd.body_from_wheels(self.wheels);
             self.poses.push_back((self.time_s, self.pose));
@@ -222,23 +207,13 @@ impl Plant for KinematicPlant {
             enc.right_rad_s += draw(n.enc_rad_s);
             wz += draw(n.imu_wz_rad_s);
         }
-        Measurement {
-            cmd: self.cmds.back().map(|c| c.1).unwrap_or_default(),
-            enc,
-            pose,
-            imu: ImuReading {
-                wz_rad_s: wz,
-                ax_m_s2: 0.0,
-                ay_m_s2: v.vx_m_s * v.wz_rad_s,
-                az_m_s2: 9.81,
-            },
-            reference: None,
-            truth: Some(GroundTruth {
-                pose: self.pose,
-                velocity: v,
-                wheels: self.wheels,
-            }),
-        }
+        let truth = GroundTruth {
+            pose: self.pose,
+            velocity: v,
+            wheels: self.wheels,
+        };
+        let cmd = self.cmds.back().map(|c| c.1).unwrap_or_default();
+        kinematic_measurement(cmd, enc, pose, wz, truth)
     }
 
     fn true_pose(&self) -> Pose {

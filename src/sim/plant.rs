@@ -57,6 +57,49 @@ impl IdealPlant {
     }
 }
 
+/// Moves `pose` along a unicycle at constant body velocity `v` for `dt_s` (exact arc, yaw
+/// wrapped).
+pub fn integrate_unicycle(pose: &mut Pose, v: BodyVelocity, dt_s: f64) {
+    let (yaw, dyaw) = (pose.yaw_rad, v.wz_rad_s * dt_s);
+    let (dx, dy) = if dyaw.abs() < 1e-9 {
+        (v.vx_m_s * dt_s * yaw.cos(), v.vx_m_s * dt_s * yaw.sin())
+    } else {
+        let rho = v.vx_m_s / v.wz_rad_s;
+        (
+            rho * ((yaw + dyaw).sin() - yaw.sin()),
+            -rho * ((yaw + dyaw).cos() - yaw.cos()),
+        )
+    };
+    pose.x_m += dx;
+    pose.y_m += dy;
+    pose.yaw_rad = wrap_angle(yaw + dyaw);
+}
+
+/// The measurement of a kinematic plant (no body dynamics): the given readings, an IMU whose
+/// accelerometer sees only gravity and the centripetal `vx * wz` of the true motion.
+pub fn kinematic_measurement(
+    cmd: WheelSpeeds,
+    enc: WheelSpeeds,
+    pose: Pose,
+    imu_wz_rad_s: f64,
+    truth: GroundTruth,
+) -> Measurement {
+    let v = truth.velocity;
+    Measurement {
+        cmd,
+        enc,
+        pose,
+        imu: ImuReading {
+            wz_rad_s: imu_wz_rad_s,
+            ax_m_s2: 0.0,
+            ay_m_s2: v.vx_m_s * v.wz_rad_s,
+            az_m_s2: 9.81,
+        },
+        reference: None,
+        truth: Some(truth),
+    }
+}
+
 impl Plant for IdealPlant {
     fn command(&mut self, cmd: WheelSpeeds) {
         self.cmd = cmd;
@@ -77,43 +120,24 @@ impl Plant for IdealPlant {
         self.wheels.left_rad_s += a * (self.cmd.left_rad_s - self.wheels.left_rad_s);
         self.wheels.right_rad_s += a * (self.cmd.right_rad_s - self.wheels.right_rad_s);
         let v = self.idd.body_from_wheels(self.wheels);
-        // Exact integration of a unicycle at constant (vx, wz) over dt.
-        let (yaw, dyaw) = (self.pose.yaw_rad, v.wz_rad_s * dt_s);
-        let (dx, dy) = if dyaw.abs() < 1e-9 {
-            (v.vx_m_s * dt_s * yaw.cos(), v.vx_m_s * dt_s * yaw.sin())
-        } else {
-            let rho = v.vx_m_s / v.wz_rad_s;
-            (
-                rho * ((yaw + dyaw).sin() - yaw.sin()),
-                -rho * ((yaw + dyaw).cos() - yaw.cos()),
-            )
-        };
-        self.pose.x_m += dx;
-        self.pose.y_m += dy;
-        self.pose.yaw_rad = wrap_angle(yaw + dyaw);
+        integrate_unicycle(&mut self.pose, v, dt_s);
         self.time_s += dt_s;
         self.last_velocity = v;
         Ok(())
     }
     fn measure(&mut self) -> Measurement {
-        let v = self.last_velocity;
-        Measurement {
-            cmd: self.cmd,
-            enc: self.wheels,
+        let truth = GroundTruth {
             pose: self.pose,
-            imu: ImuReading {
-                wz_rad_s: v.wz_rad_s,
-                ax_m_s2: 0.0,
-                ay_m_s2: v.vx_m_s * v.wz_rad_s,
-                az_m_s2: 9.81,
-            },
-            reference: None,
-            truth: Some(GroundTruth {
-                pose: self.pose,
-                velocity: v,
-                wheels: self.wheels,
-            }),
-        }
+            velocity: self.last_velocity,
+            wheels: self.wheels,
+        };
+        kinematic_measurement(
+            self.cmd,
+            self.wheels,
+            self.pose,
+            self.last_velocity.wz_rad_s,
+            truth,
+        )
     }
     fn true_pose(&self) -> Pose {
         self.pose
