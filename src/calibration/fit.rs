@@ -123,6 +123,22 @@ pub struct FittedParam {
     pub at_bound: bool,
 }
 
+impl FittedParam {
+    /// `value` of the parameter `spec` describes; on its bound when a continuous value lies in
+    /// the outer half percent of the box.
+    pub fn of(spec: &ParamSpec, initial: Option<f64>, value: f64) -> Self {
+        let c = (value - spec.lower) / (spec.upper - spec.lower);
+        Self {
+            name: spec.name.clone(),
+            initial,
+            value,
+            lower: spec.lower,
+            upper: spec.upper,
+            at_bound: !spec.discrete && !(0.005..=0.995).contains(&c),
+        }
+    }
+}
+
 /// Outcome of one optimization.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FitResult {
@@ -308,29 +324,14 @@ pub fn fit(
     let (cost, x, fixed) = best.ok_or_else(|| Error::Analysis("nothing to fit".into()))?;
     let mut model = base.clone();
     let mut params = Vec::new();
-    for (spec, xi) in continuous.iter().zip(&x) {
-        let c = xi.clamp(0.0, 1.0);
-        let value = spec.lower + c * (spec.upper - spec.lower);
+    let values = continuous
+        .iter()
+        .zip(&x)
+        .map(|(spec, xi)| (*spec, spec.lower + xi.clamp(0.0, 1.0) * (spec.upper - spec.lower)))
+        .chain(fixed);
+    for (spec, value) in values {
         model.set(&spec.name, value)?;
-        params.push(FittedParam {
-            name: spec.name.clone(),
-            initial: base.get(&spec.name)?,
-            value,
-            lower: spec.lower,
-            upper: spec.upper,
-            at_bound: !(0.005..=0.995).contains(&c),
-        });
-    }
-    for (spec, value) in fixed {
-        model.set(&spec.name, value)?;
-        params.push(FittedParam {
-            name: spec.name.clone(),
-            initial: base.get(&spec.name)?,
-            value,
-            lower: spec.lower,
-            upper: spec.upper,
-            at_bound: false,
-        });
+        params.push(FittedParam::of(spec, base.get(&spec.name)?, value));
     }
     if cost >= INVALID_COST {
         converged = false;

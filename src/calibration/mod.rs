@@ -545,17 +545,16 @@ pub fn calibrate_with_progress(
         .iter()
         .map(|(k, v)| {
             let name = format!("effect.{k}");
-            let spec = selected.iter().flat_map(|c| &c.params).find(|p| p.name == name);
-            FittedParam {
-                name,
-                initial: None,
-                value: *v,
-                lower: spec.map_or(f64::NAN, |s| s.lower),
-                upper: spec.map_or(f64::NAN, |s| s.upper),
-                at_bound: spec.is_some_and(|s| {
-                    let c = (*v - s.lower) / (s.upper - s.lower);
-                    !s.discrete && !(0.005..=0.995).contains(&c)
-                }),
+            match selected.iter().flat_map(|c| &c.params).find(|p| p.name == name) {
+                Some(spec) => FittedParam::of(spec, None, *v),
+                None => FittedParam {
+                    name,
+                    initial: None,
+                    value: *v,
+                    lower: f64::NAN,
+                    upper: f64::NAN,
+                    at_bound: false,
+                },
             }
         })
         .collect();
