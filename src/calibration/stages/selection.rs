@@ -133,6 +133,7 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
     };
     let mut pool = input.pool;
     let mut rounds: Vec<SelectionRound> = Vec::new();
+    let mut pairs: Vec<CandidateEvidence> = Vec::new();
     // Forward.
     for round in 0..opts.max_effects {
         if round == 1 && opts.rerank_top > 0 {
@@ -144,7 +145,8 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
                 .ranking
                 .iter()
                 .filter(|e| {
-                    e.effect != rounds[0].added.clone().unwrap_or_default() && e.reduction > 0.0
+                    let added = rounds[0].added.clone().unwrap_or_default();
+                    !added.split('+').any(|a| a == e.effect) && e.reduction > 0.0
                 })
                 .take(opts.rerank_top)
                 .map(|e| e.effect.clone())
@@ -177,7 +179,78 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
                 st.notes.push(format!("round {round}, {}: {}", ev.effect, ev.fit_status));
             }
         }
-        let best = out.ranked.first().map(|(e, m)| (e.clone(), m.clone()));
+        let mut best = out.ranked.first().map(|(e, m)| (e.clone(), m.clone()));
+        // In the first round, pairs among the top candidates: two effects that only pay
+        // together (a controller's speed gain with its wheel limit) lose to a stand-in when
+        // tried one at a time. A pair replaces the best single if it beats the single's model
+        // by the selection rule.
+        let mut pair_added: Option<Candidate> = None;
+        if round == 0 && opts.pair_top >= 2 && opts.max_effects >= 2 {
+            let top: Vec<&Candidate> = out
+                .ranked
+                .iter()
+                .filter(|(e, _)| e.reduction > 0.0)
+                .filter_map(|(e, m)| pool.iter().find(|c| c.name == e.effect).map(|c| (c, m)))
+                .take(opts.pair_top)
+                .map(|(c, _)| c)
+                .collect();
+            let warm: Vec<Candidate> = top
+                .iter()
+                .map(|c| {
+                    let m = &out.ranked.iter().find(|(e, _)| e.effect == c.name).expect("ranked").1;
+                    c.warm_from(m)
+                })
+                .collect();
+            let mut tried = Vec::new();
+            for i in 0..warm.len() {
+                for j in i + 1..warm.len() {
+                    tried.push(Candidate::pair(&warm[i], &warm[j]));
+                }
+            }
+            if let (false, Some((single, single_model))) = (tried.is_empty(), &best) {
+                let pairs_out = evaluate(
+                    ctx,
+                    ctx.factory,
+                    EvaluateInput {
+                        current: &st.current,
+                        current_validation: &st.validation,
+                        candidates: &tried,
+                        refit: &input.refit,
+                        seed: opts.rule.seed ^ opts.seed ^ 0x9a0,
+                    },
+                )?;
+                if let Some((pev, pmodel)) = pairs_out.ranked.first() {
+                    let single_val = ctx.validation.errors(ctx.factory, single_model)?;
+                    let pair_val = ctx.validation.errors(ctx.factory, pmodel)?;
+                    let gain = score(&single_val, &ctx.floor) - score(&pair_val, &ctx.floor);
+                    let se = bootstrap_reduction_se(
+                        &single_val,
+                        &pair_val,
+                        &ctx.floor,
+                        opts.rule.bootstrap_samples,
+                        opts.seed ^ 0x9a2,
+                    );
+                    let better = pev.significant
+                        && (!single.significant
+                            || opts.rule.passes(gain, se, score(&single_val, &ctx.floor)));
+                    (ctx.progress)(&format!(
+                        "round 0 pairs: {} tried, best {} (validation {:.2} -> {:.2}; {:.2} ± {:.2} below the best single){}",
+                        tried.len(),
+                        pev.effect,
+                        pev.heldout_before,
+                        pev.heldout_after,
+                        gain,
+                        se,
+                        if better { ", preferred" } else { "" }
+                    ));
+                    if better {
+                        pair_added = tried.iter().find(|c| c.name == pev.effect).cloned();
+                        best = Some((pev.clone(), pmodel.clone()));
+                    }
+                }
+                pairs.extend(pairs_out.ranked.into_iter().map(|(e, _)| e));
+            }
+        }
         if let Some((ev, _)) = &best {
             (ctx.progress)(&format!(
                 "round {round}: {} candidates, best {} (validation {:.2} -> {:.2}, ± {:.2}){}",
@@ -197,9 +270,14 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
         }
         let added = match best {
             Some((ev, model)) if ev.significant => {
-                let i = pool.iter().position(|c| c.name == ev.effect);
-                if let Some(i) = i {
-                    st.selected.push(pool.remove(i).warm_from(&model));
+                let names: Vec<String> = match &pair_added {
+                    Some(p) => p.name.split('+').map(String::from).collect(),
+                    None => vec![ev.effect.clone()],
+                };
+                for name in names {
+                    if let Some(i) = pool.iter().position(|c| c.name == name) {
+                        st.selected.push(pool.remove(i).warm_from(&model));
+                    }
                 }
                 st.validation = ctx.validation.errors(ctx.factory, &model)?;
                 st.current = model;
@@ -220,7 +298,6 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
         joint_refit(ctx, &mut st, &input.base, &format!("round {round}"))?;
     }
     // Pairs among the top candidates of the last round that were not added.
-    let mut pairs = Vec::new();
     if opts.pair_top >= 2 && st.selected.len() + 2 <= opts.max_effects {
         let last = rounds.last().map(|r| r.ranking.clone()).unwrap_or_default();
         let top: Vec<&Candidate> = last
@@ -270,7 +347,7 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
                     joint_refit(ctx, &mut st, &input.base, "pair")?;
                 }
             }
-            pairs = out.ranked.into_iter().map(|(e, _)| e).collect();
+            pairs.extend(out.ranked.into_iter().map(|(e, _)| e));
         }
     }
     // Backward: each selected effect out, the others refit; dropped unless keeping it passes.
