@@ -21,6 +21,10 @@
 //! | `/ground_truth/odom` | `nav_msgs/msg/Odometry` | simulated logs only: true pose in `odom`, true twist in the body frame (child `base_link`) |
 //! | `/ground_truth/joint_states` | `sensor_msgs/msg/JointState` | simulated logs only: true wheel speeds |
 //!
+//! Every channel carries rosbag2's `offered_qos_profiles` metadata ([`OFFERED_QOS_PROFILES`]),
+//! and the custom marker type ships as a ROS 2 interface package in `msg/drive_sim_msgs` (build
+//! it in a ROS 2 workspace to play the marker topic back with `ros2 bag play`).
+//!
 //! The [`LogMeta`] is an MCAP metadata record named [`METADATA_NAME`] with keys `format`
 //! ([`FORMAT`]) and `log_meta` (JSON).
 //!
@@ -85,6 +89,28 @@ pub const TOPIC_TRUTH_JOINTS: &str = "/ground_truth/joint_states";
 pub const METADATA_NAME: &str = "drive_sim";
 /// Value of the metadata `format` key; bumped when the topic layout changes.
 pub const FORMAT: &str = "drive-sim-mcap/1";
+/// Channel metadata key under which rosbag2 stores the QoS the recorded publishers offered.
+pub const QOS_METADATA_KEY: &str = "offered_qos_profiles";
+/// The QoS every channel declares, in rosbag2's own form (Humble and later, integer enums): one
+/// publisher, reliable (1), volatile (2), liveliness automatic (1), infinite durations, and
+/// history/depth unknown (3/0) as rosbag2 records them from the graph. `ros2 bag play` reads it
+/// to re-publish each topic with a compatible QoS (without it, it falls back to defaults and
+/// warns); `/tf` is volatile like any other topic, so no transient-local override is needed.
+pub const OFFERED_QOS_PROFILES: &str = "- history: 3
+  depth: 0
+  reliability: 1
+  durability: 2
+  deadline:
+    sec: 9223372036
+    nsec: 854775807
+  lifespan:
+    sec: 9223372036
+    nsec: 854775807
+  liveliness: 1
+  liveliness_lease_duration:
+    sec: 9223372036
+    nsec: 854775807
+  avoid_ros_namespace_conventions: false";
 /// Offset added to `stamp_s` in every MCAP and header time, ns.
 pub const EPOCH_OFFSET_NS: u64 = 1_000_000_000;
 

@@ -289,7 +289,8 @@ fn add_channel<W: Write + Seek>(
     def: &'static crate::log::ros_msgs::MsgDef,
 ) -> mcap::McapResult<u16> {
     let schema = w.add_schema(&def.schema_name(), "ros2msg", def.schema_text().as_bytes())?;
-    w.add_channel(schema, topic, "cdr", &BTreeMap::new())
+    let metadata = BTreeMap::from([(QOS_METADATA_KEY.to_string(), OFFERED_QOS_PROFILES.to_string())]);
+    w.add_channel(schema, topic, "cdr", &metadata)
 }
 
 /// Streams frames into a ROS 2 MCAP file (see the [module docs](self) for the layout).

@@ -401,6 +401,21 @@ mod tests {
         ));
     }
 
+    /// The custom types ship as `.msg` files (a ROS 2 interface package under `msg/`) so ROS 2
+    /// tools can build them; they must say exactly what the embedded schema says.
+    #[test]
+    fn shipped_msg_files_match_the_embedded_schemas() {
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/msg");
+        // One custom type today; the loop is where a new one is added.
+        #[allow(clippy::single_element_loop)]
+        for def in [&DRIVE_MARKER] {
+            let (pkg, name) = def.name.split_once('/').unwrap();
+            let path = format!("{dir}/{pkg}/msg/{name}.msg");
+            let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
+            assert_eq!(text, def.text(), "{path} differs from the schema of {}", def.name);
+        }
+    }
+
     #[test]
     fn header_bytes_by_hand_and_round_trip() {
         let h = Header {
