@@ -56,13 +56,13 @@ const RECORD_LENGTH_LIMIT: usize = 64 << 20;
 /// The `mcap` crate's `ChunkFlattener` does the same without a record length limit, so a
 /// flipped bit in a chunk header makes it allocate exabytes and abort; this drives the crate's
 /// sans-IO reader with the limit set.
-struct Records<'a> {
+pub(crate) struct Records<'a> {
     buf: &'a [u8],
     reader: mcap::sans_io::LinearReader,
 }
 
 impl<'a> Records<'a> {
-    fn new(buf: &'a [u8]) -> Self {
+    pub(crate) fn new(buf: &'a [u8]) -> Self {
         let opts = mcap::sans_io::LinearReaderOptions::default()
             .with_validate_chunk_crcs(true)
             .with_prevalidate_chunk_crcs(true)
@@ -97,6 +97,25 @@ impl Iterator for Records<'_> {
         }
         None
     }
+}
+
+/// Whether `path` is a drive-sim log rather than another ROS 2 MCAP file (a rosbag2 bag): the
+/// writer puts its metadata record before any message, so the file's head tells.
+pub fn is_drive_sim_mcap(path: &Path) -> Result<bool> {
+    use mcap::records::Record;
+    use std::io::Read;
+    let mut head = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(4 << 20).read_to_end(&mut head))
+        .map_err(|e| Error::io(path, e))?;
+    for rec in Records::new(&head) {
+        match rec {
+            Ok(Record::Metadata(m)) if m.name == METADATA_NAME => return Ok(true),
+            Ok(Record::Message { .. }) | Err(_) => return Ok(false),
+            Ok(_) => {}
+        }
+    }
+    Ok(false)
 }
 
 /// Decodes an in-memory drive-sim MCAP log; `file` names it in errors.
