@@ -174,6 +174,8 @@ pub struct Attempt {
     pub start_ns: u64,
     /// Last tick, ns.
     pub end_ns: u64,
+    /// Last message of the step's command, ns: the command is held no later than this.
+    pub cmd_until_ns: u64,
 }
 
 /// How steps were found.
@@ -200,6 +202,7 @@ fn attempts_from_step_topic(s: &Signals) -> Vec<Attempt> {
                     attempt: *n,
                     start_ns: a,
                     end_ns: b,
+                    cmd_until_ns: b,
                 });
                 *n += 1;
             }
@@ -276,6 +279,7 @@ fn attempts_from_command(s: &Signals, step_ns: f64, tick_ns: f64) -> Vec<Attempt
                 attempt,
                 start_ns: a,
                 end_ns: b,
+                cmd_until_ns: b,
             });
             last = Some((c, true));
             continue;
@@ -294,6 +298,7 @@ fn attempts_from_command(s: &Signals, step_ns: f64, tick_ns: f64) -> Vec<Attempt
                 attempt,
                 start_ns,
                 end_ns,
+                cmd_until_ns: end_ns.min(b),
             });
         }
         last = Some((c, false));
@@ -473,7 +478,7 @@ pub fn build_log(
             let t = start + k as f64 * tick_ns;
             // Command: zero-order hold, looking half a tick ahead (it is published with the tick),
             // never past the attempt (a run one tick short must not take the next command).
-            let tq = (t + 0.5 * tick_ns).min(done.end_ns as f64 + 0.5 * tick_ns);
+            let tq = (t + 0.5 * tick_ns).min(done.cmd_until_ns as f64);
             let ci = s.cmd.partition_point(|x| (x.0 as f64) <= tq);
             let c = s.cmd[ci.saturating_sub(1)].1;
             let cmd = idd.wheels_from_body(BodyVelocity::new(c[0], 0.0, c[1]));

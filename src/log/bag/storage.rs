@@ -50,6 +50,11 @@ pub struct TopicStats {
     pub last_ns: u64,
 }
 
+/// Receives (index of the topic in the list asked for, receive time ns, CDR payload).
+pub type OnMessage<'a> = dyn FnMut(usize, u64, &[u8]) -> Result<()> + 'a;
+/// As [`OnMessage`], the index `None` for a topic not asked for.
+type OnMaybeMessage<'a> = dyn FnMut(Option<usize>, u64, &[u8]) -> Result<()> + 'a;
+
 /// An opened bag: where it is, how it is stored, and its topics.
 #[derive(Debug, Clone)]
 pub struct Bag {
@@ -203,7 +208,7 @@ impl Bag {
 
     /// Calls `f(index in wanted, receive time ns, CDR payload)` for every message of the
     /// `wanted` topics, file by file, in each file's time order. Other topics are not decoded.
-    pub fn read(&self, wanted: &[&str], f: &mut dyn FnMut(usize, u64, &[u8]) -> Result<()>) -> Result<()> {
+    pub fn read(&self, wanted: &[&str], f: &mut OnMessage<'_>) -> Result<()> {
         for file in &self.files {
             match self.storage {
                 Storage::Sqlite3 => sqlite_read(file, wanted, f)?,
@@ -309,11 +314,7 @@ fn sqlite_topics(file: &Path) -> Result<Vec<TopicInfo>> {
         .map_err(|e| sqlite_err(file, "topics table", e))
 }
 
-fn sqlite_read(
-    file: &Path,
-    wanted: &[&str],
-    f: &mut dyn FnMut(usize, u64, &[u8]) -> Result<()>,
-) -> Result<()> {
+fn sqlite_read(file: &Path, wanted: &[&str], f: &mut OnMessage<'_>) -> Result<()> {
     let db = sqlite_open(file)?;
     // topic id -> index in `wanted`
     let mut ids: BTreeMap<i64, usize> = BTreeMap::new();
@@ -385,33 +386,25 @@ fn mcap_topics(file: &Path) -> Result<Vec<TopicInfo>> {
 fn mcap_read(
     file: &Path,
     wanted: Option<&[&str]>,
-    f: &mut dyn FnMut(Option<usize>, u64, &[u8]) -> Result<()>,
+    f: &mut OnMaybeMessage<'_>,
 ) -> (Vec<(String, String, String)>, Result<()>) {
     use mcap::records::Record;
-    let bytes = match std::fs::read(file) {
-        Ok(b) => b,
+    // Streamed from the file: a bag of point clouds is never held in memory.
+    let src = match std::fs::File::open(file) {
+        Ok(f) => std::io::BufReader::with_capacity(1 << 20, f),
         Err(e) => return (Vec::new(), Err(Error::io(file, e))),
     };
     let mut schemas: BTreeMap<u16, String> = BTreeMap::new();
     let mut channels: BTreeMap<u16, Option<usize>> = BTreeMap::new();
     let mut seen = Vec::new();
     let mut messages = 0u64;
+    let mut records = 0u64;
     let mut result = Ok(());
-    for (i, rec) in crate::log::mcap::read::Records::new(&bytes).enumerate() {
-        let rec = match rec {
-            Ok(r) => r,
-            Err(e) => {
-                result = Err(Error::log(
-                    file,
-                    format!("MCAP record {i} (after {messages} messages)"),
-                    format!("{e} (a truncated or damaged file?)"),
-                ));
-                break;
-            }
-        };
+    let r = crate::log::mcap::read::for_each_record(src, &mut |rec| {
+        records += 1;
         match rec {
             Record::Schema { header, .. } => {
-                schemas.insert(header.id, header.name);
+                schemas.insert(header.id, header.name.clone());
             }
             Record::Channel(c) => {
                 let ty = schemas.get(&c.schema_id).cloned().unwrap_or_default();
@@ -421,18 +414,25 @@ fn mcap_read(
             }
             Record::Message { header, data } => {
                 messages += 1;
-                if wanted.is_none() {
-                    continue;
-                }
-                if let Some(Some(idx)) = channels.get(&header.channel_id) {
-                    if let Err(e) = f(Some(*idx), header.log_time, &data) {
-                        result = Err(e);
-                        break;
+                if wanted.is_some() {
+                    if let Some(Some(idx)) = channels.get(&header.channel_id) {
+                        if let Err(e) = f(Some(*idx), header.log_time, &data) {
+                            result = Err(e);
+                            return false;
+                        }
                     }
                 }
             }
             _ => {}
         }
+        true
+    });
+    if let Err(e) = r {
+        result = Err(Error::log(
+            file,
+            format!("MCAP record {records} (after {messages} messages)"),
+            format!("{e} (a truncated or damaged file?)"),
+        ));
     }
     (seen, result)
 }

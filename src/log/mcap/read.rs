@@ -61,19 +61,48 @@ pub(crate) struct Records<'a> {
     reader: mcap::sans_io::LinearReader,
 }
 
+fn checked_reader() -> mcap::sans_io::LinearReader {
+    let opts = mcap::sans_io::LinearReaderOptions::default()
+        .with_validate_chunk_crcs(true)
+        .with_prevalidate_chunk_crcs(true)
+        .with_validate_data_section_crc(true)
+        .with_validate_summary_section_crc(true)
+        .with_record_length_limit(RECORD_LENGTH_LIMIT);
+    mcap::sans_io::LinearReader::new_with_options(opts)
+}
+
 impl<'a> Records<'a> {
     pub(crate) fn new(buf: &'a [u8]) -> Self {
-        let opts = mcap::sans_io::LinearReaderOptions::default()
-            .with_validate_chunk_crcs(true)
-            .with_prevalidate_chunk_crcs(true)
-            .with_validate_data_section_crc(true)
-            .with_validate_summary_section_crc(true)
-            .with_record_length_limit(RECORD_LENGTH_LIMIT);
         Self {
             buf,
-            reader: mcap::sans_io::LinearReader::new_with_options(opts),
+            reader: checked_reader(),
         }
     }
+}
+
+/// Streams every record of an MCAP source to `f` (same checks as [`Records`]), borrowing each
+/// record instead of copying it, so skipped messages (point clouds) cost no copy; reading stops
+/// when `f` returns `false`.
+pub(crate) fn for_each_record<R: std::io::Read>(
+    mut src: R,
+    f: &mut dyn FnMut(mcap::records::Record<'_>) -> bool,
+) -> mcap::McapResult<()> {
+    use mcap::sans_io::LinearReadEvent;
+    let mut reader = checked_reader();
+    while let Some(event) = reader.next_event() {
+        match event? {
+            LinearReadEvent::ReadRequest(need) => {
+                let n = src.read(reader.insert(need))?;
+                reader.notify_read(n);
+            }
+            LinearReadEvent::Record { data, opcode } => {
+                if !f(mcap::read::parse_record(opcode, data)?) {
+                    break;
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 impl Iterator for Records<'_> {
