@@ -1,6 +1,7 @@
 //! drive-sim: a simulation-backed test harness for the DRIVE protocol.
 //!
-//! Data flows one way: robot and terrain models ([`robot`], [`terrain`]) → simulator ([`sim`])
+//! Data flows one way: robot, terrain and effect models ([`robot`], [`terrain`], [`effects`]) →
+//! simulator ([`sim`])
 //! driven by the protocol ([`protocol`]) → logs ([`log`]) → analysis ([`analysis`]) and
 //! calibration ([`calibration`]) → figures and reports ([`report`]). The [`cli`] wires them.
 //! The data model of a run (measurements, frames, the log of completed steps) sits below all of
@@ -10,6 +11,7 @@ pub mod analysis;
 pub mod calibration;
 pub mod cli;
 pub mod config;
+pub mod effects;
 pub mod error;
 pub mod geometry;
 pub mod kinematics;

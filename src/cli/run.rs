@@ -1,12 +1,13 @@
 //! `drive-sim run`: DRIVE in closed loop on the simulated robot, logged to MCAP.
 
+use crate::effects::Effects;
 use crate::error::{Error, Result};
 use crate::log::mcap::{McapSummary, McapWriter};
 use crate::log::{Frame, LogMeta, Nominal, Origin};
 use crate::protocol::sampler::make_sampler_for;
 use crate::protocol::{run_drive, FrameSink, ProtocolConfig, RunSummary};
 use crate::robot::Robot;
-use crate::sim::{Effects, SensorNoise, SimConfig, Simulator};
+use crate::sim::{SensorNoise, SimConfig, Simulator};
 use crate::terrain::Terrain;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
@@ -38,7 +39,7 @@ pub struct RunArgs {
     #[arg(long, default_value_t = 100.0)]
     pub physics_hz: f64,
     /// Inject an effect the log's metadata does not declare, `NAME=VALUE` (repeatable), e.g.
-    /// `--inject motor_gain_left=0.85`. Names: see `drive_sim::sim::Effects::NAMES`.
+    /// `--inject motor_gain_left=0.85`. Names: the parameters of the effect registry (`drive_sim::effects::REGISTRY`; `drive-sim effects` lists them).
     #[arg(long = "inject", value_name = "EFFECT=VALUE")]
     pub inject: Vec<String>,
     /// Output directory.
