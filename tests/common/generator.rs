@@ -158,11 +158,7 @@ impl Plant for TestRobot {
 
 /// A DRIVE run of `steps` steps of the Warthog's protocol on this generator, as a log that
 /// declares the Warthog and no effect.
-pub fn drive_log(
-    name: &str,
-    spec: TestRobotSpec,
-    steps: u32,
-) -> (drive_sim::log::DriveLog, drive_sim::robot::Robot) {
+pub fn drive_log(name: &str, spec: TestRobotSpec, steps: u32) -> (drive_sim::log::DriveLog, drive_sim::robot::Robot) {
     use drive_sim::protocol::sampler::UniformWheel;
     use drive_sim::protocol::{run_drive, ProtocolConfig};
     let (robot, _) = drive_sim::robot::Robot::resolve("warthog").unwrap();
@@ -172,16 +168,6 @@ pub fn drive_log(
     };
     let mut plant = TestRobot::new(spec);
     let mut frames = Vec::new();
-    run_drive(
-        &mut plant,
-        &robot,
-        &mut UniformWheel::new(spec.seed),
-        &cfg,
-        &mut frames,
-    )
-    .unwrap();
-    (
-        super::undeclared_log(name, &robot, spec.seed, &cfg, &frames),
-        robot,
-    )
+    run_drive(&mut plant, &robot, &mut UniformWheel::new(spec.seed), &cfg, &mut frames).unwrap();
+    (super::undeclared_log(name, &robot, spec.seed, &cfg, &frames), robot)
 }
