@@ -79,6 +79,16 @@ impl Error {
             message: message.into(),
         }
     }
+    /// Whether the user's input is at fault (a bad file, value or name: exit code 2) rather
+    /// than the run (a diverged simulation, a failed write: exit code 1). A missing input file
+    /// is bad input; other I/O failures are not.
+    pub fn is_bad_input(&self) -> bool {
+        match self {
+            Error::Config { .. } | Error::Unknown { .. } | Error::Log { .. } => true,
+            Error::Io { source, .. } => source.kind() == std::io::ErrorKind::NotFound,
+            Error::Diverged { .. } | Error::Analysis(_) | Error::Report(_) => false,
+        }
+    }
     /// Builds an [`Error::Io`] error.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Error::Io {

@@ -4,6 +4,8 @@
 //! simulator ([`sim`])
 //! driven by the protocol ([`protocol`]) → logs ([`log`]) → analysis ([`analysis`]) and
 //! calibration ([`calibration`]) → figures and reports ([`report`]). The [`cli`] wires them.
+//! The data model of a run (measurements, frames, the log of completed steps) sits below all of
+//! them in [`measurement`].
 
 pub mod analysis;
 pub mod calibration;
@@ -14,6 +16,7 @@ pub mod error;
 pub mod geometry;
 pub mod kinematics;
 pub mod log;
+pub mod measurement;
 pub mod protocol;
 pub mod report;
 pub mod robot;

@@ -4,6 +4,7 @@
 use crate::config::{non_negative, positive, Validate};
 use crate::error::Result;
 use crate::kinematics::{CommandSpace, IdealDiffDrive};
+use crate::measurement::Nominal;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -199,6 +200,28 @@ impl Validate for Robot {
         positive("safe_area.length_m", self.safe_area.length_m)?;
         positive("safe_area.width_m", self.safe_area.width_m)?;
         Ok(())
+    }
+}
+
+/// A robot model's values as a log declares them (the nominal robot of simulated logs).
+///
+/// Written here rather than beside [`Nominal`]: the log's data model sits below the robot model
+/// and does not know it.
+impl Nominal {
+    /// Declared nominal values of a robot model.
+    pub fn from_robot(r: &Robot) -> Self {
+        Self {
+            wheel_radius_m: r.wheels.radius_m,
+            baseline_m: r.wheels.baseline_m,
+            max_wheel_rad_s: r.powertrain.max_wheel_rad_s,
+            max_lin_m_s: r.limits.max_lin_m_s,
+            max_ang_rad_s: r.limits.max_ang_rad_s,
+            mass_kg: r.body.mass_kg,
+            width_m: r.body.width_m,
+            length_m: r.body.length_m,
+            height_m: Some(r.body.height_m),
+            max_lin_acc_m_s2: Some(r.limits.max_lin_acc_m_s2),
+        }
     }
 }
 

@@ -197,6 +197,29 @@ fn same_frames_give_byte_identical_files() {
     assert_ne!(encode_mcap(&meta, &other, Path::new("d")).unwrap(), a);
 }
 
+/// `ros2 bag` reads the QoS to re-publish each topic with from the channel metadata, as rosbag2
+/// itself writes it.
+#[test]
+fn every_channel_declares_its_offered_qos_as_rosbag2_does() {
+    let mut frames = Vec::new();
+    run(2, 5, &mut frames);
+    let bytes = encode_mcap(&meta(&husky(), 5), &frames, Path::new("qos")).unwrap();
+    let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+    assert!(summary.channels.len() >= 7);
+    for c in summary.channels.values() {
+        let qos = c
+            .metadata
+            .get("offered_qos_profiles")
+            .unwrap_or_else(|| panic!("{} has no offered_qos_profiles", c.topic));
+        // One profile, rosbag2's integer form: reliable, volatile, infinite deadline.
+        assert!(qos.starts_with("- history: "), "{}: {qos}", c.topic);
+        assert_eq!(qos.matches("- history").count(), 1, "{}", c.topic);
+        for line in ["  reliability: 1\n", "  durability: 2\n", "    sec: 9223372036\n"] {
+            assert!(qos.contains(line), "{}: {line:?} not in {qos}", c.topic);
+        }
+    }
+}
+
 #[test]
 fn unfinished_or_failed_logs_never_appear_at_the_final_path() {
     let dir = tempfile::tempdir().unwrap();

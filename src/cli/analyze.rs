@@ -6,9 +6,13 @@ use std::path::PathBuf;
 /// Options of `drive-sim analyze`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct AnalyzeArgs {
-    /// Logs to analyse: `.mcap` written by `drive-sim run`, or measured `.csv` (JSON beside it).
+    /// Logs to analyse: `.mcap` written by `drive-sim run`, measured `.csv` (JSON beside it), or
+    /// rosbag2 bags of the DRIVE node (directory, `.db3` or `.mcap`).
     #[arg(required = true)]
     pub logs: Vec<PathBuf>,
+    /// How to read bags.
+    #[command(flatten)]
+    pub input: super::input::InputArgs,
     /// Output directory.
     #[arg(long, default_value = "out/analysis")]
     pub out: PathBuf,
@@ -61,7 +65,7 @@ pub fn analyze(args: &AnalyzeArgs) -> anyhow::Result<()> {
     let mut logs = Vec::new();
     for path in &args.logs {
         eprintln!("drive-sim: reading {}", path.display());
-        logs.push(crate::log::read_log(path)?);
+        logs.push(super::input::open_log(path, &args.input)?);
     }
     let mut analyses = Vec::new();
     for log in &logs {

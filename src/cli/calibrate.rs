@@ -3,7 +3,7 @@
 
 use crate::calibration::{self, CalibrationOptions, CalibrationReport, ModelKind};
 use crate::error::Result;
-use crate::log::{mcap::write_mcap, read_log, Origin};
+use crate::log::{mcap::write_mcap, Origin};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -15,6 +15,9 @@ pub struct ReplayArgs {
     /// Output directory.
     #[arg(long, default_value = "out/replay")]
     pub out: PathBuf,
+    /// How to read a bag.
+    #[command(flatten)]
+    pub input: super::input::InputArgs,
     /// Model replayed: `simulator` (rapier) or `kinematic` (grey-box, fast).
     #[arg(long, default_value = "simulator")]
     pub model: String,
@@ -28,6 +31,9 @@ pub struct CalibrateArgs {
     /// Output directory.
     #[arg(long, default_value = "out/calibration")]
     pub out: PathBuf,
+    /// How to read a bag.
+    #[command(flatten)]
+    pub input: super::input::InputArgs,
     /// Model calibrated: `simulator` (rapier) or `kinematic` (grey-box, fast).
     #[arg(long, default_value = "simulator")]
     pub model: String,
@@ -53,7 +59,7 @@ pub struct CalibrateArgs {
 pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
     let kind = ModelKind::parse(&args.model)?;
     eprintln!("drive-sim: reading {}", args.log.display());
-    let log = read_log(&args.log)?;
+    let log = super::input::open_log(&args.log, &args.input)?;
     eprintln!(
         "drive-sim: replaying {} steps of {} on the {} model",
         log.steps().len(),
@@ -128,7 +134,7 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
         );
     }
     eprintln!("drive-sim: reading {}", args.log.display());
-    let log = read_log(&args.log)?;
+    let log = super::input::open_log(&args.log, &args.input)?;
     let (robot, terrain, notes) = calibration::models_for_log(&log)?;
     let mut opts = CalibrationOptions {
         seed: args.seed,

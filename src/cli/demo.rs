@@ -71,6 +71,7 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<()> {
         out: args.out.clone(),
         resolution: 0.1,
         kernel_variance: None,
+        input: Default::default(),
     })?;
     eprintln!(
         "drive-sim demo: open {} in a browser; the MCAP logs in {} open in Foxglove.",

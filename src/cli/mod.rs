@@ -3,6 +3,7 @@
 pub mod analyze;
 pub mod calibrate;
 pub mod demo;
+pub mod input;
 pub mod run;
 pub mod samplers;
 pub mod sweep;
@@ -39,6 +40,9 @@ pub enum Command {
     Robots,
     /// Lists the terrains (built-in and ./terrains/*.toml).
     Terrains,
+    /// Shows what a rosbag2 bag of the DRIVE node holds: topics, types, counts, rates, time
+    /// span, the roles it would use and what is missing, and the steps it would give.
+    Inspect(input::InspectArgs),
     /// Lists the model effects (`--inject`, calibration candidates): stage, parameters with
     /// units, valid range, neutral value and calibration search box.
     Effects,
@@ -68,7 +72,15 @@ pub fn main() -> i32 {
         }
         Err(e) => {
             eprintln!("drive-sim: error: {e:#}");
-            1
+            // Exit code 2 for bad input (as clap does for bad arguments), 1 for a failed run.
+            if e.chain().any(|c| {
+                c.downcast_ref::<crate::Error>()
+                    .is_some_and(crate::Error::is_bad_input)
+            }) {
+                2
+            } else {
+                1
+            }
         }
     }
 }
@@ -92,6 +104,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Terrains) => list_terrains(),
         Some(Command::Effects) => list_effects(),
         Some(Command::Analyze(a)) => analyze::analyze(&a),
+        Some(Command::Inspect(a)) => input::inspect(&a),
         Some(Command::Samplers(a)) => samplers::samplers(&a),
         Some(Command::Sweep(a)) => sweep::sweep(&a),
         Some(Command::SweepMerge(a)) => sweep::sweep_merge(&a),

@@ -56,6 +56,11 @@ impl CdrWriter {
         self.buf.extend(std::iter::repeat_n(0u8, pad));
     }
 
+    /// Writes a `uint8` (or `bool`, `byte`, `char`).
+    pub fn u8(&mut self, v: u8) {
+        self.buf.push(v);
+    }
+
     /// Writes an `int32`.
     pub fn i32(&mut self, v: i32) {
         self.align(4);
@@ -205,6 +210,11 @@ impl<'a> CdrReader<'a> {
                 self.buf.len()
             ))),
         }
+    }
+
+    /// Reads a `uint8` (or `bool`, `byte`, `char`).
+    pub fn u8(&mut self) -> CdrResult<u8> {
+        Ok(self.take(1, 1)?[0])
     }
 
     /// Reads an `int32`.

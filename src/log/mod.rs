@@ -1,397 +1,20 @@
-//! The common in-memory DRIVE log.
+//! DRIVE logs on disk: readers and writers of every format, all meeting in the common
+//! [`DriveLog`].
 //!
-//! Both the simulator (through the protocol runner or the MCAP reader) and the measured-CSV
-//! reader produce a [`DriveLog`], so nothing downstream knows which it got. A log is built from a
-//! stream of [`Frame`]s, one per 20 Hz tick, by [`DriveLog::from_frames`]; that one function
-//! decides which samples belong to which step and which attempts were interrupted.
+//! The data model itself ([`DriveLog`], [`Frame`], [`Measurement`], ...) lives in
+//! [`crate::measurement`], below the simulator and the protocol that produce it; it is
+//! re-exported here so that `crate::log::Pose` and friends keep working.
 
+pub mod bag;
 pub mod cdr;
 pub mod csv;
 pub mod mcap;
 pub mod ros_msgs;
 
-use crate::kinematics::{BodyVelocity, WheelSpeeds};
-use serde::{Deserialize, Serialize};
-
-/// 6-DoF pose: position in m, attitude as roll, pitch, yaw in rad (ZYX convention).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct Pose {
-    /// x position, m.
-    pub x_m: f64,
-    /// y position, m.
-    pub y_m: f64,
-    /// z position, m.
-    pub z_m: f64,
-    /// Roll, rad.
-    pub roll_rad: f64,
-    /// Pitch, rad.
-    pub pitch_rad: f64,
-    /// Yaw, rad (counter-clockwise positive).
-    pub yaw_rad: f64,
-}
-
-impl Pose {
-    /// True if every component is finite.
-    pub fn is_finite(&self) -> bool {
-        [
-            self.x_m,
-            self.y_m,
-            self.z_m,
-            self.roll_rad,
-            self.pitch_rad,
-            self.yaw_rad,
-        ]
-        .iter()
-        .all(|v| v.is_finite())
-    }
-}
-
-/// IMU reading in the body frame.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct ImuReading {
-    /// Yaw rate, rad/s.
-    pub wz_rad_s: f64,
-    /// Specific force along x, m/s² (includes gravity, as a real accelerometer).
-    pub ax_m_s2: f64,
-    /// Specific force along y, m/s².
-    pub ay_m_s2: f64,
-    /// Specific force along z, m/s² (about +9.81 at rest).
-    pub az_m_s2: f64,
-}
-
-/// What only a simulator knows: the true state.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct GroundTruth {
-    /// True pose in the world (odom) frame.
-    pub pose: Pose,
-    /// True planar velocity in the body frame.
-    pub velocity: BodyVelocity,
-    /// True wheel speeds (mean of each side's wheels), rad/s.
-    pub wheels: WheelSpeeds,
-}
-
-/// The measurements of one tick.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct Measurement {
-    /// Commanded wheel speeds (the protocol's target), rad/s.
-    pub cmd: WheelSpeeds,
-    /// Encoder wheel speeds, rad/s.
-    pub enc: WheelSpeeds,
-    /// Lidar/ICP pose. Only differences inside one window are meaningful: a measured log gives it
-    /// in the frame of the window's first sample, a simulated one in the odom frame.
-    pub pose: Pose,
-    /// IMU reading.
-    pub imu: ImuReading,
-    /// The data source's own body-velocity estimate, when it has one.
-    pub reference: Option<BodyVelocity>,
-    /// Ground truth (simulated logs only).
-    pub truth: Option<GroundTruth>,
-}
-
-/// Where the protocol is at one tick.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub enum Phase {
-    /// Executing step `step` (attempt `attempt`, counting interrupted ones from 0).
-    Step {
-        /// Step index, from 0.
-        step: u32,
-        /// Attempt index of this step, from 0; an interruption starts a new attempt.
-        attempt: u32,
-        /// Window index: 0 transient, 1.. steady.
-        window: u32,
-        /// Sample index inside the window.
-        k: u32,
-        /// Time since the start of this attempt, s.
-        t_in_step_s: f64,
-    },
-    /// Re-orienting towards the centre of the safe area after an interruption.
-    Reorient {
-        /// The step that was interrupted.
-        step: u32,
-    },
-    /// Standing still before the first step or after the last.
-    Idle,
-}
-
-/// One tick of a log: a timestamp, the protocol phase, and the measurements.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Frame {
-    /// Time since the start of the log, s.
-    pub stamp_s: f64,
-    /// Protocol phase.
-    pub phase: Phase,
-    /// Measurements.
-    pub m: Measurement,
-}
-
-/// One sample of a completed step.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Sample {
-    /// Step index.
-    pub step: u32,
-    /// Window index: 0 transient, 1.. steady.
-    pub window: u32,
-    /// Sample index inside the window.
-    pub k: u32,
-    /// Time since the start of the (completed attempt of the) step, s.
-    pub t_in_step_s: f64,
-    /// Time since the start of the log, s (not continuous across steps in measured logs).
-    pub stamp_s: f64,
-    /// Measurements.
-    pub m: Measurement,
-}
-
-impl Sample {
-    /// The frame of this sample, as the completed (final) attempt of its step: what a log of
-    /// completed steps (a replay, a measured run) writes to MCAP.
-    pub fn to_frame(&self) -> Frame {
-        Frame {
-            stamp_s: self.stamp_s,
-            phase: Phase::Step {
-                step: self.step,
-                attempt: 0,
-                window: self.window,
-                k: self.k,
-                t_in_step_s: self.t_in_step_s,
-            },
-            m: self.m,
-        }
-    }
-}
-
-/// An interrupted attempt: the robot was about to leave the safe area.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Interruption {
-    /// Step whose attempt was interrupted.
-    pub step: u32,
-    /// The attempt that was interrupted.
-    pub attempt: u32,
-    /// Time into the attempt at the interruption, s.
-    pub t_in_step_s: f64,
-    /// Log time of the interruption, s.
-    pub stamp_s: f64,
-    /// Time spent on the interrupted attempt and the re-orientation, s.
-    pub time_lost_s: f64,
-}
-
-/// Robot parameters the log declares (the operators' configuration for measured data).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Nominal {
-    /// Wheel radius, m.
-    pub wheel_radius_m: f64,
-    /// Baseline, m.
-    pub baseline_m: f64,
-    /// Wheel speed limit, rad/s.
-    pub max_wheel_rad_s: f64,
-    /// User limit on |vx|, m/s.
-    pub max_lin_m_s: f64,
-    /// User limit on |wz|, rad/s.
-    pub max_ang_rad_s: f64,
-    /// Mass, kg.
-    pub mass_kg: f64,
-    /// Footprint width, m.
-    pub width_m: f64,
-    /// Footprint length, m.
-    pub length_m: f64,
-    /// Height, m, when declared.
-    #[serde(default)]
-    pub height_m: Option<f64>,
-    /// User linear acceleration limit, m/s², when declared.
-    #[serde(default)]
-    pub max_lin_acc_m_s2: Option<f64>,
-}
-
-impl Nominal {
-    /// The declared ideal differential drive.
-    pub fn idd(&self) -> crate::kinematics::IdealDiffDrive {
-        crate::kinematics::IdealDiffDrive {
-            wheel_radius_m: self.wheel_radius_m,
-            baseline_m: self.baseline_m,
-        }
-    }
-    /// The declared command space.
-    pub fn command_space(&self) -> crate::kinematics::CommandSpace {
-        crate::kinematics::CommandSpace {
-            idd: self.idd(),
-            max_wheel_rad_s: self.max_wheel_rad_s,
-            max_lin_m_s: self.max_lin_m_s,
-            max_ang_rad_s: self.max_ang_rad_s,
-        }
-    }
-    /// Declared nominal values of a robot model.
-    pub fn from_robot(r: &crate::robot::Robot) -> Self {
-        Self {
-            wheel_radius_m: r.wheels.radius_m,
-            baseline_m: r.wheels.baseline_m,
-            max_wheel_rad_s: r.powertrain.max_wheel_rad_s,
-            max_lin_m_s: r.limits.max_lin_m_s,
-            max_ang_rad_s: r.limits.max_ang_rad_s,
-            mass_kg: r.body.mass_kg,
-            width_m: r.body.width_m,
-            length_m: r.body.length_m,
-            height_m: Some(r.body.height_m),
-            max_lin_acc_m_s2: Some(r.limits.max_lin_acc_m_s2),
-        }
-    }
-}
-
-/// Where a log comes from.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case")]
-pub enum Origin {
-    /// Written by this simulator.
-    Simulated {
-        /// Seed of every random draw.
-        seed: u64,
-        /// Robot file used.
-        robot_file: String,
-        /// Terrain file used.
-        terrain_file: String,
-        /// Sampler name.
-        sampler: String,
-        /// Effects injected without being declared (`--inject`), as `name=value` strings.
-        /// Kept for the test harness; analysis must not read it.
-        #[serde(default)]
-        injected: Vec<String>,
-    },
-    /// Recorded on a real robot.
-    Measured {
-        /// The file it was read from.
-        file: String,
-    },
-}
-
-/// Metadata of a log.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct LogMeta {
-    /// Dataset name, e.g. `warthog_ice`.
-    pub name: String,
-    /// Robot name.
-    pub robot: String,
-    /// Terrain name (`unlabelled` when unknown).
-    pub terrain: String,
-    /// Sample rate, Hz.
-    pub rate_hz: f64,
-    /// Window duration, s.
-    pub window_s: f64,
-    /// Windows per step (1 transient + steady ones).
-    pub windows_per_step: u32,
-    /// Samples per window.
-    pub samples_per_window: u32,
-    /// Declared robot parameters.
-    pub nominal: Nominal,
-    /// Where the log comes from.
-    pub origin: Origin,
-}
-
-impl LogMeta {
-    /// Duration of one step, s.
-    pub fn step_s(&self) -> f64 {
-        self.window_s * self.windows_per_step as f64
-    }
-}
-
-/// A DRIVE log: metadata, the samples of completed steps (in order), and the interruptions.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct DriveLog {
-    /// Metadata.
-    pub meta: LogMeta,
-    /// Samples of completed step attempts, ordered by step then time.
-    pub samples: Vec<Sample>,
-    /// Interrupted attempts.
-    pub interruptions: Vec<Interruption>,
-    /// Total log duration, s (protocol time including interruptions and re-orientation).
-    pub duration_s: f64,
-}
-
-impl DriveLog {
-    /// Builds a log from a frame stream: keeps, for each step, the samples of its last attempt;
-    /// earlier attempts of a step become [`Interruption`]s whose lost time runs until the next
-    /// attempt starts.
-    pub fn from_frames(meta: LogMeta, frames: &[Frame]) -> Self {
-        use std::collections::BTreeMap;
-        // Last attempt seen per step.
-        let mut last_attempt: BTreeMap<u32, u32> = BTreeMap::new();
-        for f in frames {
-            if let Phase::Step { step, attempt, .. } = f.phase {
-                let e = last_attempt.entry(step).or_insert(attempt);
-                *e = (*e).max(attempt);
-            }
-        }
-        let mut samples = Vec::new();
-        // (step, attempt) -> (first stamp, last stamp, last t_in_step)
-        let mut aborted: BTreeMap<(u32, u32), (f64, f64, f64)> = BTreeMap::new();
-        // First stamp of each (step, attempt), to close the lost time of the previous attempt.
-        let mut attempt_start: BTreeMap<(u32, u32), f64> = BTreeMap::new();
-        for f in frames {
-            if let Phase::Step {
-                step,
-                attempt,
-                window,
-                k,
-                t_in_step_s,
-            } = f.phase
-            {
-                attempt_start.entry((step, attempt)).or_insert(f.stamp_s);
-                if attempt == last_attempt[&step] {
-                    samples.push(Sample {
-                        step,
-                        window,
-                        k,
-                        t_in_step_s,
-                        stamp_s: f.stamp_s,
-                        m: f.m,
-                    });
-                } else {
-                    let e = aborted
-                        .entry((step, attempt))
-                        .or_insert((f.stamp_s, f.stamp_s, t_in_step_s));
-                    e.1 = f.stamp_s;
-                    e.2 = t_in_step_s;
-                }
-            }
-        }
-        let interruptions = aborted
-            .into_iter()
-            .map(|((step, attempt), (start, end, t))| {
-                let next = attempt_start.get(&(step, attempt + 1)).copied().unwrap_or(end);
-                Interruption {
-                    step,
-                    attempt,
-                    t_in_step_s: t,
-                    stamp_s: end,
-                    time_lost_s: next - start,
-                }
-            })
-            .collect();
-        let duration_s = match (frames.first(), frames.last()) {
-            (Some(a), Some(b)) => b.stamp_s - a.stamp_s + 1.0 / meta.rate_hz,
-            _ => 0.0,
-        };
-        Self {
-            meta,
-            samples,
-            interruptions,
-            duration_s,
-        }
-    }
-
-    /// Indices of the completed steps, in order.
-    pub fn steps(&self) -> Vec<u32> {
-        let mut s: Vec<u32> = self.samples.iter().map(|s| s.step).collect();
-        s.dedup();
-        s
-    }
-
-    /// Fraction of protocol time spent on completed steps (the paper's time-efficiency ratio).
-    pub fn time_efficiency(&self) -> f64 {
-        if self.duration_s <= 0.0 {
-            return 0.0;
-        }
-        let productive = self.steps().len() as f64 * self.meta.step_s();
-        (productive / self.duration_s).min(1.0)
-    }
-}
+pub use crate::measurement::{
+    DriveLog, Frame, FrameSink, GroundTruth, ImuReading, Interruption, LogMeta, Measurement, Nominal, Origin,
+    Phase, Pose, Sample,
+};
 
 /// Reads a DRIVE log of either kind: a simulated `.mcap` or a measured `.csv` (with its JSON).
 pub fn read_log(path: &std::path::Path) -> crate::Result<DriveLog> {
@@ -407,6 +30,58 @@ pub fn read_log(path: &std::path::Path) -> crate::Result<DriveLog> {
             path,
             "file name",
             "expected a .mcap (simulated) or .csv (measured) DRIVE log",
+        )),
+    }
+}
+
+/// What [`open`] needs besides the path: what a bag does not record (ignored for the other
+/// formats, which declare their robot and terrain).
+pub type OpenOptions = bag::BagOptions;
+
+/// A log opened by [`open`], with what the user should be told about how it was read.
+#[derive(Debug, Clone)]
+pub struct Opened {
+    /// The log.
+    pub log: DriveLog,
+    /// Decisions made while reading (roles, nominal values, segmentation).
+    pub notes: Vec<String>,
+    /// Data left out, and why (steps excluded by a gap, incomplete steps).
+    pub warnings: Vec<String>,
+}
+
+/// Opens any supported DRIVE input into the common [`DriveLog`]: a measured `.csv` (JSON
+/// beside it), a drive-sim `.mcap`, or a rosbag2 recording of the DRIVE node (a bag directory,
+/// a `.db3`, or a rosbag2 `.mcap`).
+pub fn open(path: &std::path::Path, opts: &OpenOptions) -> crate::Result<Opened> {
+    let plain = |log| Opened {
+        log,
+        notes: Vec::new(),
+        warnings: Vec::new(),
+    };
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let from_bag = |b: bag::BagLog| Opened {
+        log: b.log,
+        notes: b.notes,
+        warnings: b.warnings,
+    };
+    if path.is_dir() {
+        return bag::read_bag(path, opts).map(from_bag);
+    }
+    match ext.as_deref() {
+        Some("csv") => csv::read_measured_csv(path).map(plain),
+        Some("mcap") if !path.exists() => Err(crate::Error::io(
+            path,
+            std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+        )),
+        Some("mcap") if mcap::read::is_drive_sim_mcap(path)? => mcap::read_mcap(path).map(plain),
+        Some("mcap") | Some("db3") => bag::read_bag(path, opts).map(from_bag),
+        _ => Err(crate::Error::log(
+            path,
+            "file name",
+            "expected a measured .csv, a drive-sim .mcap, or a rosbag2 bag (directory, .db3 or .mcap)",
         )),
     }
 }

@@ -11,7 +11,7 @@ pub mod samplers;
 
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, CommandSpace, WheelSpeeds};
-use crate::log::{Frame, Measurement, Phase, Pose};
+use crate::measurement::{Frame, Measurement, Phase, Pose};
 use crate::robot::Robot;
 use crate::sim::plant::{wrap_angle, Plant};
 use sampler::{Sampler, SamplingContext, StepOutcome};
@@ -99,20 +99,9 @@ pub struct RunSummary {
     pub time_efficiency: f64,
 }
 
-/// Receives each frame as it is produced (e.g. an MCAP writer), and progress notifications.
-pub trait FrameSink {
-    /// Takes one frame.
-    fn frame(&mut self, frame: &Frame) -> Result<()>;
-    /// Called when a step completes.
-    fn step_done(&mut self, _completed: u32) {}
-}
-
-impl FrameSink for Vec<Frame> {
-    fn frame(&mut self, frame: &Frame) -> Result<()> {
-        self.push(*frame);
-        Ok(())
-    }
-}
+/// Where the protocol hands its frames; defined with the frames, below the log writers that
+/// implement it.
+pub use crate::measurement::FrameSink;
 
 /// Runs DRIVE on `plant` until `cfg.steps` steps are completed.
 pub fn run_drive(
@@ -528,7 +517,7 @@ fn check_state(p: Pose, v: BodyVelocity, step: u32, time_s: f64) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::log::{DriveLog, LogMeta, Nominal, Origin};
+    use crate::measurement::{DriveLog, LogMeta, Nominal, Origin};
     use crate::sim::IdealPlant;
 
     fn run_ideal(steps: u32, seed: u64) -> (Vec<Frame>, RunSummary, Robot) {

@@ -6,7 +6,7 @@
 //! [`SAMPLERS`] read.
 
 use crate::kinematics::{BodyVelocity, CommandSpace, WheelSpeeds};
-use crate::log::Pose;
+use crate::measurement::Pose;
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 

@@ -32,7 +32,7 @@ pub use plant::{IdealPlant, Plant};
 use crate::effects::PlantModifiers;
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
-use crate::log::{GroundTruth, ImuReading, Measurement, Pose};
+use crate::measurement::{GroundTruth, ImuReading, Measurement, Pose};
 use crate::robot::Robot;
 use crate::terrain::Terrain;
 use ground::Ground;

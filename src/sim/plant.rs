@@ -3,7 +3,7 @@
 
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
-use crate::log::{GroundTruth, ImuReading, Measurement, Pose};
+use crate::measurement::{GroundTruth, ImuReading, Measurement, Pose};
 
 /// Something the protocol can drive: it takes wheel-speed targets and can be measured.
 pub trait Plant {

@@ -18,7 +18,7 @@
 use super::uniform_wheel::UniformWheel;
 use super::SamplerEntry;
 use crate::kinematics::{CommandSpace, WheelSpeeds};
-use crate::log::Pose;
+use crate::measurement::Pose;
 use crate::protocol::sampler::{Sampler, SamplingContext};
 use crate::protocol::ProtocolConfig;
 

@@ -5,7 +5,7 @@
 
 use super::geometry::body_bounds;
 use crate::kinematics::{BodyVelocity, CommandSpace, WheelSpeeds};
-use crate::log::DriveLog;
+use crate::measurement::DriveLog;
 use crate::protocol::RunSummary;
 use crate::robot::Robot;
 use serde::{Deserialize, Serialize};

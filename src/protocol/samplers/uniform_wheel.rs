@@ -42,7 +42,7 @@ impl Sampler for UniformWheel {
 mod tests {
     use super::*;
     use crate::kinematics::{CommandSpace, IdealDiffDrive};
-    use crate::log::Pose;
+    use crate::measurement::Pose;
 
     fn space() -> CommandSpace {
         CommandSpace {

@@ -1,0 +1,70 @@
+//! Opening any DRIVE input from the command line (`--robot`, `--terrain`, `--roles` for bags),
+//! and `drive-sim inspect`.
+
+use crate::log::{DriveLog, OpenOptions};
+use std::path::{Path, PathBuf};
+
+/// What a rosbag2 bag does not record; ignored for `.csv` and drive-sim `.mcap` logs.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct InputArgs {
+    /// Bags: robot for the nominal values (`warthog`, `husky` or a robot TOML); default: the
+    /// roles preset's robot. The DRIVE node's parameter YAML beside the bag overrides radius,
+    /// baseline, limits and step length.
+    #[arg(long)]
+    pub robot: Option<String>,
+    /// Bags: terrain label (a bag does not record it); default `unlabelled`.
+    #[arg(long)]
+    pub terrain: Option<String>,
+    /// Bags: topic roles, `warthog`, `husky` (the DRIVE node's presets) or a roles TOML;
+    /// default: the preset whose topics are in the bag, else a guess from types and names.
+    #[arg(long)]
+    pub roles: Option<String>,
+}
+
+impl InputArgs {
+    /// As library options.
+    pub fn options(&self) -> OpenOptions {
+        OpenOptions {
+            robot: self.robot.clone(),
+            terrain: self.terrain.clone(),
+            roles: self.roles.clone(),
+        }
+    }
+}
+
+/// Opens `path` with [`crate::log::open`], printing how it was read and what was left out.
+pub fn open_log(path: &Path, args: &InputArgs) -> crate::Result<DriveLog> {
+    let o = crate::log::open(path, &args.options())?;
+    for n in &o.notes {
+        eprintln!("drive-sim: {n}");
+    }
+    for w in &o.warnings {
+        eprintln!("drive-sim: warning: {w}");
+    }
+    Ok(o.log)
+}
+
+/// Options of `drive-sim inspect`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct InspectArgs {
+    /// A rosbag2 bag: directory with metadata.yaml, `.db3` or `.mcap` file.
+    pub bag: PathBuf,
+    /// Robot, terrain and roles as for `analyze`.
+    #[command(flatten)]
+    pub input: InputArgs,
+}
+
+/// Prints what the bag holds, as far as it can be read; bad input still exits with code 2.
+pub fn inspect(args: &InspectArgs) -> anyhow::Result<()> {
+    let i = crate::log::bag::inspect(&args.bag, &args.input.options());
+    print!("{i}");
+    match i.problems.first() {
+        None => Ok(()),
+        Some(_) => Err(crate::Error::log(
+            &args.bag,
+            "inspect",
+            format!("{} problem(s), listed above", i.problems.len()),
+        )
+        .into()),
+    }
+}

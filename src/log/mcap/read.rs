@@ -1,0 +1,405 @@
+//! A drive-sim ROS 2 MCAP file back to frames.
+
+use super::convert::{msg_loc, phase_of, pose_of, velocity_of, wheels_of};
+use super::*;
+use crate::error::Result;
+use crate::log::cdr::CdrError;
+use crate::log::ros_msgs::{DriveMarker, Imu, JointState, Odometry, RosMessage};
+use crate::log::{DriveLog, Frame, GroundTruth, ImuReading, LogMeta, Measurement};
+
+/// Reads a drive-sim MCAP log into the common [`DriveLog`].
+pub fn read_mcap(path: impl AsRef<Path>) -> Result<DriveLog> {
+    let (meta, frames) = read_mcap_frames(path)?;
+    Ok(DriveLog::from_frames(meta, &frames))
+}
+
+/// Reads a drive-sim MCAP log into its metadata and frames.
+pub fn read_mcap_frames(path: impl AsRef<Path>) -> Result<(LogMeta, Vec<Frame>)> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    decode_mcap(&bytes, path)
+}
+
+/// Messages of one topic, by log time; the value keeps the message index for errors.
+type ByTime<T> = BTreeMap<u64, (u64, T)>;
+
+#[derive(Default)]
+struct Decoded {
+    marker: ByTime<DriveMarker>,
+    wheel_cmd: ByTime<JointState>,
+    joint_states: ByTime<JointState>,
+    icp_odom: ByTime<Odometry>,
+    imu: ByTime<Imu>,
+    truth_odom: ByTime<Odometry>,
+    truth_joints: ByTime<JointState>,
+}
+
+/// The topics the reader needs and their types; `/cmd_vel` and `/tf` are derived and ignored,
+/// like any other topic a user may have added.
+const READ_TOPICS: [(&str, &crate::log::ros_msgs::MsgDef); 7] = [
+    (TOPIC_MARKER, &crate::log::ros_msgs::DRIVE_MARKER),
+    (TOPIC_WHEEL_CMD, &crate::log::ros_msgs::JOINT_STATE),
+    (TOPIC_JOINT_STATES, &crate::log::ros_msgs::JOINT_STATE),
+    (TOPIC_ICP_ODOM, &crate::log::ros_msgs::ODOMETRY),
+    (TOPIC_IMU, &crate::log::ros_msgs::IMU),
+    (TOPIC_TRUTH_ODOM, &crate::log::ros_msgs::ODOMETRY),
+    (TOPIC_TRUTH_JOINTS, &crate::log::ros_msgs::JOINT_STATE),
+];
+
+/// Longest record (or decompressed chunk) the reader accepts, bytes: drive-sim writes 1 MiB
+/// chunks and sub-kB messages, other tools use chunks of a few MiB; a corrupted length must not
+/// make the reader allocate more than this.
+const RECORD_LENGTH_LIMIT: usize = 64 << 20;
+
+/// Every record of an MCAP file in order, chunks unpacked, with every CRC checked.
+///
+/// The `mcap` crate's `ChunkFlattener` does the same without a record length limit, so a
+/// flipped bit in a chunk header makes it allocate exabytes and abort; this drives the crate's
+/// sans-IO reader with the limit set.
+pub(crate) struct Records<'a> {
+    buf: &'a [u8],
+    reader: mcap::sans_io::LinearReader,
+}
+
+fn checked_reader() -> mcap::sans_io::LinearReader {
+    let opts = mcap::sans_io::LinearReaderOptions::default()
+        .with_validate_chunk_crcs(true)
+        .with_prevalidate_chunk_crcs(true)
+        .with_validate_data_section_crc(true)
+        .with_validate_summary_section_crc(true)
+        .with_record_length_limit(RECORD_LENGTH_LIMIT);
+    mcap::sans_io::LinearReader::new_with_options(opts)
+}
+
+impl<'a> Records<'a> {
+    pub(crate) fn new(buf: &'a [u8]) -> Self {
+        Self {
+            buf,
+            reader: checked_reader(),
+        }
+    }
+}
+
+/// Streams every record of an MCAP source to `f` (same checks as [`Records`]), borrowing each
+/// record instead of copying it, so skipped messages (point clouds) cost no copy; reading stops
+/// when `f` returns `false`.
+pub(crate) fn for_each_record<R: std::io::Read>(
+    mut src: R,
+    f: &mut dyn FnMut(mcap::records::Record<'_>) -> bool,
+) -> mcap::McapResult<()> {
+    use mcap::sans_io::LinearReadEvent;
+    let mut reader = checked_reader();
+    while let Some(event) = reader.next_event() {
+        match event? {
+            LinearReadEvent::ReadRequest(need) => {
+                let n = src.read(reader.insert(need))?;
+                reader.notify_read(n);
+            }
+            LinearReadEvent::Record { data, opcode } => {
+                if !f(mcap::read::parse_record(opcode, data)?) {
+                    break;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+impl Iterator for Records<'_> {
+    type Item = mcap::McapResult<mcap::records::Record<'static>>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        use mcap::sans_io::LinearReadEvent;
+        while let Some(event) = self.reader.next_event() {
+            match event {
+                Ok(LinearReadEvent::ReadRequest(need)) => {
+                    let len = need.min(self.buf.len());
+                    self.reader.insert(len).copy_from_slice(&self.buf[..len]);
+                    self.reader.notify_read(len);
+                    self.buf = &self.buf[len..];
+                }
+                Ok(LinearReadEvent::Record { data, opcode }) => {
+                    return Some(mcap::read::parse_record(opcode, data).map(|r| r.into_owned()))
+                }
+                Err(e) => return Some(Err(e)),
+            }
+        }
+        None
+    }
+}
+
+/// Whether `path` is a drive-sim log rather than another ROS 2 MCAP file (a rosbag2 bag): the
+/// writer puts its metadata record before any message, so the file's head tells.
+pub fn is_drive_sim_mcap(path: &Path) -> Result<bool> {
+    use mcap::records::Record;
+    use std::io::Read;
+    let mut head = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(4 << 20).read_to_end(&mut head))
+        .map_err(|e| Error::io(path, e))?;
+    for rec in Records::new(&head) {
+        match rec {
+            Ok(Record::Metadata(m)) if m.name == METADATA_NAME => return Ok(true),
+            Ok(Record::Message { .. }) | Err(_) => return Ok(false),
+            Ok(_) => {}
+        }
+    }
+    Ok(false)
+}
+
+/// Decodes an in-memory drive-sim MCAP log; `file` names it in errors.
+pub fn decode_mcap(bytes: &[u8], file: &Path) -> Result<(LogMeta, Vec<Frame>)> {
+    use mcap::records::Record;
+    let reader = Records::new(bytes);
+    // schema id -> (name, encoding)
+    let mut schemas: BTreeMap<u16, (String, String)> = BTreeMap::new();
+    // channel id -> index in READ_TOPICS, or None for topics the reader ignores
+    let mut channels: BTreeMap<u16, Option<usize>> = BTreeMap::new();
+    let mut per_topic = [0u64; READ_TOPICS.len()];
+    let mut meta: Option<LogMeta> = None;
+    let mut d = Decoded::default();
+    let mut profile_seen = false;
+    let mut messages = 0u64;
+    for (i, rec) in reader.enumerate() {
+        let rec =
+            rec.map_err(|e| mcap_err(file, &format!("MCAP record {i} (after {messages} messages)"), e))?;
+        match rec {
+            Record::Header(h) => {
+                if h.profile != "ros2" {
+                    return Err(Error::log(
+                        file,
+                        "header",
+                        format!("profile `{}`, expected `ros2`", h.profile),
+                    ));
+                }
+                profile_seen = true;
+            }
+            Record::Schema { header, .. } => {
+                schemas.insert(header.id, (header.name, header.encoding));
+            }
+            Record::Channel(c) => {
+                let known = READ_TOPICS.iter().position(|(t, _)| *t == c.topic);
+                if let Some(k) = known {
+                    let def = READ_TOPICS[k].1;
+                    let (name, enc) = schemas.get(&c.schema_id).cloned().unwrap_or_default();
+                    if name != def.schema_name() || enc != "ros2msg" || c.message_encoding != "cdr" {
+                        return Err(Error::log(
+                            file,
+                            format!("topic {}", c.topic),
+                            format!(
+                                "type `{name}` ({enc}, {}), expected `{}` (ros2msg, cdr)",
+                                c.message_encoding,
+                                def.schema_name()
+                            ),
+                        ));
+                    }
+                }
+                channels.insert(c.id, known);
+            }
+            Record::Metadata(m) if m.name == METADATA_NAME => {
+                meta = Some(parse_meta(&m.metadata, file)?);
+            }
+            Record::Message { header, data } => {
+                messages += 1;
+                let Some(known) = channels.get(&header.channel_id) else {
+                    return Err(Error::log(
+                        file,
+                        format!("message {messages}"),
+                        format!("on unknown channel {}", header.channel_id),
+                    ));
+                };
+                let Some(k) = *known else { continue };
+                let idx = per_topic[k];
+                per_topic[k] += 1;
+                let topic = READ_TOPICS[k].0;
+                let t = header.log_time;
+                let loc = || msg_loc(topic, idx, t);
+                let de = |e: CdrError| Error::log(file, loc(), format!("does not decode: {e}"));
+                let dup = || Error::log(file, loc(), "a second message at the same log time");
+                macro_rules! store {
+                    ($map:expr, $ty:ty) => {{
+                        let m = <$ty>::from_cdr(&data).map_err(de)?;
+                        if $map.insert(t, (idx, m)).is_some() {
+                            return Err(dup());
+                        }
+                    }};
+                }
+                match topic {
+                    TOPIC_MARKER => store!(d.marker, DriveMarker),
+                    TOPIC_WHEEL_CMD => store!(d.wheel_cmd, JointState),
+                    TOPIC_JOINT_STATES => store!(d.joint_states, JointState),
+                    TOPIC_ICP_ODOM => store!(d.icp_odom, Odometry),
+                    TOPIC_IMU => store!(d.imu, Imu),
+                    TOPIC_TRUTH_ODOM => store!(d.truth_odom, Odometry),
+                    _ => store!(d.truth_joints, JointState),
+                }
+            }
+            _ => {}
+        }
+    }
+    if !profile_seen {
+        return Err(Error::log(file, "header", "no MCAP header record"));
+    }
+    let meta = meta.ok_or_else(|| {
+        Error::log(
+            file,
+            "metadata",
+            format!("no `{METADATA_NAME}` metadata record: not a drive-sim log"),
+        )
+    })?;
+    let frames = assemble(&d, file)?;
+    Ok((meta, frames))
+}
+
+fn parse_meta(m: &BTreeMap<String, String>, file: &Path) -> Result<LogMeta> {
+    let loc = format!("metadata `{METADATA_NAME}`");
+    match m.get("format") {
+        Some(f) if f == FORMAT => {}
+        Some(f) => {
+            return Err(Error::log(
+                file,
+                &loc,
+                format!("format `{f}`, this reader reads `{FORMAT}`"),
+            ))
+        }
+        None => return Err(Error::log(file, &loc, "no `format` key")),
+    }
+    let json = m
+        .get("log_meta")
+        .ok_or_else(|| Error::log(file, &loc, "no `log_meta` key"))?;
+    let de = &mut serde_json::Deserializer::from_str(json);
+    let meta: LogMeta = serde_path_to_error::deserialize(de).map_err(|e| {
+        Error::log(
+            file,
+            format!("{loc} key `log_meta` at `{}`", e.path()),
+            e.inner().to_string(),
+        )
+    })?;
+    if !(meta.rate_hz.is_finite() && meta.rate_hz > 0.0) {
+        return Err(Error::log(
+            file,
+            format!("{loc} key `log_meta` at `rate_hz`"),
+            format!("{} is not a positive rate", meta.rate_hz),
+        ));
+    }
+    Ok(meta)
+}
+
+/// Matches each marker with the messages of the same log time and rebuilds the frames.
+fn assemble(d: &Decoded, file: &Path) -> Result<Vec<Frame>> {
+    if d.marker.is_empty() {
+        return Err(Error::log(
+            file,
+            format!("topic {TOPIC_MARKER}"),
+            "no messages: not a drive-sim log, or an empty one",
+        ));
+    }
+    let mut frames = Vec::with_capacity(d.marker.len());
+    for (&t, (idx, mk)) in &d.marker {
+        let loc = msg_loc(TOPIC_MARKER, *idx, t);
+        let cmd = at(&d.wheel_cmd, t, TOPIC_WHEEL_CMD, &loc, file)?;
+        let enc = at(&d.joint_states, t, TOPIC_JOINT_STATES, &loc, file)?;
+        let icp = at(&d.icp_odom, t, TOPIC_ICP_ODOM, &loc, file)?;
+        let imu = at(&d.imu, t, TOPIC_IMU, &loc, file)?;
+        let truth = match (d.truth_odom.get(&t), d.truth_joints.get(&t)) {
+            (None, None) => None,
+            (Some(o), Some(j)) => Some(GroundTruth {
+                pose: pose_of(&o.1, file, TOPIC_TRUTH_ODOM, o.0, t)?,
+                velocity: velocity_of(&o.1.twist.twist, file, TOPIC_TRUTH_ODOM, o.0, t)?,
+                wheels: wheels_of(&j.1, file, TOPIC_TRUTH_JOINTS, j.0, t)?,
+            }),
+            (o, _) => {
+                let missing = if o.is_none() {
+                    TOPIC_TRUTH_ODOM
+                } else {
+                    TOPIC_TRUTH_JOINTS
+                };
+                return Err(Error::log(
+                    file,
+                    format!("topic {missing}"),
+                    format!(
+                        "no message at log time {:.9} s, though the other ground-truth topic has one",
+                        t as f64 * 1e-9
+                    ),
+                ));
+            }
+        };
+        let reference = if icp.1.twist.covariance[0] == -1.0 {
+            None
+        } else {
+            Some(velocity_of(&icp.1.twist.twist, file, TOPIC_ICP_ODOM, icp.0, t)?)
+        };
+        let i = &imu.1;
+        let imu_reading = ImuReading {
+            wz_rad_s: i.angular_velocity.z,
+            ax_m_s2: i.linear_acceleration.x,
+            ay_m_s2: i.linear_acceleration.y,
+            az_m_s2: i.linear_acceleration.z,
+        };
+        let finite = [
+            imu_reading.wz_rad_s,
+            imu_reading.ax_m_s2,
+            imu_reading.ay_m_s2,
+            imu_reading.az_m_s2,
+        ]
+        .iter()
+        .all(|v| v.is_finite());
+        if !finite {
+            return Err(Error::log(
+                file,
+                msg_loc(TOPIC_IMU, imu.0, t),
+                format!("non-finite reading {imu_reading:?}"),
+            ));
+        }
+        let m = Measurement {
+            cmd: wheels_of(&cmd.1, file, TOPIC_WHEEL_CMD, cmd.0, t)?,
+            enc: wheels_of(&enc.1, file, TOPIC_JOINT_STATES, enc.0, t)?,
+            pose: pose_of(&icp.1, file, TOPIC_ICP_ODOM, icp.0, t)?,
+            imu: imu_reading,
+            reference,
+            truth,
+        };
+        let (phase, stamp_s) = phase_of(mk, t).map_err(|m| Error::log(file, &loc, m))?;
+        frames.push(Frame { stamp_s, phase, m });
+    }
+    // Messages that no marker claims mean a damaged or hand-edited file.
+    let orphan = |topic: &str, keys: &mut dyn Iterator<Item = (&u64, &u64)>| {
+        for (t, idx) in keys {
+            if !d.marker.contains_key(t) {
+                return Err(Error::log(
+                    file,
+                    msg_loc(topic, *idx, *t),
+                    format!("no {TOPIC_MARKER} message at this log time"),
+                ));
+            }
+        }
+        Ok(())
+    };
+    orphan(TOPIC_WHEEL_CMD, &mut d.wheel_cmd.iter().map(|(t, v)| (t, &v.0)))?;
+    orphan(
+        TOPIC_JOINT_STATES,
+        &mut d.joint_states.iter().map(|(t, v)| (t, &v.0)),
+    )?;
+    orphan(TOPIC_ICP_ODOM, &mut d.icp_odom.iter().map(|(t, v)| (t, &v.0)))?;
+    orphan(TOPIC_IMU, &mut d.imu.iter().map(|(t, v)| (t, &v.0)))?;
+    orphan(TOPIC_TRUTH_ODOM, &mut d.truth_odom.iter().map(|(t, v)| (t, &v.0)))?;
+    orphan(
+        TOPIC_TRUTH_JOINTS,
+        &mut d.truth_joints.iter().map(|(t, v)| (t, &v.0)),
+    )?;
+    Ok(frames)
+}
+
+/// The message of `topic` at log time `t`, or an error naming the marker that needs it.
+fn at<'a, T>(m: &'a ByTime<T>, t: u64, topic: &str, marker_loc: &str, file: &Path) -> Result<&'a (u64, T)> {
+    m.get(&t).ok_or_else(|| {
+        Error::log(
+            file,
+            format!("topic {topic}"),
+            format!(
+                "no message at log time {:.9} s, where {marker_loc} is",
+                t as f64 * 1e-9
+            ),
+        )
+    })
+}

@@ -1,0 +1,423 @@
+//! Frames to a ROS 2 MCAP file.
+
+use super::convert::{body_twist, check_frame, marker_msg, ros_pose, stamp_to_ns, wheels_msg};
+use super::*;
+use crate::error::Result;
+use crate::kinematics::IdealDiffDrive;
+use crate::log::ros_msgs::{
+    DriveMarker, Header, Imu, JointState, Odometry, PoseWithCovariance, Quaternion, RosMessage, TfMessage,
+    Time, Transform, TransformStamped, Twist, TwistStamped, TwistWithCovariance, Vector3,
+};
+use crate::log::{Frame, FrameSink, LogMeta, Pose};
+use std::fs::File;
+use std::io::{BufWriter, Cursor, Seek, Write};
+
+/// Uncompressed chunk size: about 450 frames of 2.3 kB, a good zstd window, still small enough
+/// that Foxglove seeks quickly.
+const CHUNK_SIZE: u64 = 1 << 20;
+
+/// Channel ids of the topics written for every frame.
+#[derive(Debug, Clone, Copy)]
+struct Channels {
+    marker: u16,
+    cmd_vel: u16,
+    wheel_cmd: u16,
+    joint_states: u16,
+    icp_odom: u16,
+    imu: u16,
+    tf: u16,
+}
+
+/// Turns frames into MCAP messages on any seekable sink.
+struct FrameEncoder<W: Write + Seek> {
+    w: mcap::Writer<W>,
+    ch: Channels,
+    /// (odom, joint states), added at the first frame with ground truth.
+    truth_ch: Option<(u16, u16)>,
+    idd: IdealDiffDrive,
+    /// Messages per channel id (also the next sequence number).
+    counts: BTreeMap<u16, u32>,
+    topics: BTreeMap<u16, &'static str>,
+    last_ns: Option<u64>,
+    frames: u64,
+    buf: Vec<u8>,
+    /// Names the log in errors.
+    file: PathBuf,
+}
+
+impl<W: Write + Seek> FrameEncoder<W> {
+    fn new(sink: W, meta: &LogMeta, file: &Path) -> Result<Self> {
+        let opts = mcap::WriteOptions::new()
+            .profile("ros2")
+            .library(format!("drive-sim {}", env!("CARGO_PKG_VERSION")))
+            .compression(Some(mcap::Compression::Zstd))
+            .compression_threads(0)
+            .chunk_size(Some(CHUNK_SIZE));
+        let e = |e| mcap_err(file, "header", e);
+        let mut w = opts.create(sink).map_err(e)?;
+        let json = serde_json::to_string(meta)
+            .map_err(|x| Error::log(file, "metadata", format!("cannot serialize: {x}")))?;
+        w.write_metadata(&mcap::records::Metadata {
+            name: METADATA_NAME.into(),
+            metadata: BTreeMap::from([
+                ("format".to_string(), FORMAT.to_string()),
+                ("log_meta".to_string(), json),
+            ]),
+        })
+        .map_err(e)?;
+        let mut topics = BTreeMap::new();
+        let mut add = |w: &mut mcap::Writer<W>, topic: &'static str, def| -> Result<u16> {
+            let id = add_channel(w, topic, def).map_err(e)?;
+            topics.insert(id, topic);
+            Ok(id)
+        };
+        let ch = Channels {
+            marker: add(&mut w, TOPIC_MARKER, DriveMarker::DEF)?,
+            cmd_vel: add(&mut w, TOPIC_CMD_VEL, TwistStamped::DEF)?,
+            wheel_cmd: add(&mut w, TOPIC_WHEEL_CMD, JointState::DEF)?,
+            joint_states: add(&mut w, TOPIC_JOINT_STATES, JointState::DEF)?,
+            icp_odom: add(&mut w, TOPIC_ICP_ODOM, Odometry::DEF)?,
+            imu: add(&mut w, TOPIC_IMU, Imu::DEF)?,
+            tf: add(&mut w, TOPIC_TF, TfMessage::DEF)?,
+        };
+        Ok(Self {
+            w,
+            ch,
+            truth_ch: None,
+            idd: meta.nominal.idd(),
+            counts: BTreeMap::new(),
+            topics,
+            last_ns: None,
+            frames: 0,
+            buf: Vec::with_capacity(1024),
+            file: file.to_path_buf(),
+        })
+    }
+
+    fn put<M: RosMessage>(&mut self, channel: u16, ns: u64, msg: &M) -> Result<()> {
+        let data = msg.to_cdr(std::mem::take(&mut self.buf));
+        let n = self.counts.entry(channel).or_insert(0);
+        let header = mcap::records::MessageHeader {
+            channel_id: channel,
+            sequence: *n,
+            log_time: ns,
+            publish_time: ns,
+        };
+        *n += 1;
+        let r = self.w.write_to_known_channel(&header, &data);
+        self.buf = data;
+        r.map_err(|e| {
+            mcap_err(
+                &self.file,
+                &format!("frame {} topic {}", self.frames, self.topics[&channel]),
+                e,
+            )
+        })
+    }
+
+    fn write_frame(&mut self, f: &Frame) -> Result<()> {
+        let loc = format!("frame {} (t = {} s)", self.frames, f.stamp_s);
+        check_frame(f).map_err(|m| Error::log(&self.file, &loc, m))?;
+        let ns = stamp_to_ns(f.stamp_s).map_err(|m| Error::log(&self.file, &loc, m))?;
+        if let Some(prev) = self.last_ns {
+            if ns <= prev {
+                return Err(Error::log(
+                    &self.file,
+                    &loc,
+                    format!(
+                        "stamp is not after the previous frame's ({} ns <= {} ns); \
+                         MCAP frames must have strictly increasing stamps",
+                        ns - EPOCH_OFFSET_NS,
+                        prev - EPOCH_OFFSET_NS
+                    ),
+                ));
+            }
+        }
+        let stamp = Time::from_ns(ns).ok_or_else(|| Error::log(&self.file, &loc, "stamp beyond 2038"))?;
+        let header = |frame_id: &str| Header {
+            stamp,
+            frame_id: frame_id.to_string(),
+        };
+        let m = &f.m;
+
+        let ch = self.ch;
+        self.put(ch.marker, ns, &marker_msg(header(""), f))?;
+        let body = self.idd.body_from_wheels(m.cmd);
+        self.put(
+            ch.cmd_vel,
+            ns,
+            &TwistStamped {
+                header: header(FRAME_BASE),
+                twist: body_twist(body),
+            },
+        )?;
+        self.put(ch.wheel_cmd, ns, &wheels_msg(header(""), m.cmd))?;
+        self.put(ch.joint_states, ns, &wheels_msg(header(""), m.enc))?;
+        let (twist, twist_covariance) = match m.reference {
+            Some(v) => (body_twist(v), [0.0; 36]),
+            None => {
+                let nan = Vector3 {
+                    x: f64::NAN,
+                    y: f64::NAN,
+                    z: 0.0,
+                };
+                let mut cov = [0.0; 36];
+                cov[0] = -1.0;
+                (
+                    Twist {
+                        linear: nan,
+                        angular: Vector3 {
+                            x: 0.0,
+                            y: 0.0,
+                            z: f64::NAN,
+                        },
+                    },
+                    cov,
+                )
+            }
+        };
+        self.put(
+            ch.icp_odom,
+            ns,
+            &Odometry {
+                header: header(FRAME_ODOM),
+                child_frame_id: FRAME_BASE.into(),
+                pose: PoseWithCovariance {
+                    pose: ros_pose(m.pose),
+                    covariance: [0.0; 36],
+                },
+                twist: TwistWithCovariance {
+                    twist,
+                    covariance: twist_covariance,
+                },
+            },
+        )?;
+        let mut orientation_covariance = [0.0; 9];
+        orientation_covariance[0] = -1.0;
+        self.put(
+            ch.imu,
+            ns,
+            &Imu {
+                header: header(FRAME_BASE),
+                orientation: Quaternion::default(),
+                orientation_covariance,
+                angular_velocity: Vector3 {
+                    x: 0.0,
+                    y: 0.0,
+                    z: m.imu.wz_rad_s,
+                },
+                angular_velocity_covariance: [0.0; 9],
+                linear_acceleration: Vector3 {
+                    x: m.imu.ax_m_s2,
+                    y: m.imu.ay_m_s2,
+                    z: m.imu.az_m_s2,
+                },
+                linear_acceleration_covariance: [0.0; 9],
+            },
+        )?;
+        let transform = |child: &str, p: Pose| {
+            let rp = ros_pose(p);
+            TransformStamped {
+                header: header(FRAME_ODOM),
+                child_frame_id: child.into(),
+                transform: Transform {
+                    translation: Vector3 {
+                        x: rp.position.x,
+                        y: rp.position.y,
+                        z: rp.position.z,
+                    },
+                    rotation: rp.orientation,
+                },
+            }
+        };
+        let mut transforms = vec![transform(FRAME_BASE, m.pose)];
+        if let Some(t) = m.truth {
+            transforms.push(transform(FRAME_BASE_TRUTH, t.pose));
+        }
+        self.put(ch.tf, ns, &TfMessage { transforms })?;
+        if let Some(t) = m.truth {
+            let (odom, joints) = match self.truth_ch {
+                Some(c) => c,
+                None => {
+                    let e = |e| mcap_err(&self.file, &loc, e);
+                    let o = add_channel(&mut self.w, TOPIC_TRUTH_ODOM, Odometry::DEF).map_err(e)?;
+                    let j = add_channel(&mut self.w, TOPIC_TRUTH_JOINTS, JointState::DEF).map_err(e)?;
+                    self.topics.insert(o, TOPIC_TRUTH_ODOM);
+                    self.topics.insert(j, TOPIC_TRUTH_JOINTS);
+                    self.truth_ch = Some((o, j));
+                    (o, j)
+                }
+            };
+            self.put(
+                odom,
+                ns,
+                &Odometry {
+                    header: header(FRAME_ODOM),
+                    child_frame_id: FRAME_BASE.into(),
+                    pose: PoseWithCovariance {
+                        pose: ros_pose(t.pose),
+                        covariance: [0.0; 36],
+                    },
+                    twist: TwistWithCovariance {
+                        twist: body_twist(t.velocity),
+                        covariance: [0.0; 36],
+                    },
+                },
+            )?;
+            self.put(joints, ns, &wheels_msg(header(""), t.wheels))?;
+        }
+        self.last_ns = Some(ns);
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// Writes the summary; returns the sink and the per-topic counts.
+    fn finish(mut self) -> Result<(W, u64, BTreeMap<String, u64>)> {
+        self.w.finish().map_err(|e| mcap_err(&self.file, "summary", e))?;
+        let counts = self
+            .topics
+            .iter()
+            .map(|(id, t)| (t.to_string(), self.counts.get(id).copied().unwrap_or(0) as u64))
+            .collect();
+        Ok((self.w.into_inner(), self.frames, counts))
+    }
+}
+
+fn add_channel<W: Write + Seek>(
+    w: &mut mcap::Writer<W>,
+    topic: &str,
+    def: &'static crate::log::ros_msgs::MsgDef,
+) -> mcap::McapResult<u16> {
+    let schema = w.add_schema(&def.schema_name(), "ros2msg", def.schema_text().as_bytes())?;
+    let metadata = BTreeMap::from([(QOS_METADATA_KEY.to_string(), OFFERED_QOS_PROFILES.to_string())]);
+    w.add_channel(schema, topic, "cdr", &metadata)
+}
+
+/// Streams frames into a ROS 2 MCAP file (see the [module docs](self) for the layout).
+///
+/// Writes `<path>.partial`; only [`finish`](Self::finish) renames it to `path`. Dropping the
+/// writer without finishing, or any error, leaves `path` absent and the partial file for
+/// debugging. After an error every further call fails.
+pub struct McapWriter {
+    enc: Option<FrameEncoder<BufWriter<File>>>,
+    path: PathBuf,
+    partial: PathBuf,
+    failed: Option<String>,
+}
+
+impl std::fmt::Debug for McapWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("McapWriter")
+            .field("path", &self.path)
+            .field("partial", &self.partial)
+            .field("frames", &self.enc.as_ref().map(|e| e.frames))
+            .field("failed", &self.failed)
+            .finish()
+    }
+}
+
+/// `<path>.partial`.
+pub fn partial_path(path: &Path) -> PathBuf {
+    let mut s = path.as_os_str().to_owned();
+    s.push(".partial");
+    PathBuf::from(s)
+}
+
+impl McapWriter {
+    /// Starts a log at `path` (removing any file already there, as a new log replaces it) and
+    /// writes the metadata.
+    pub fn create(path: impl AsRef<Path>, meta: &LogMeta) -> Result<Self> {
+        let path = path.as_ref().to_path_buf();
+        let partial = partial_path(&path);
+        // An existing log at `path` stays untouched until `finish` atomically renames the new
+        // one over it: a failed run loses nothing that was already written.
+        let file = File::create(&partial).map_err(|e| Error::io(&partial, e))?;
+        let enc = FrameEncoder::new(BufWriter::with_capacity(1 << 16, file), meta, &partial)?;
+        Ok(Self {
+            enc: Some(enc),
+            path,
+            partial,
+            failed: None,
+        })
+    }
+
+    /// The file being written until [`finish`](Self::finish).
+    pub fn partial_path(&self) -> &Path {
+        &self.partial
+    }
+
+    /// Frames written so far.
+    pub fn frames(&self) -> u64 {
+        self.enc.as_ref().map_or(0, |e| e.frames)
+    }
+
+    fn encoder(&mut self) -> Result<&mut FrameEncoder<BufWriter<File>>> {
+        if let Some(m) = &self.failed {
+            return Err(Error::log(
+                &self.partial,
+                "writer",
+                format!("an earlier write failed ({m}); the log is incomplete"),
+            ));
+        }
+        self.enc
+            .as_mut()
+            .ok_or_else(|| Error::log(&self.partial, "writer", "already finished"))
+    }
+
+    /// Appends one frame. Its stamp must be after the previous frame's and its values finite.
+    pub fn write_frame(&mut self, frame: &Frame) -> Result<()> {
+        let r = self.encoder()?.write_frame(frame);
+        if let Err(e) = &r {
+            self.failed = Some(e.to_string());
+        }
+        r
+    }
+
+    /// Writes the summary, syncs the file and renames it to its final path.
+    pub fn finish(mut self) -> Result<McapSummary> {
+        self.encoder()?;
+        let enc = self
+            .enc
+            .take()
+            .ok_or_else(|| Error::log(&self.partial, "writer", "already finished"))?;
+        let (buf, frames, messages_per_topic) = enc.finish()?;
+        let file = buf
+            .into_inner()
+            .map_err(|e| Error::io(&self.partial, e.into_error()))?;
+        file.sync_all().map_err(|e| Error::io(&self.partial, e))?;
+        let bytes = file.metadata().map_err(|e| Error::io(&self.partial, e))?.len();
+        drop(file);
+        std::fs::rename(&self.partial, &self.path).map_err(|e| Error::io(&self.path, e))?;
+        Ok(McapSummary {
+            path: self.path.clone(),
+            frames,
+            messages_per_topic,
+            bytes,
+        })
+    }
+}
+
+impl FrameSink for McapWriter {
+    fn frame(&mut self, frame: &Frame) -> Result<()> {
+        self.write_frame(frame)
+    }
+}
+
+/// Writes `frames` to `path` in one go.
+pub fn write_mcap(path: impl AsRef<Path>, meta: &LogMeta, frames: &[Frame]) -> Result<McapSummary> {
+    let mut w = McapWriter::create(path, meta)?;
+    for f in frames {
+        w.write_frame(f)?;
+    }
+    w.finish()
+}
+
+/// Encodes `frames` into an in-memory MCAP file (same bytes as [`write_mcap`] writes).
+/// `file` only names the log in errors.
+pub fn encode_mcap(meta: &LogMeta, frames: &[Frame], file: &Path) -> Result<Vec<u8>> {
+    let mut enc = FrameEncoder::new(Cursor::new(Vec::new()), meta, file)?;
+    for f in frames {
+        enc.write_frame(f)?;
+    }
+    Ok(enc.finish()?.0.into_inner())
+}

@@ -1,0 +1,227 @@
+//! The common in-memory DRIVE log and its metadata.
+//!
+//! A log is built from a stream of [`Frame`]s, one per 20 Hz tick, by [`DriveLog::from_frames`];
+//! that one function decides which samples belong to which step and which attempts were
+//! interrupted.
+
+use super::{Frame, Phase, Sample};
+use serde::{Deserialize, Serialize};
+
+/// An interrupted attempt: the robot was about to leave the safe area.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Interruption {
+    /// Step whose attempt was interrupted.
+    pub step: u32,
+    /// The attempt that was interrupted.
+    pub attempt: u32,
+    /// Time into the attempt at the interruption, s.
+    pub t_in_step_s: f64,
+    /// Log time of the interruption, s.
+    pub stamp_s: f64,
+    /// Time spent on the interrupted attempt and the re-orientation, s.
+    pub time_lost_s: f64,
+}
+
+/// Robot parameters the log declares (the operators' configuration for measured data).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Nominal {
+    /// Wheel radius, m.
+    pub wheel_radius_m: f64,
+    /// Baseline, m.
+    pub baseline_m: f64,
+    /// Wheel speed limit, rad/s.
+    pub max_wheel_rad_s: f64,
+    /// User limit on |vx|, m/s.
+    pub max_lin_m_s: f64,
+    /// User limit on |wz|, rad/s.
+    pub max_ang_rad_s: f64,
+    /// Mass, kg.
+    pub mass_kg: f64,
+    /// Footprint width, m.
+    pub width_m: f64,
+    /// Footprint length, m.
+    pub length_m: f64,
+    /// Height, m, when declared.
+    #[serde(default)]
+    pub height_m: Option<f64>,
+    /// User linear acceleration limit, m/s², when declared.
+    #[serde(default)]
+    pub max_lin_acc_m_s2: Option<f64>,
+}
+
+impl Nominal {
+    /// The declared ideal differential drive.
+    pub fn idd(&self) -> crate::kinematics::IdealDiffDrive {
+        crate::kinematics::IdealDiffDrive {
+            wheel_radius_m: self.wheel_radius_m,
+            baseline_m: self.baseline_m,
+        }
+    }
+    /// The declared command space.
+    pub fn command_space(&self) -> crate::kinematics::CommandSpace {
+        crate::kinematics::CommandSpace {
+            idd: self.idd(),
+            max_wheel_rad_s: self.max_wheel_rad_s,
+            max_lin_m_s: self.max_lin_m_s,
+            max_ang_rad_s: self.max_ang_rad_s,
+        }
+    }
+}
+
+/// Where a log comes from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Origin {
+    /// Written by this simulator.
+    Simulated {
+        /// Seed of every random draw.
+        seed: u64,
+        /// Robot file used.
+        robot_file: String,
+        /// Terrain file used.
+        terrain_file: String,
+        /// Sampler name.
+        sampler: String,
+        /// Effects injected without being declared (`--inject`), as `name=value` strings.
+        /// Kept for the test harness; analysis must not read it.
+        #[serde(default)]
+        injected: Vec<String>,
+    },
+    /// Recorded on a real robot.
+    Measured {
+        /// The file it was read from.
+        file: String,
+    },
+}
+
+/// Metadata of a log.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LogMeta {
+    /// Dataset name, e.g. `warthog_ice`.
+    pub name: String,
+    /// Robot name.
+    pub robot: String,
+    /// Terrain name (`unlabelled` when unknown).
+    pub terrain: String,
+    /// Sample rate, Hz.
+    pub rate_hz: f64,
+    /// Window duration, s.
+    pub window_s: f64,
+    /// Windows per step (1 transient + steady ones).
+    pub windows_per_step: u32,
+    /// Samples per window.
+    pub samples_per_window: u32,
+    /// Declared robot parameters.
+    pub nominal: Nominal,
+    /// Where the log comes from.
+    pub origin: Origin,
+}
+
+impl LogMeta {
+    /// Duration of one step, s.
+    pub fn step_s(&self) -> f64 {
+        self.window_s * self.windows_per_step as f64
+    }
+}
+
+/// A DRIVE log: metadata, the samples of completed steps (in order), and the interruptions.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DriveLog {
+    /// Metadata.
+    pub meta: LogMeta,
+    /// Samples of completed step attempts, ordered by step then time.
+    pub samples: Vec<Sample>,
+    /// Interrupted attempts.
+    pub interruptions: Vec<Interruption>,
+    /// Total log duration, s (protocol time including interruptions and re-orientation).
+    pub duration_s: f64,
+}
+
+impl DriveLog {
+    /// Builds a log from a frame stream: keeps, for each step, the samples of its last attempt;
+    /// earlier attempts of a step become [`Interruption`]s whose lost time runs until the next
+    /// attempt starts.
+    pub fn from_frames(meta: LogMeta, frames: &[Frame]) -> Self {
+        use std::collections::BTreeMap;
+        // Last attempt seen per step.
+        let mut last_attempt: BTreeMap<u32, u32> = BTreeMap::new();
+        for f in frames {
+            if let Phase::Step { step, attempt, .. } = f.phase {
+                let e = last_attempt.entry(step).or_insert(attempt);
+                *e = (*e).max(attempt);
+            }
+        }
+        let mut samples = Vec::new();
+        // (step, attempt) -> (first stamp, last stamp, last t_in_step)
+        let mut aborted: BTreeMap<(u32, u32), (f64, f64, f64)> = BTreeMap::new();
+        // First stamp of each (step, attempt), to close the lost time of the previous attempt.
+        let mut attempt_start: BTreeMap<(u32, u32), f64> = BTreeMap::new();
+        for f in frames {
+            if let Phase::Step {
+                step,
+                attempt,
+                window,
+                k,
+                t_in_step_s,
+            } = f.phase
+            {
+                attempt_start.entry((step, attempt)).or_insert(f.stamp_s);
+                if attempt == last_attempt[&step] {
+                    samples.push(Sample {
+                        step,
+                        window,
+                        k,
+                        t_in_step_s,
+                        stamp_s: f.stamp_s,
+                        m: f.m,
+                    });
+                } else {
+                    let e = aborted
+                        .entry((step, attempt))
+                        .or_insert((f.stamp_s, f.stamp_s, t_in_step_s));
+                    e.1 = f.stamp_s;
+                    e.2 = t_in_step_s;
+                }
+            }
+        }
+        let interruptions = aborted
+            .into_iter()
+            .map(|((step, attempt), (start, end, t))| {
+                let next = attempt_start.get(&(step, attempt + 1)).copied().unwrap_or(end);
+                Interruption {
+                    step,
+                    attempt,
+                    t_in_step_s: t,
+                    stamp_s: end,
+                    time_lost_s: next - start,
+                }
+            })
+            .collect();
+        let duration_s = match (frames.first(), frames.last()) {
+            (Some(a), Some(b)) => b.stamp_s - a.stamp_s + 1.0 / meta.rate_hz,
+            _ => 0.0,
+        };
+        Self {
+            meta,
+            samples,
+            interruptions,
+            duration_s,
+        }
+    }
+
+    /// Indices of the completed steps, in order.
+    pub fn steps(&self) -> Vec<u32> {
+        let mut s: Vec<u32> = self.samples.iter().map(|s| s.step).collect();
+        s.dedup();
+        s
+    }
+
+    /// Fraction of protocol time spent on completed steps (the paper's time-efficiency ratio).
+    pub fn time_efficiency(&self) -> f64 {
+        if self.duration_s <= 0.0 {
+            return 0.0;
+        }
+        let productive = self.steps().len() as f64 * self.meta.step_s();
+        (productive / self.duration_s).min(1.0)
+    }
+}

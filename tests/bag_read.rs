@@ -1,0 +1,296 @@
+//! rosbag2 recordings of the DRIVE node read into the common log, checked against bags written
+//! by an independent writer: `tests/write_drive_bag.py` (the Python `rosbags` package) turns a
+//! measured CSV of `../shared/data/measured` into the bag the DRIVE node records, in sqlite3
+//! and MCAP storage. Analysing the bag must give the CSV's steps (± 2) and median ρ (± 0.03).
+//!
+//! Needs `python3` with `pip install rosbags` (CI installs it). The tests fail when it is
+//! missing; `DRIVE_SIM_SKIP_PYTHON=1` skips them explicitly.
+
+use drive_sim::analysis::{analyze, stats::median, AnalysisParams};
+use drive_sim::log::{open, DriveLog, OpenOptions};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured");
+const INSTALL: &str =
+    "install Python 3 and `pip install rosbags` (or set DRIVE_SIM_SKIP_PYTHON=1 to skip this test)";
+
+fn skip() -> bool {
+    if std::env::var("DRIVE_SIM_SKIP_PYTHON").is_ok_and(|v| v == "1") {
+        eprintln!("\n!!!!! SKIPPED: bags written by Python rosbags (DRIVE_SIM_SKIP_PYTHON=1) !!!!!\n");
+        return true;
+    }
+    false
+}
+
+/// Writes `csv` as a DRIVE bag at `out` with the writer's extra arguments.
+fn write_bag(csv: &str, out: &Path, args: &[&str]) {
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/write_drive_bag.py");
+    let o = Command::new("python3")
+        .arg(script)
+        .arg(format!("{DATA}/{csv}.csv"))
+        .arg(out)
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run python3 ({e}): {INSTALL}"));
+    assert!(
+        o.status.success(),
+        "write_drive_bag.py failed ({}):\n{}\n{}",
+        o.status,
+        String::from_utf8_lossy(&o.stderr),
+        if o.status.code() == Some(3) { INSTALL } else { "" }
+    );
+}
+
+fn opts() -> OpenOptions {
+    OpenOptions {
+        robot: Some("warthog".into()),
+        terrain: Some("gravel".into()),
+        roles: None,
+    }
+}
+
+fn steps_and_median_rho(log: &DriveLog) -> (usize, f64) {
+    let a = analyze(log, &AnalysisParams::default()).unwrap();
+    (a.steps.len(), median(&a.steady_rhos()))
+}
+
+fn data_file(dir: &Path, ext: &str) -> PathBuf {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == ext))
+        .unwrap_or_else(|| panic!("no .{ext} in {}", dir.display()))
+}
+
+#[test]
+fn a_measured_run_as_a_drive_bag_gives_the_csv_steps_and_median_rho_in_both_storages() {
+    if skip() {
+        return;
+    }
+    let csv = drive_sim::log::csv::read_measured_csv(format!("{DATA}/warthog_gravel.csv")).unwrap();
+    let (csv_steps, csv_rho) = steps_and_median_rho(&csv);
+    let tmp = tempfile::tempdir().unwrap();
+    for (storage, ext) in [("sqlite3", "db3"), ("mcap", "mcap")] {
+        let dir = tmp.path().join(storage);
+        write_bag("warthog_gravel", &dir, &["--storage", storage, "--params"]);
+        // The directory, and the data file alone.
+        for path in [dir.clone(), data_file(&dir, ext)] {
+            let o = open(&path, &opts()).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            assert!(o.warnings.is_empty(), "{:?}", o.warnings);
+            assert!(
+                o.notes.iter().any(|n| n.contains("preset `warthog`")),
+                "{:?}",
+                o.notes
+            );
+            assert!(
+                o.notes.iter().any(|n| n.contains("step index topic")),
+                "{:?}",
+                o.notes
+            );
+            assert_eq!(o.log.meta.terrain, "gravel");
+            let (n, c) = (&o.log.meta.nominal, &csv.meta.nominal);
+            assert_eq!(
+                (n.wheel_radius_m, n.baseline_m, n.mass_kg),
+                (c.wheel_radius_m, c.baseline_m, c.mass_kg)
+            );
+            assert!((n.max_wheel_rad_s - c.max_wheel_rad_s).abs() < 1e-3, "{n:?}");
+            let (steps, rho) = steps_and_median_rho(&o.log);
+            eprintln!(
+                "{storage} {}: {steps} steps, median rho {rho:.4}; CSV {csv_steps}, {csv_rho:.4}",
+                path.display()
+            );
+            assert!(
+                steps.abs_diff(csv_steps) <= 2,
+                "{storage}: {steps} steps, CSV {csv_steps}"
+            );
+            assert!(
+                (rho - csv_rho).abs() <= 0.03,
+                "{storage}: median rho {rho}, CSV {csv_rho}"
+            );
+        }
+    }
+}
+
+/// Without the step topic, steps are runs of constant command. A zero command cannot be told
+/// from a stop when it is next to one: warthog_gravel's steps 0 and 1 (zero commands right
+/// after the idle start) are the two it cannot find.
+#[test]
+fn without_the_step_topic_steps_come_from_command_constancy_and_interruptions_are_found() {
+    if skip() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let with = tmp.path().join("with");
+    let without = tmp.path().join("without");
+    write_bag("warthog_gravel", &with, &["--interrupt", "4"]);
+    write_bag(
+        "warthog_gravel",
+        &without,
+        &["--interrupt", "4", "--no-step-topic"],
+    );
+    let a = open(&with, &opts()).unwrap();
+    let b = open(&without, &opts()).unwrap();
+    assert!(
+        b.notes.iter().any(|n| n.contains("constant command")),
+        "{:?}",
+        b.notes
+    );
+    assert_eq!(a.log.steps().len(), 100);
+    let n = b.log.steps().len();
+    assert!(n.abs_diff(100) <= 2, "{n} steps by command constancy");
+    for o in [&a, &b] {
+        assert_eq!(o.log.interruptions.len(), 1, "{:?}", o.log.interruptions);
+        let i = &o.log.interruptions[0];
+        assert_eq!(i.attempt, 0);
+        assert!((i.t_in_step_s - 1.95).abs() < 1e-6, "{i:?}");
+        assert!((i.time_lost_s - 3.0).abs() < 1e-6, "{i:?}");
+        assert!((i.stamp_s - a.log.interruptions[0].stamp_s).abs() < 1e-9);
+    }
+    // The steps found are the same steps, give or take the tick where the recorded command
+    // still is the previous one.
+    for s in b.log.samples.iter().filter(|s| s.k == 0 && s.window == 0) {
+        let near = a.log.samples.iter().filter(|x| x.k == 0 && x.window == 0);
+        let d = near
+            .map(|x| (x.stamp_s - s.stamp_s).abs())
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            d <= 0.05 + 1e-9,
+            "step {} starts {d} s from any step-topic step",
+            s.step
+        );
+    }
+}
+
+#[test]
+fn bad_bags_give_errors_naming_topic_time_and_expectation() {
+    if skip() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let bag = |name: &str, args: &[&str]| {
+        let dir = tmp.path().join(name);
+        let mut all = vec!["--steps", "8"];
+        all.extend(args);
+        write_bag("warthog_gravel", &dir, &all);
+        dir
+    };
+    let err = |p: &Path| {
+        let e = open(p, &opts()).map(|_| ()).unwrap_err();
+        assert!(e.is_bad_input(), "{e}");
+        e.to_string()
+    };
+
+    // A missing role.
+    let e = err(&bag("no_imu", &["--drop", "/MTI_imu/data_unbiased"]));
+    assert!(e.contains("imu") && e.contains("sensor_msgs/msg/Imu"), "{e}");
+    // A wrong message type on a role's topic.
+    let e = err(&bag("wrong", &["--wrong-type", "/icp_odom"]));
+    assert!(
+        e.contains("/icp_odom") && e.contains("expects nav_msgs/msg/Odometry"),
+        "{e}"
+    );
+    // A gap longer than a window inside a step: that step goes, with a named warning.
+    let o = open(&bag("gap", &["--gap", "3"]), &opts()).unwrap();
+    assert_eq!(o.log.steps().len(), 7);
+    assert!(!o.log.steps().contains(&3));
+    let w = o.warnings.join("\n");
+    assert!(
+        w.contains("step 3") && w.contains("/MTI_imu/data_unbiased") && w.contains("t = "),
+        "{w}"
+    );
+
+    // Unsupported storage and compression, as metadata.yaml declares them.
+    let good = bag("good", &[]);
+    let meta = std::fs::read_to_string(good.join("metadata.yaml")).unwrap();
+    let edited = |name: &str, from: &str, to: &str| {
+        let dir = tmp.path().join(name);
+        std::fs::create_dir(&dir).unwrap();
+        for f in std::fs::read_dir(&good).unwrap() {
+            let f = f.unwrap().path();
+            std::fs::copy(&f, dir.join(f.file_name().unwrap())).unwrap();
+        }
+        assert!(meta.contains(from), "{from} not in metadata.yaml");
+        std::fs::write(dir.join("metadata.yaml"), meta.replace(from, to)).unwrap();
+        dir
+    };
+    let e = err(&edited(
+        "storage",
+        "storage_identifier: sqlite3",
+        "storage_identifier: rosbag_v2",
+    ));
+    assert!(e.contains("rosbag_v2") && e.contains("sqlite3"), "{e}");
+    let e = err(&edited(
+        "zstd",
+        "compression_format: ''",
+        "compression_format: zstd",
+    ));
+    assert!(e.contains("zstd"), "{e}");
+
+    // A truncated .db3: an error, never a panic; inspect still lists what it can.
+    let trunc = tmp.path().join("trunc");
+    std::fs::create_dir(&trunc).unwrap();
+    let db = data_file(&good, "db3");
+    let bytes = std::fs::read(&db).unwrap();
+    let cut = trunc.join("cut.db3");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let e = err(&cut);
+    assert!(e.contains("cut.db3"), "{e}");
+    let i = drive_sim::log::bag::inspect(&cut, &opts());
+    assert!(!i.problems.is_empty());
+    let shown = i.to_string();
+    assert!(shown.contains("problem:"), "{shown}");
+
+    // The command line exits with code 2 on bad input, and inspect prints before failing.
+    let out = Command::new(env!("CARGO_BIN_EXE_drive-sim"))
+        .arg("inspect")
+        .arg(tmp.path().join("no_imu"))
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("/icp_odom") && stdout.contains("MISSING"),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn roles_are_guessed_and_reported_without_a_fitting_preset() {
+    if skip() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("b");
+    write_bag("warthog_gravel", &dir, &["--steps", "6"]);
+    // Rename the encoder topics so no preset fits: the guess must still find them.
+    let roles = tmp.path().join("roles.toml");
+    let preset = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/roles/warthog.toml")).unwrap();
+    std::fs::write(&roles, preset.replace("/icp_odom", "/no_such_odom")).unwrap();
+    let o = open(
+        &dir,
+        &OpenOptions {
+            roles: Some(roles.display().to_string()),
+            ..opts()
+        },
+    );
+    let e = o.map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("odom") && e.contains("/no_such_odom"), "{e}");
+    let bag = drive_sim::log::bag::Bag::open(&dir).unwrap();
+    let g = drive_sim::log::bag::roles::guess(&bag);
+    assert!(g.missing.is_empty(), "{:?}", g.missing);
+    assert_eq!(
+        g.roles[&drive_sim::log::bag::Role::WheelLeft].topic,
+        "/left_drive/status/speed"
+    );
+    assert_eq!(g.roles[&drive_sim::log::bag::Role::Odom].topic, "/icp_odom");
+    assert_eq!(
+        g.roles[&drive_sim::log::bag::Role::Imu].topic,
+        "/MTI_imu/data_unbiased"
+    );
+}
