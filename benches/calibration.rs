@@ -22,7 +22,12 @@ fn run(name: &str, factory: &dyn PlantFactory, optimizer: Optimizer) -> (f64, f6
     opts.fit.optimizer = optimizer;
     let t0 = Instant::now();
     let (r, _) = calibrate_timed(&log, &robot, &terrain, factory, &opts, &|_| {}).expect("calibration");
-    (r.before.score, r.after.score, t0.elapsed().as_secs_f64(), r.status.converged)
+    (
+        r.before.score,
+        r.after.score,
+        t0.elapsed().as_secs_f64(),
+        r.status.converged,
+    )
 }
 
 fn main() {
@@ -30,10 +35,11 @@ fn main() {
     let sim: Vec<String> = std::env::var("CALIBRATION_BENCH_SIM")
         .map(|s| s.split(',').map(String::from).collect())
         .unwrap_or_default();
-    let mut cases: Vec<(String, Box<dyn PlantFactory>)> = ["warthog_asphalt", "warthog_gravel", "warthog_ice", "husky_2023"]
-        .iter()
-        .map(|n| (n.to_string(), Box::new(KinematicFactory) as Box<dyn PlantFactory>))
-        .collect();
+    let mut cases: Vec<(String, Box<dyn PlantFactory>)> =
+        ["warthog_asphalt", "warthog_gravel", "warthog_ice", "husky_2023"]
+            .iter()
+            .map(|n| (n.to_string(), Box::new(KinematicFactory) as Box<dyn PlantFactory>))
+            .collect();
     for n in sim {
         cases.push((n, Box::new(SimFactory::default())));
     }

@@ -106,9 +106,16 @@ fn gravel_and_ice_imu_sign_is_flipped() {
         let round = r
             .rounds
             .iter()
-            .find(|rd| rd.added.as_deref().is_some_and(|a| a.split('+').any(|e| e == "imu_yaw_rate_sign_flip")))
+            .find(|rd| {
+                rd.added
+                    .as_deref()
+                    .is_some_and(|a| a.split('+').any(|e| e == "imu_yaw_rate_sign_flip"))
+            })
             .unwrap_or_else(|| panic!("{name}: flip never added: {:#?}", r.rounds));
-        assert!(round.round <= 1 && round.ranking[0].significant, "{name}: {round:#?}");
+        assert!(
+            round.round <= 1 && round.ranking[0].significant,
+            "{name}: {round:#?}"
+        );
         assert!(has_flip(&r), "{name}: {:?}", r.effects);
         common_checks(&r);
         // With the flip, the IMU agrees with the lidar far better than before.
@@ -253,7 +260,9 @@ fn husky_controller_kinematics_match_a_direct_fit() {
     // calibrate finds the controller's kinematics (with the yaw-rate limit beside it).
     let (_, r) = run("husky_2023");
     assert!(
-        r.effects.iter().any(|e| e.name == "effect.controller_radius_scale"),
+        r.effects
+            .iter()
+            .any(|e| e.name == "effect.controller_radius_scale"),
         "{:?}",
         r.effects
     );

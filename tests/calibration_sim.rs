@@ -9,12 +9,12 @@
 use drive_sim::calibration::{
     calibrate, models_for_log, write_report, CalibrationOptions, CalibrationReport, SimFactory,
 };
+use drive_sim::effects::Effects;
 use drive_sim::log::csv::read_measured_csv;
 use drive_sim::log::DriveLog;
 use drive_sim::protocol::sampler::UniformWheel;
 use drive_sim::protocol::{run_drive, ProtocolConfig};
 use drive_sim::robot::Robot;
-use drive_sim::effects::Effects;
 use drive_sim::sim::{SensorNoise, SimConfig, Simulator};
 use drive_sim::terrain::Terrain;
 
@@ -181,11 +181,18 @@ fn assert_known_warthog_findings(r: &CalibrationReport) {
     let sat = r
         .effects
         .iter()
-        .find(|e| e.name == "effect.wheel_speed_saturation_rad_s" || e.name == "effect.controller_wheel_limit_rad_s")
+        .find(|e| {
+            e.name == "effect.wheel_speed_saturation_rad_s" || e.name == "effect.controller_wheel_limit_rad_s"
+        })
         .unwrap_or_else(|| panic!("no wheel-speed limit: {:?}", r.effects));
     let ci = sat.ci95.unwrap_or_else(|| panic!("no interval: {sat:?}"));
     assert!(ci[0] > 12.0 && ci[1] < 13.3, "{sat:?}");
-    assert!(r.after.score < r.before.score, "{} -> {}", r.before.score, r.after.score);
+    assert!(
+        r.after.score < r.before.score,
+        "{} -> {}",
+        r.before.score,
+        r.after.score
+    );
     assert!(r.status.converged, "{:?}", r.status);
 }
 

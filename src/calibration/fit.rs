@@ -170,7 +170,8 @@ impl FittedParam {
         // box is a precisely measured combination, not a confusion: only a correlated
         // parameter that is also loosely determined counts as confounded.
         let corr = cov.max_abs_correlation(i);
-        if corr > MAX_CORRELATION && !(se < LOOSE_SE_FRACTION * (spec.upper - spec.lower)) {
+        let loose = !se.is_finite() || se >= LOOSE_SE_FRACTION * (spec.upper - spec.lower);
+        if corr > MAX_CORRELATION && loose {
             let j = (0..cov.names.len())
                 .filter(|&j| j != i && !cov.information_correlation[i][j].is_nan())
                 .max_by(|&a, &b| {
@@ -347,8 +348,7 @@ pub fn fit(
     opts: &FitOptions,
     observe: &mut dyn FnMut(&Iteration),
 ) -> Result<(ModelParams, FitResult)> {
-    let (discrete, continuous): (Vec<ParamSpec>, Vec<ParamSpec>) =
-        specs.iter().partition(|s| s.discrete);
+    let (discrete, continuous): (Vec<ParamSpec>, Vec<ParamSpec>) = specs.iter().partition(|s| s.discrete);
     let x0: Vec<f64> = continuous.iter().map(|s| s.start_in(base)).collect();
     // The score of the model as it is (not at the solver's start, which may differ: an effect
     // that is off starts inside its box).
@@ -377,7 +377,11 @@ pub fn fit(
             "no model could be evaluated on the {} steps fitted ({} parameters: {})",
             data.len(),
             specs.len(),
-            specs.iter().map(|s| s.param.name()).collect::<Vec<_>>().join(", ")
+            specs
+                .iter()
+                .map(|s| s.param.name())
+                .collect::<Vec<_>>()
+                .join(", ")
         )));
     };
     let mut params: Vec<FittedParam> = Vec::new();

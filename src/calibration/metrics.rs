@@ -301,13 +301,13 @@ impl StepResiduals {
             n_windows: self.pose.len(),
         };
         for r in &self.steady {
-            for c in 0..6 {
-                e.steady_sq[c] += r[c] * r[c];
+            for (acc, v) in e.steady_sq.iter_mut().zip(r) {
+                *acc += v * v;
             }
         }
         for r in &self.transient {
-            for c in 0..4 {
-                e.transient_sq[c] += r[c] * r[c];
+            for (acc, v) in e.transient_sq.iter_mut().zip(r) {
+                *acc += v * v;
             }
         }
         for r in &self.pose {

@@ -1,12 +1,12 @@
 //! `drive-sim run`: DRIVE in closed loop on the simulated robot, logged to MCAP.
 
+use crate::effects::Effects;
 use crate::error::{Error, Result};
 use crate::log::mcap::{McapSummary, McapWriter};
 use crate::log::{Frame, LogMeta, Nominal, Origin};
 use crate::protocol::sampler::make_sampler_for;
 use crate::protocol::{run_drive, FrameSink, ProtocolConfig, RunSummary};
 use crate::robot::Robot;
-use crate::effects::Effects;
 use crate::sim::{SensorNoise, SimConfig, Simulator};
 use crate::terrain::Terrain;
 use indicatif::{ProgressBar, ProgressStyle};

@@ -85,8 +85,8 @@ impl Plant for TestRobot {
             self.spec.gain[1] * self.cmd.right_rad_s,
         ];
         for _ in 0..n {
-            for k in 0..2 {
-                self.wheels[k] += h / self.spec.lag_s * (target[k] - self.wheels[k]);
+            for (w, t) in self.wheels.iter_mut().zip(target) {
+                *w += h / self.spec.lag_s * (t - *w);
             }
             let (v, w) = self.body();
             self.x += h * v * self.yaw.cos();
@@ -158,7 +158,11 @@ impl Plant for TestRobot {
 
 /// A DRIVE run of `steps` steps of the Warthog's protocol on this generator, as a log that
 /// declares the Warthog and no effect.
-pub fn drive_log(name: &str, spec: TestRobotSpec, steps: u32) -> (drive_sim::log::DriveLog, drive_sim::robot::Robot) {
+pub fn drive_log(
+    name: &str,
+    spec: TestRobotSpec,
+    steps: u32,
+) -> (drive_sim::log::DriveLog, drive_sim::robot::Robot) {
     use drive_sim::protocol::sampler::UniformWheel;
     use drive_sim::protocol::{run_drive, ProtocolConfig};
     let (robot, _) = drive_sim::robot::Robot::resolve("warthog").unwrap();
@@ -168,6 +172,16 @@ pub fn drive_log(name: &str, spec: TestRobotSpec, steps: u32) -> (drive_sim::log
     };
     let mut plant = TestRobot::new(spec);
     let mut frames = Vec::new();
-    run_drive(&mut plant, &robot, &mut UniformWheel::new(spec.seed), &cfg, &mut frames).unwrap();
-    (super::undeclared_log(name, &robot, spec.seed, &cfg, &frames), robot)
+    run_drive(
+        &mut plant,
+        &robot,
+        &mut UniformWheel::new(spec.seed),
+        &cfg,
+        &mut frames,
+    )
+    .unwrap();
+    (
+        super::undeclared_log(name, &robot, spec.seed, &cfg, &frames),
+        robot,
+    )
 }

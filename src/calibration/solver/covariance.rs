@@ -175,9 +175,7 @@ pub fn sandwich(
         .map(|i| {
             (0..p)
                 .map(|j| {
-                    if i == j {
-                        1.0
-                    } else if undetermined[i] && undetermined[j] {
+                    if i == j || (undetermined[i] && undetermined[j]) {
                         1.0
                     } else if undetermined[i] || undetermined[j] {
                         f64::NAN

@@ -99,7 +99,15 @@ fn joint_refit(ctx: &Context<'_>, st: &mut State, base: &[ParamSpec], label: &st
     if joint.is_empty() {
         return Ok(());
     }
-    let (m, r) = fit(&ctx.train, ctx.factory, &st.current, &joint, &ctx.floor, &ctx.opts.fit, &mut |_| {})?;
+    let (m, r) = fit(
+        &ctx.train,
+        ctx.factory,
+        &st.current,
+        &joint,
+        &ctx.floor,
+        &ctx.opts.fit,
+        &mut |_| {},
+    )?;
     let v = ctx.validation.errors(ctx.factory, &m)?;
     let (old, new) = (score(&st.validation, &ctx.floor), score(&v, &ctx.floor));
     if !r.converged {
@@ -110,8 +118,9 @@ fn joint_refit(ctx: &Context<'_>, st: &mut State, base: &[ParamSpec], label: &st
         st.current = m;
         st.validation = v;
         st.refit_current = true;
-        st.notes
-            .push(format!("{label}, joint refit kept: validation {old:.3} -> {new:.3}"));
+        st.notes.push(format!(
+            "{label}, joint refit kept: validation {old:.3} -> {new:.3}"
+        ));
     } else {
         st.notes.push(format!(
             "{label}, joint refit discarded: validation {old:.3} -> {new:.3}"
@@ -176,7 +185,8 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
         )?;
         for (ev, _) in &out.ranked {
             if !ev.converged {
-                st.notes.push(format!("round {round}, {}: {}", ev.effect, ev.fit_status));
+                st.notes
+                    .push(format!("round {round}, {}: {}", ev.effect, ev.fit_status));
             }
         }
         let mut best = out.ranked.first().map(|(e, m)| (e.clone(), m.clone()));
@@ -197,7 +207,12 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
             let warm: Vec<Candidate> = top
                 .iter()
                 .map(|c| {
-                    let m = &out.ranked.iter().find(|(e, _)| e.effect == c.name).expect("ranked").1;
+                    let m = &out
+                        .ranked
+                        .iter()
+                        .find(|(e, _)| e.effect == c.name)
+                        .expect("ranked")
+                        .1;
                     c.warm_from(m)
                 })
                 .collect();
@@ -331,7 +346,11 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
                     ev.heldout_before,
                     ev.heldout_after,
                     ev.reduction_se,
-                    if ev.significant { ", added" } else { ", not significant" }
+                    if ev.significant {
+                        ", added"
+                    } else {
+                        ", not significant"
+                    }
                 ));
                 if ev.significant {
                     if let Some(c) = tried.iter().find(|c| c.name == ev.effect) {
@@ -368,7 +387,15 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
                 .filter(|o| o.name != c.name)
                 .flat_map(|o| o.params.iter().filter(|p| !p.discrete).copied())
                 .collect();
-            let (m, _) = fit(&ctx.train, ctx.factory, &without, &others, &ctx.floor, &opts.fit, &mut |_| {})?;
+            let (m, _) = fit(
+                &ctx.train,
+                ctx.factory,
+                &without,
+                &others,
+                &ctx.floor,
+                &opts.fit,
+                &mut |_| {},
+            )?;
             let v = ctx.validation.errors(ctx.factory, &m)?;
             let (with_s, without_s) = (score(&st.validation, &ctx.floor), score(&v, &ctx.floor));
             let se = bootstrap_reduction_se(
