@@ -2,13 +2,16 @@
 //!
 //! Data flows one way: robot and terrain models ([`robot`], [`terrain`]) → simulator ([`sim`])
 //! driven by the protocol ([`protocol`]) → logs ([`log`]) → analysis ([`analysis`]) and
-//! calibration ([`calibration`]) → figures and reports ([`report`]). The [`cli`] wires them.
+//! calibration ([`calibration`]) → figures and reports ([`report`]) → experiments composed from
+//! them ([`experiments`]: runs, analysis, demo, sampler comparison, sweep runs). The [`cli`]
+//! parses arguments, calls those and prints.
 
 pub mod analysis;
 pub mod calibration;
 pub mod cli;
 pub mod config;
 pub mod error;
+pub mod experiments;
 pub mod geometry;
 pub mod kinematics;
 pub mod log;

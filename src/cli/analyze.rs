@@ -1,5 +1,6 @@
 //! `drive-sim analyze`: the slip and ρ pipeline on any DRIVE logs, and its report.
 
+use crate::experiments::analyze::{analyze_logs, AnalyzeEvent, AnalyzeOptions};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -21,72 +22,43 @@ pub struct AnalyzeArgs {
     pub kernel_variance: Option<f64>,
 }
 
-/// The paper's kernel variance for a robot: 0.25 for the Husky (lessons learned), 0.64 for
-/// the Warthog figures, used for any other robot too.
-pub fn paper_kernel_variance(robot: &str) -> f64 {
-    if robot == "husky" {
-        0.25
-    } else {
-        0.64
+impl AnalyzeArgs {
+    /// The analysis these arguments ask for.
+    pub fn options(&self) -> AnalyzeOptions {
+        AnalyzeOptions {
+            logs: self.logs.clone(),
+            out: self.out.clone(),
+            resolution: self.resolution,
+            kernel_variance: self.kernel_variance,
+        }
     }
 }
 
-fn analysis_params(args: &AnalyzeArgs, robot: &str) -> anyhow::Result<crate::analysis::AnalysisParams> {
-    use crate::analysis::{smoother::KernelCovariance, AnalysisParams, SmootherParams};
-    if !(args.resolution > 0.0 && args.resolution.is_finite()) {
-        anyhow::bail!("--resolution must be > 0, got {}", args.resolution);
-    }
-    let variance = args
-        .kernel_variance
-        .unwrap_or_else(|| paper_kernel_variance(robot));
-    if !(variance > 0.0 && variance.is_finite()) {
-        anyhow::bail!("--kernel-variance must be > 0, got {variance}");
-    }
-    Ok(AnalysisParams {
-        smoother: SmootherParams {
-            resolution_vx_m_s: args.resolution,
-            resolution_wz_rad_s: args.resolution,
-            covariance: KernelCovariance {
-                var_vx: variance,
-                var_wz: variance,
-            },
-            ..SmootherParams::default()
-        },
-        ..AnalysisParams::default()
-    })
-}
-
-/// Reads, analyses and reports the logs of `args`.
+/// Reads, analyses and reports the logs of `args`; prints the headline table.
 pub fn analyze(args: &AnalyzeArgs) -> anyhow::Result<()> {
-    let mut logs = Vec::new();
-    for path in &args.logs {
-        eprintln!("drive-sim: reading {}", path.display());
-        logs.push(crate::log::read_log(path)?);
-    }
-    let mut analyses = Vec::new();
-    for log in &logs {
-        eprintln!(
+    let done = analyze_logs(&args.options(), &mut print_progress)?;
+    print_analysis_table(&done.analyses)?;
+    eprintln!(
+        "drive-sim: wrote {} and {} figures; report: {}",
+        done.files.summary.display(),
+        done.files.figures.len(),
+        done.files.html.display()
+    );
+    Ok(())
+}
+
+/// Progress of an analysis on stderr.
+pub fn print_progress(event: AnalyzeEvent) {
+    match event {
+        AnalyzeEvent::Reading(path) => eprintln!("drive-sim: reading {}", path.display()),
+        AnalyzeEvent::Analysing(log) => eprintln!(
             "drive-sim: analysing {} ({} on {}, {} steps)",
             log.meta.name,
             log.meta.robot,
             log.meta.terrain,
             log.steps().len()
-        );
-        analyses.push(crate::analysis::analyze(
-            log,
-            &analysis_params(args, &log.meta.robot)?,
-        )?);
+        ),
     }
-    let items: Vec<_> = logs.iter().zip(&analyses).collect();
-    let files = crate::report::analysis_report::write_analysis_report(&items, &args.out)?;
-    print_analysis_table(&analyses)?;
-    eprintln!(
-        "drive-sim: wrote {} and {} figures; report: {}",
-        files.summary.display(),
-        files.figures.len(),
-        files.html.display()
-    );
-    Ok(())
 }
 
 /// The headline figures of each analysed log, one line each: median steady-state slips signed
