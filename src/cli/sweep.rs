@@ -2,24 +2,33 @@
 //! sharded and resumable (see [`crate::sweep`]; what each run does is
 //! [`crate::experiments::sweep`]), and the merge of the shards' tables.
 
-use crate::experiments::sweep::sweep_run;
+use crate::experiments::sweep::sweep_run_with;
 use crate::sweep::{merge, run_sweep_with_progress, MergeArgs, RunOutcome, SweepArgs, SweepMatrix};
 
 /// `drive-sim sweep`.
 pub fn sweep(args: &SweepArgs) -> anyhow::Result<()> {
     let matrix = SweepMatrix::load(&args.matrix)?;
     matrix.check_names(&args.matrix)?;
-    let opts = args.options();
+    let choice = args.shard_choice(&|name| std::env::var(name).ok())?;
+    let opts = args.options(choice.shard);
     let total = matrix.shard(opts.shard).len();
+    eprintln!("drive-sim sweep: {choice}");
     eprintln!(
-        "drive-sim sweep: `{}`, shard {}/{}: {total} of {} runs into {}",
+        "drive-sim sweep: `{}`, shard {}/{}: {total} of {} runs into {}{}",
         matrix.name,
         opts.shard.index,
         opts.shard.count,
         matrix.len(),
-        opts.out_dir.display()
+        opts.out_dir.display(),
+        if args.keep_logs {
+            " (keeping each run's MCAP log)"
+        } else {
+            ""
+        }
     );
-    let report = run_sweep_with_progress(&matrix, &opts, sweep_run, |o| match o {
+    let keep = args.keep_logs;
+    let run = |spec: &crate::sweep::RunSpec, dir: &std::path::Path| sweep_run_with(spec, dir, keep);
+    let report = run_sweep_with_progress(&matrix, &opts, run, |o| match o {
         RunOutcome::Done(r) => eprintln!("  done    {}", r.spec.id),
         RunOutcome::Skipped(r) => eprintln!("  skipped {} (complete)", r.spec.id),
         RunOutcome::Failed { id, message } => eprintln!("  FAILED  {id}: {message}"),
@@ -44,7 +53,7 @@ pub fn sweep_merge(args: &MergeArgs) -> anyhow::Result<()> {
     let merged = merge(&args.dirs)?;
     let (json_path, csv_path) = merged.write(&args.out)?;
     println!(
-        "{} runs merged into {} and {}{}",
+        "{} runs merged into {} and {}{}{}",
         merged.rows.len(),
         json_path.display(),
         csv_path.display(),
@@ -55,6 +64,28 @@ pub fn sweep_merge(args: &MergeArgs) -> anyhow::Result<()> {
                 "; {} runs missing: {}",
                 merged.missing.len(),
                 merged.missing.join(", ")
+            )
+        },
+        if merged.duplicates.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; {} runs done more than once (first kept): {}",
+                merged.duplicates.len(),
+                merged
+                    .duplicates
+                    .iter()
+                    .map(|d| format!(
+                        "{} in {}",
+                        d.id,
+                        d.dirs
+                            .iter()
+                            .map(|p| p.display().to_string())
+                            .collect::<Vec<_>>()
+                            .join(" and ")
+                    ))
+                    .collect::<Vec<_>>()
+                    .join("; ")
             )
         }
     );

@@ -8,11 +8,13 @@
 //! `ProtocolConfig::for_run`: a sweep's runs share one protocol, so the safety operator's
 //! braking assumption does not follow the terrain unless the matrix sets it.
 
-use super::simulate::{analysis_params_without_smoother, simulate_with, unknown_sampler};
+use super::simulate::{analysis_params_without_smoother, simulate_into, simulated_meta, unknown_sampler};
 use super::write_json;
 use crate::analysis::analyze;
 use crate::error::{Error, Result};
+use crate::log::mcap::McapWriter;
 use crate::protocol::sampler::make_sampler_for;
+use crate::protocol::FrameSink;
 use crate::robot::Robot;
 use crate::sim::{SensorNoise, SimConfig};
 use crate::sweep::RunSpec;
@@ -60,17 +62,42 @@ fn num(x: Option<f64>) -> Value {
 
 /// One sweep run: simulate, analyse, write `run.json` in `dir`, return the key figures.
 pub fn sweep_run(spec: &RunSpec, dir: &Path) -> Result<Value> {
+    sweep_run_with(spec, dir, false)
+}
+
+/// [`sweep_run`], also keeping the run's MCAP log as `<dir>/<id>.mcap` when `keep_log`
+/// (streamed as the run goes; the figures then name it under `log`).
+pub fn sweep_run_with(spec: &RunSpec, dir: &Path, keep_log: bool) -> Result<Value> {
     let (robot, _) = Robot::resolve(&spec.robot)?;
     let (terrain, _) = Terrain::resolve(&spec.terrain)?;
     let mut sampler = make_sampler_for(&spec.sampler, spec.seed, &spec.protocol)
         .ok_or_else(|| unknown_sampler(&spec.sampler))?;
-    let run = simulate_with(
+    let sim = sim_config(spec)?;
+    let log_name = format!("{}.mcap", spec.id);
+    let mut writer = if keep_log {
+        let meta = simulated_meta(
+            spec.id.clone(),
+            &robot,
+            &terrain,
+            &spec.protocol,
+            spec.seed,
+            &spec.sampler,
+        );
+        Some(McapWriter::create(dir.join(&log_name), &meta)?)
+    } else {
+        None
+    };
+    let run = simulate_into(
         &robot,
         &terrain,
         sampler.as_mut(),
         &spec.protocol,
-        sim_config(spec)?,
+        sim,
+        writer.as_mut().map(|w| w as &mut dyn FrameSink),
     )?;
+    if let Some(w) = writer {
+        w.finish()?;
+    }
     let a = analyze(&run.log, &analysis_params_without_smoother())?;
     let st = &a.stats;
     let med = |b: Option<crate::analysis::stats::BoxStats>| num(b.map(|b| b.median));
@@ -93,6 +120,10 @@ pub fn sweep_run(spec: &RunSpec, dir: &Path) -> Result<Value> {
         "wall_s": num(Some(run.wall_s)),
         "real_time_factor": num(Some(s.total_time_s / run.wall_s.max(1e-9))),
     });
+    let mut figures = figures;
+    if keep_log {
+        figures["log"] = json!(log_name);
+    }
     write_json(&dir.join("run.json"), &figures)?;
     Ok(figures)
 }
