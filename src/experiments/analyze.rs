@@ -5,7 +5,7 @@ use crate::analysis::smoother::KernelCovariance;
 use crate::analysis::{Analysis, AnalysisParams, SmootherParams};
 use crate::error::{Error, Result};
 use crate::log::DriveLog;
-use crate::report::analysis_report::{write_analysis_report, AnalysisReportFiles};
+use crate::report::analysis_report::{write_analysis_report_of, AnalysisReportFiles, LogSummary};
 use std::path::PathBuf;
 
 /// What to analyse and how.
@@ -84,24 +84,34 @@ pub struct AnalyzedLogs {
     pub files: AnalysisReportFiles,
 }
 
-/// Reads, analyses and reports the logs of `opts`.
+/// Analyses one log with `opts`'s parameters; returns what the report needs of the log, so that
+/// the log can be dropped.
+pub fn analyse_log(opts: &AnalyzeOptions, log: &DriveLog) -> Result<(LogSummary, Analysis)> {
+    let a = crate::analysis::analyze(log, &analysis_params(opts, &log.meta.robot)?)?;
+    Ok((LogSummary::of(log, &a), a))
+}
+
+/// Reads, analyses and reports the logs of `opts`, one log at a time: each is dropped once
+/// analysed, so that peak memory is that of the largest log, not of all of them.
 pub fn analyze_logs(opts: &AnalyzeOptions, progress: &mut dyn FnMut(AnalyzeEvent)) -> Result<AnalyzedLogs> {
     // Parameters first: a bad option fails before any log is read.
     analysis_params(opts, "")?;
-    let mut logs = Vec::new();
+    let mut done = Vec::new();
     for path in &opts.logs {
         progress(AnalyzeEvent::Reading(path));
-        logs.push(crate::log::read_log(path)?);
+        let log = crate::log::read_log(path)?;
+        progress(AnalyzeEvent::Analysing(&log));
+        done.push(analyse_log(opts, &log)?);
     }
-    let mut analyses = Vec::new();
-    for log in &logs {
-        progress(AnalyzeEvent::Analysing(log));
-        analyses.push(crate::analysis::analyze(
-            log,
-            &analysis_params(opts, &log.meta.robot)?,
-        )?);
-    }
-    let items: Vec<_> = logs.iter().zip(&analyses).collect();
-    let files = write_analysis_report(&items, &opts.out)?;
-    Ok(AnalyzedLogs { analyses, files })
+    report(done, &opts.out)
+}
+
+/// Writes the report of analysed logs into `out`.
+pub fn report(done: Vec<(LogSummary, Analysis)>, out: &std::path::Path) -> Result<AnalyzedLogs> {
+    let items: Vec<(&LogSummary, &Analysis)> = done.iter().map(|(s, a)| (s, a)).collect();
+    let files = write_analysis_report_of(&items, out)?;
+    Ok(AnalyzedLogs {
+        analyses: done.into_iter().map(|(_, a)| a).collect(),
+        files,
+    })
 }

@@ -1,8 +1,8 @@
 //! The demonstration run by `drive-sim` with no arguments: simulated DRIVE runs on contrasting
 //! terrains, analysed together, so a first-time user gets the paper's figures in one command.
 
-use super::analyze::{analyze_logs, AnalyzeEvent, AnalyzeOptions, AnalyzedLogs};
-use super::run::{record_run, RunEvent, RunReport, RunRequest};
+use super::analyze::{analyse_log, report, AnalyzeEvent, AnalyzeOptions, AnalyzedLogs};
+use super::run::{record_run_with_log, RunEvent, RunReport, RunRequest};
 use crate::error::Result;
 use crate::sim::{SensorNoise, SimConfig};
 use std::path::PathBuf;
@@ -82,25 +82,27 @@ pub fn scenario_request(opts: &DemoOptions, robot: &str, terrain: &str) -> RunRe
     }
 }
 
-/// Runs the scenarios, then analyses their logs together.
+/// Runs the scenarios, then reports their analyses together. Each run is analysed from the
+/// frames it has just written, then its log is dropped: memory holds one run at a time.
 pub fn run_demo(opts: &DemoOptions, progress: &mut dyn FnMut(DemoEvent)) -> Result<Demo> {
     let mut runs = Vec::new();
+    let mut done = Vec::new();
     for (robot, terrain) in SCENARIOS {
         progress(DemoEvent::Running { robot, terrain });
-        let r = record_run(&scenario_request(opts, robot, terrain), &mut |e| {
+        let (r, log) = record_run_with_log(&scenario_request(opts, robot, terrain), &mut |e| {
             progress(DemoEvent::Run(e))
         })?;
         progress(DemoEvent::RunDone(&r));
-        runs.push(r);
-    }
-    let analysis = analyze_logs(
-        &AnalyzeOptions {
-            logs: runs.iter().map(|r| r.mcap.clone()).collect(),
+        let analyze_opts = AnalyzeOptions {
+            logs: vec![r.mcap.clone()],
             out: opts.out.clone(),
             resolution: 0.1,
             kernel_variance: None,
-        },
-        &mut |e| progress(DemoEvent::Analysis(e)),
-    )?;
+        };
+        progress(DemoEvent::Analysis(AnalyzeEvent::Analysing(&log)));
+        done.push(analyse_log(&analyze_opts, &log)?);
+        runs.push(r);
+    }
+    let analysis = report(done, &opts.out)?;
     Ok(Demo { runs, analysis })
 }

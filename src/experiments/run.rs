@@ -5,7 +5,7 @@
 use super::write_json;
 use crate::error::{Error, Result};
 use crate::log::mcap::{McapSummary, McapWriter};
-use crate::log::{Frame, LogMeta, Nominal, Origin};
+use crate::log::{DriveLog, Frame, LogMeta, Nominal, Origin};
 use crate::protocol::sampler::make_sampler_for;
 use crate::protocol::{run_drive, FrameSink, ProtocolConfig, RunSummary};
 use crate::robot::Robot;
@@ -78,11 +78,17 @@ pub enum RunEvent<'a> {
 
 struct Sink<'a> {
     writer: McapWriter,
+    /// Frames also kept in memory, for a caller that analyses the run without reading the log
+    /// back.
+    kept: Option<Vec<Frame>>,
     progress: &'a mut dyn FnMut(RunEvent),
 }
 
 impl FrameSink for Sink<'_> {
     fn frame(&mut self, frame: &Frame) -> Result<()> {
+        if let Some(k) = &mut self.kept {
+            k.push(*frame);
+        }
         self.writer.write_frame(frame)
     }
     fn step_done(&mut self, completed: u32) {
@@ -94,6 +100,24 @@ impl FrameSink for Sink<'_> {
 /// Everything is checked before the first physics step; `progress` hears of each completed
 /// step, and of a failure with the partial log it leaves (never a complete-looking one).
 pub fn record_run(req: &RunRequest, progress: &mut dyn FnMut(RunEvent)) -> Result<RunReport> {
+    record(req, false, progress).map(|(r, _)| r)
+}
+
+/// [`record_run`], also returning the run's log as written (built from the same frames), for
+/// analysing it without decoding the MCAP file again.
+pub fn record_run_with_log(
+    req: &RunRequest,
+    progress: &mut dyn FnMut(RunEvent),
+) -> Result<(RunReport, DriveLog)> {
+    let (r, log) = record(req, true, progress)?;
+    Ok((r, log.expect("frames were kept")))
+}
+
+fn record(
+    req: &RunRequest,
+    keep_frames: bool,
+    progress: &mut dyn FnMut(RunEvent),
+) -> Result<(RunReport, Option<DriveLog>)> {
     let (robot, robot_file) = Robot::resolve(&req.robot)?;
     let (terrain, terrain_file) = Terrain::resolve(&req.terrain)?;
     if req.steps == 0 {
@@ -130,6 +154,7 @@ pub fn record_run(req: &RunRequest, progress: &mut dyn FnMut(RunEvent)) -> Resul
     let mcap_path = req.out.join(format!("{name}.mcap"));
     let mut sink = Sink {
         writer: McapWriter::create(&mcap_path, &meta)?,
+        kept: keep_frames.then(Vec::new),
         progress,
     };
     let t0 = Instant::now();
@@ -147,6 +172,7 @@ pub fn record_run(req: &RunRequest, progress: &mut dyn FnMut(RunEvent)) -> Resul
         messages_per_topic,
         ..
     } = sink.writer.finish()?;
+    let log = sink.kept.map(|frames| DriveLog::from_frames(meta, &frames));
     let wall_s = t0.elapsed().as_secs_f64();
     let report = RunReport {
         mcap: path,
@@ -162,7 +188,7 @@ pub fn record_run(req: &RunRequest, progress: &mut dyn FnMut(RunEvent)) -> Resul
         wall_s,
     };
     write_json(&req.out.join(format!("{name}.run.json")), &report)?;
-    Ok(report)
+    Ok((report, log))
 }
 
 /// One line a user reads after a run.
