@@ -1,4 +1,4 @@
-//! Experiments composed from the library's stages: DRIVE runs in memory ([`simulate`]) or logged
+//! Experiments composed from the library's stages: DRIVE runs in memory ([`mod@simulate`]) or logged
 //! to MCAP ([`run`]), the analysis of logs ([`analyze`]), the demonstration ([`demo`]), the
 //! sampler comparison ([`samplers`]) and what one sweep run does ([`sweep`]).
 //!

@@ -123,7 +123,7 @@ const METRICS: &[Metric] = &[
     ("energy", "kJ·s", |r| r.energy_kj_s),
 ];
 
-/// Per-strategy summary over seeds, in the order of [`METRICS`].
+/// Per-strategy summary over seeds, in the order of the comparison table's metrics.
 #[derive(Debug, Clone, Serialize)]
 pub struct SamplerSummary {
     /// Strategy.

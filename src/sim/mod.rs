@@ -2,7 +2,9 @@
 //! and the ideal plant used as a reference.
 //!
 //! Design (see also the report in the repository's history):
-//! - The chassis is one rapier rigid body (6 DoF, box inertia, gravity); rapier integrates it.
+//! - The chassis is one rapier rigid body (6 DoF, box inertia, gravity), integrated with
+//!   rapier's free-body scheme ([`Stepping::Fast`], `body.rs`; `PhysicsPipeline::step` with
+//!   [`Stepping::Reference`]).
 //!   Wheels are not rigid bodies: each wheel is a ray cast from its suspension hard point to
 //!   the ground collider (flat half-space or seeded height field), which gives the spring-damper
 //!   normal load, as in rapier's ray-cast vehicle controller. This avoids the twitching and
@@ -16,7 +18,8 @@
 //! - Friction is stiff at low slip speed (a wheel of 1.2 kg m² against 1000 N of grip relaxes
 //!   in 0.1 ms). Instead of sub-stepping, each physics step solves the planar chassis velocity
 //!   (vx, vy, wz) and the wheel spins of saturated sides by backward Euler (Newton on a 5x5
-//!   system); the resulting forces are handed to rapier for the step. Backward Euler is
+//!   system with the tyre model's exact Jacobian, `solve.rs`); the resulting forces drive the
+//!   chassis for the step. Backward Euler is
 //!   L-stable, so rest is exactly rest (zero command gives zero force) and nothing chatters.
 //! - Physics rate: 100 Hz by default. The implicit solve removes the friction stiffness, so
 //!   the rate is bounded by the explicit suspension (Husky roll mode ~36 rad/s: ω·dt = 0.36)
