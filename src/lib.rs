@@ -1,6 +1,7 @@
 //! drive-sim: a simulation-backed test harness for the DRIVE protocol.
 //!
-//! Data flows one way: robot and terrain models ([`robot`], [`terrain`]) → simulator ([`sim`])
+//! Data flows one way: robot, terrain and effect models ([`robot`], [`terrain`], [`effects`]) →
+//! simulator ([`sim`])
 //! driven by the protocol ([`protocol`]) → logs ([`log`]) → analysis ([`analysis`]) and
 //! calibration ([`calibration`]) → figures and reports ([`report`]) → experiments composed from
 //! them ([`experiments`]: runs, analysis, demo, sampler comparison, sweep runs). The [`cli`]
@@ -10,6 +11,7 @@ pub mod analysis;
 pub mod calibration;
 pub mod cli;
 pub mod config;
+pub mod effects;
 pub mod error;
 pub mod experiments;
 pub mod geometry;

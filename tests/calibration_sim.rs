@@ -7,14 +7,15 @@
 //! (`DATASETS=warthog_ice,...` to choose).
 
 use drive_sim::calibration::{
-    calibrate, models_for_log, write_report, CalibrationOptions, CalibrationReport, FitOptions, SimFactory,
+    calibrate, models_for_log, write_report, CalibrationOptions, CalibrationReport, SimFactory,
 };
+use drive_sim::effects::Effects;
 use drive_sim::log::csv::read_measured_csv;
 use drive_sim::log::DriveLog;
 use drive_sim::protocol::sampler::UniformWheel;
 use drive_sim::protocol::{run_drive, ProtocolConfig};
 use drive_sim::robot::Robot;
-use drive_sim::sim::{Effects, SensorNoise, SimConfig, Simulator};
+use drive_sim::sim::{SensorNoise, SimConfig, Simulator};
 use drive_sim::terrain::Terrain;
 
 mod common;
@@ -53,15 +54,8 @@ fn synthetic_log(effects: &[(&str, f64)], steps: u32, seed: u64) -> (DriveLog, R
 }
 
 fn cheap_options() -> CalibrationOptions {
-    let budget = |max_iters| FitOptions {
-        max_iters,
-        sd_tolerance: 1e-3,
-    };
     CalibrationOptions {
         seed: 3,
-        terrain_fit: budget(25),
-        effect_fit: budget(20),
-        final_fit: budget(30),
         max_effects: 1,
         grid_step: 0.5,
         // The full candidate list is exercised by the kinematic-model tests; here the
@@ -158,11 +152,6 @@ fn simulator_with_nothing_injected_adds_nothing() {
 /// subset) to keep a dataset to minutes; everything is reported on all held-out steps.
 fn measured_options() -> CalibrationOptions {
     CalibrationOptions {
-        max_fit_steps: Some(30),
-        effect_fit: FitOptions {
-            max_iters: 25,
-            sd_tolerance: 1e-3,
-        },
         ..CalibrationOptions::default()
     }
 }
@@ -195,4 +184,32 @@ fn measured_datasets_with_the_simulator() {
     }
     // The held-out score is never worse after calibration.
     assert!(worse.is_empty(), "{worse:?}");
+}
+
+/// A reset simulator replays a step exactly as a new one does (bit for bit), whatever it did
+/// before: replays reuse one world for many steps, and their result must not depend on which
+/// steps share a world (nor on the number of threads).
+#[test]
+fn a_reset_simulator_replays_exactly_as_a_new_one() {
+    use drive_sim::calibration::replay::replay_step;
+    use drive_sim::calibration::steps::{step_slices, step_start};
+    use drive_sim::calibration::{ModelParams, PlantFactory};
+    let (log, robot, terrain) = synthetic_log(&[("dead_time_s", 0.1)], 3, 5);
+    let slices = step_slices(&log);
+    let mut params = ModelParams::new(robot, terrain);
+    params.effects.set("dead_time_s", 0.1).unwrap();
+    let f = SimFactory::default();
+    let run = |plant: &mut dyn drive_sim::sim::Plant, i: usize| {
+        let s = slices[i];
+        replay_step(plant, s, &step_start(s.samples).unwrap(), log.meta.rate_hz).unwrap()
+    };
+    let fresh = run(f.build(&params).unwrap().as_mut(), 2);
+    let mut reused = f.build(&params).unwrap();
+    run(reused.as_mut(), 0);
+    run(reused.as_mut(), 1);
+    let again = run(reused.as_mut(), 2);
+    assert_eq!(fresh.len(), again.len());
+    for (a, b) in fresh.iter().zip(&again) {
+        assert_eq!(a.m, b.m, "sample {} {}", a.window, a.k);
+    }
 }

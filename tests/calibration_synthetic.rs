@@ -7,14 +7,12 @@
 //! and without the effect. Sized for CI: 30 steps, small optimizer budgets.
 
 use drive_sim::calibration::surrogate::{KinematicNoise, KinematicPlant};
-use drive_sim::calibration::{
-    calibrate, CalibrationOptions, CalibrationReport, FitOptions, KinematicFactory,
-};
+use drive_sim::calibration::{calibrate, CalibrationOptions, CalibrationReport, KinematicFactory};
+use drive_sim::effects::Effects;
 use drive_sim::log::DriveLog;
 use drive_sim::protocol::sampler::UniformWheel;
 use drive_sim::protocol::{run_drive, ProtocolConfig};
 use drive_sim::robot::Robot;
-use drive_sim::sim::Effects;
 use drive_sim::terrain::Terrain;
 
 mod common;
@@ -59,18 +57,6 @@ fn synthetic_log(effects: &[(&str, f64)], seed: u64, steps: u32) -> (DriveLog, R
 fn options() -> CalibrationOptions {
     CalibrationOptions {
         seed: 7,
-        terrain_fit: FitOptions {
-            max_iters: 40,
-            sd_tolerance: 1e-3,
-        },
-        effect_fit: FitOptions {
-            max_iters: 30,
-            sd_tolerance: 1e-3,
-        },
-        final_fit: FitOptions {
-            max_iters: 80,
-            sd_tolerance: 1e-3,
-        },
         max_effects: 2,
         grid_step: 0.5,
         ..CalibrationOptions::default()

@@ -1,12 +1,13 @@
 //! Each injectable effect shows its signature; sensors, noise, determinism, replay reset, and a
 //! protocol run on the simulator.
 
+use drive_sim::effects::Effects;
 use drive_sim::kinematics::{BodyVelocity, WheelSpeeds};
 use drive_sim::log::{Measurement, Pose};
 use drive_sim::protocol::sampler::UniformWheel;
 use drive_sim::protocol::{run_drive, ProtocolConfig};
 use drive_sim::robot::Robot;
-use drive_sim::sim::{Effects, Plant, SensorNoise, SimConfig, Simulator};
+use drive_sim::sim::{Plant, SensorNoise, SimConfig, Simulator};
 use drive_sim::terrain::Terrain;
 
 const TICK_S: f64 = 0.05;

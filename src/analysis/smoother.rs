@@ -57,6 +57,18 @@ impl Default for KernelCovariance {
     }
 }
 
+impl KernelCovariance {
+    /// The isotropic variance used for a robot when none is given: the paper's Warthog
+    /// figures (0.64) for a robot faster than 2 m/s, its Husky value (0.25) otherwise.
+    pub fn default_variance_for(robot: &crate::robot::Robot) -> f64 {
+        if robot.limits.max_lin_m_s > 2.0 {
+            0.64
+        } else {
+            0.25
+        }
+    }
+}
+
 /// Parameters of the fast smoother.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct FastParams {

@@ -1,115 +1,72 @@
-//! Fitting model parameters to a recording: a deterministic train/held-out split of the steps,
-//! a cost that replays the training steps in parallel and scores them against the noise floor,
-//! and argmin's Nelder-Mead over the parameters scaled to their search box.
+//! Fitting model parameters to recorded steps: the replay of a [`StepSet`] as a
+//! [`LeastSquares`] problem, solved by Levenberg–Marquardt (or, to compare, Nelder–Mead), on/off
+//! parameters enumerated, and the fitted values with their clustered standard errors.
 
-use super::metrics::{score, step_errors, step_features, NoiseFloor, StepErrors, StepFeatures};
-use super::model::{ModelParams, ParamSpec, PlantFactory};
-use super::replay::{replay_step, StepSlice};
+use super::data::StepSet;
+use super::metrics::{NoiseFloor, MIN_CHANNEL_RATIO};
+use super::model::{ModelParams, PlantFactory};
+use super::params::ParamSpec;
+use super::solver::covariance::{sandwich, Covariance};
+use super::solver::lm::{self, LmOptions};
+use super::solver::nelder_mead::{self, NmOptions};
+use super::solver::{Iteration, Layout, LeastSquares, Solution, Stop};
 use crate::error::{Error, Result};
-use argmin::core::{CostFunction, Executor, State, TerminationReason};
-use argmin::solver::neldermead::NelderMead;
-use rand::seq::SliceRandom;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::OnceLock;
 
-/// Cost of a model that cannot be built or diverges: worse than any real score.
-const INVALID_COST: f64 = 1e9;
-
-/// Splits step indices into (training, held-out): a seeded shuffle, then the first
-/// `round(train_fraction * n)` steps train (at least one of each when n >= 2). Both sorted.
-pub fn split_steps(steps: &[u32], train_fraction: f64, seed: u64) -> (Vec<u32>, Vec<u32>) {
-    let mut s = steps.to_vec();
-    s.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
-    let n = s.len();
-    let mut k = (train_fraction.clamp(0.0, 1.0) * n as f64).round() as usize;
-    if n >= 2 {
-        k = k.clamp(1, n - 1);
-    }
-    let mut test = s.split_off(k.min(n));
-    s.sort_unstable();
-    test.sort_unstable();
-    (s, test)
+/// Which local solver fits continuous parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Optimizer {
+    /// Levenberg–Marquardt on the log score with finite-difference Jacobians (the default).
+    LevenbergMarquardt,
+    /// argmin's Nelder–Mead on the score (the first calibration's optimizer; for comparison).
+    NelderMead,
 }
 
-/// Recorded steps with their measured features: what a model is scored on.
-#[derive(Debug, Clone)]
-pub struct StepSet<'a> {
-    /// The recorded steps.
-    pub steps: Vec<StepSlice<'a>>,
-    /// Their features.
-    pub features: Vec<StepFeatures>,
-    /// Sample rate, Hz.
-    pub rate_hz: f64,
-}
+impl Optimizer {
+    /// Names accepted by [`Optimizer::parse`].
+    pub const NAMES: &'static [&'static str] = &["levenberg-marquardt", "nelder-mead"];
 
-impl<'a> StepSet<'a> {
-    /// Selects `which` steps of `all` (in that order).
-    pub fn new(all: &[StepSlice<'a>], which: &[u32], rate_hz: f64) -> Result<Self> {
-        let steps: Vec<StepSlice<'a>> = which
-            .iter()
-            .map(|w| {
-                all.iter()
-                    .find(|s| s.step == *w)
-                    .copied()
-                    .ok_or_else(|| Error::Analysis(format!("step {w} is not in the log")))
-            })
-            .collect::<Result<_>>()?;
-        let features = steps
-            .iter()
-            .map(|s| step_features(s.step, s.samples))
-            .collect::<Result<_>>()?;
-        Ok(Self {
-            steps,
-            features,
-            rate_hz,
-        })
-    }
-
-    /// Replays every step (in parallel) on the model and compares it with the recording.
-    pub fn errors(&self, factory: &dyn PlantFactory, params: &ModelParams) -> Result<Vec<StepErrors>> {
-        self.steps
-            .par_iter()
-            .zip(self.features.par_iter())
-            .map(|(s, meas)| {
-                let mut plant = factory.build(params)?;
-                let sim = replay_step(plant.as_mut(), *s, self.rate_hz)?;
-                step_errors(&step_features(s.step, &sim)?, meas)
-            })
-            .collect()
-    }
-
-    /// Score of a model on these steps ([`super::metrics::score`]).
-    pub fn score(&self, factory: &dyn PlantFactory, params: &ModelParams, floor: &NoiseFloor) -> Result<f64> {
-        let e = self.errors(factory, params)?;
-        Ok(score(&e, floor))
+    /// Parses a solver name (for the CLI).
+    pub fn parse(name: &str) -> Result<Self> {
+        match name {
+            "levenberg-marquardt" | "lm" => Ok(Self::LevenbergMarquardt),
+            "nelder-mead" | "nm" => Ok(Self::NelderMead),
+            _ => Err(Error::Unknown {
+                kind: "optimizer",
+                name: name.to_string(),
+                available: Self::NAMES.join(", "),
+            }),
+        }
     }
 }
 
-/// Optimizer budget.
+/// Solver choice and budgets.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FitOptions {
-    /// Nelder-Mead iterations at most (each costs one to n+2 replays of the training set).
-    pub max_iters: u64,
-    /// Converged when the standard deviation of the simplex costs falls below this.
-    pub sd_tolerance: f64,
+    /// Local solver.
+    pub optimizer: Optimizer,
+    /// Levenberg–Marquardt tolerances and budget.
+    pub lm: LmOptions,
+    /// Nelder–Mead budget.
+    pub nm: NmOptions,
 }
 
 impl Default for FitOptions {
     fn default() -> Self {
         Self {
-            max_iters: 60,
-            sd_tolerance: 1e-3,
+            optimizer: Optimizer::LevenbergMarquardt,
+            lm: LmOptions::default(),
+            nm: NmOptions::default(),
         }
     }
 }
 
-/// A parameter's value before and after a fit.
+/// A parameter's value before and after a fit, with its uncertainty.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FittedParam {
-    /// Dotted name.
+    /// Report name (`terrain.friction.peak_lateral`, `effect.dead_time_s`).
     pub name: String,
     /// Value before the fit (`None`: an effect that was off).
     pub initial: Option<f64>,
@@ -119,140 +76,268 @@ pub struct FittedParam {
     pub lower: f64,
     /// Search box.
     pub upper: f64,
-    /// The fit ended on the box boundary (the true value may lie beyond it).
+    /// The fit ended on the box boundary (the true value may lie beyond it): a likely stand-in
+    /// for something the model lacks.
     pub at_bound: bool,
+    /// Unit.
+    #[serde(default)]
+    pub unit: String,
+    /// Standard error (clustered sandwich, see `calibration::solver::covariance`); `None` for
+    /// an on/off parameter or one held at a bound; infinite when the data do not constrain it.
+    #[serde(default)]
+    pub se: Option<f64>,
+    /// 95 % interval, value ± 1.96 standard errors.
+    #[serde(default)]
+    pub ci95: Option<[f64; 2]>,
+    /// The data determine it: finite standard error, |correlation| ≤ 0.95 with every other
+    /// fitted parameter, and (for an effect) an interval that excludes the neutral value.
+    /// `None` when not assessed (on/off parameters, parameters at a bound).
+    #[serde(default)]
+    pub identifiable: Option<bool>,
+    /// Why it is not identifiable, in words.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub identifiability_note: Option<String>,
+    /// Its 95 % interval contains the neutral value (an effect parameter the data cannot tell
+    /// from absent). One parameter of a several-parameter effect may be neutral (only the
+    /// left motor is weak); the effect is not identifiable when all of them are.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub neutral_in_interval: Option<bool>,
+    /// Not identifiable for a reason other than a neutral value in its interval: infinite
+    /// standard error, or confused with another parameter.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub confounded: bool,
 }
 
+/// Correlation above which two parameters count as indistinguishable.
+pub const MAX_CORRELATION: f64 = 0.95;
+
 impl FittedParam {
-    /// `value` of the parameter `spec` describes; on its bound when a continuous value lies in
-    /// the outer half percent of the box.
+    /// `value` of the parameter `spec` describes, without uncertainty yet; on its bound when a
+    /// continuous value lies in the outer half percent of the box.
     pub fn of(spec: &ParamSpec, initial: Option<f64>, value: f64) -> Self {
-        let c = (value - spec.lower) / (spec.upper - spec.lower);
         Self {
-            name: spec.name.clone(),
+            name: spec.param.name(),
             initial,
             value,
             lower: spec.lower,
             upper: spec.upper,
-            at_bound: !spec.discrete && !(0.005..=0.995).contains(&c),
+            at_bound: spec.at_bound(value),
+            unit: spec.param.unit().to_string(),
+            se: None,
+            ci95: None,
+            identifiable: None,
+            identifiability_note: None,
+            neutral_in_interval: None,
+            confounded: false,
         }
+    }
+
+    /// Sets the standard error, interval and identifiability of parameter `i` of `cov`; for an
+    /// effect parameter, the interval must exclude the neutral value (for a limit, whose
+    /// neutral value is infinite: stay below the box's top, the largest command).
+    fn with_uncertainty(mut self, spec: &ParamSpec, cov: &Covariance, i: usize) -> Self {
+        let se = cov.se[i];
+        self.se = Some(se);
+        let mut why = Vec::new();
+        if se.is_finite() {
+            let ci = [self.value - 1.96 * se, self.value + 1.96 * se];
+            self.ci95 = Some(ci);
+            if let Some(n) = spec.param.neutral() {
+                let contains = if n.is_infinite() {
+                    ci[1] >= spec.upper
+                } else {
+                    ci[0] <= n && n <= ci[1]
+                };
+                self.neutral_in_interval = Some(contains);
+                if contains {
+                    why.push(format!(
+                        "its 95 % interval [{:.4}, {:.4}] contains the neutral value{}",
+                        ci[0],
+                        ci[1],
+                        if n.is_infinite() {
+                            " (a limit above every command)".to_string()
+                        } else {
+                            format!(" {n}")
+                        }
+                    ));
+                }
+            }
+        } else {
+            self.confounded = true;
+            why.push("the data do not constrain it (singular information matrix)".into());
+        }
+        // A correlation near 1 between parameters each measured to a small fraction of its
+        // box is a precisely measured combination, not a confusion: only a correlated
+        // parameter that is also loosely determined counts as confounded.
+        let corr = cov.max_abs_correlation(i);
+        if corr > MAX_CORRELATION && !(se < LOOSE_SE_FRACTION * (spec.upper - spec.lower)) {
+            let j = (0..cov.names.len())
+                .filter(|&j| j != i && !cov.information_correlation[i][j].is_nan())
+                .max_by(|&a, &b| {
+                    let ca = cov.information_correlation[i][a].abs();
+                    let cb = cov.information_correlation[i][b].abs();
+                    ca.total_cmp(&cb)
+                })
+                .unwrap_or(i);
+            self.confounded = true;
+            why.push(format!(
+                "|information correlation| {corr:.3} with {}: the model cannot tell them apart",
+                cov.names[j]
+            ));
+        }
+        self.identifiable = Some(why.is_empty());
+        self.identifiability_note = (!why.is_empty()).then(|| why.join("; "));
+        self
     }
 }
 
-/// Outcome of one optimization.
+/// A standard error above this share of the search box makes a parameter loosely determined.
+pub const LOOSE_SE_FRACTION: f64 = 0.01;
+
+/// Outcome of one fit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FitResult {
     /// Fitted parameters.
     pub params: Vec<FittedParam>,
-    /// Training score before the fit.
+    /// Score (on the steps fitted) before the fit.
     pub initial_score: f64,
-    /// Training score at the fitted values.
+    /// Score at the fitted values.
     pub score: f64,
-    /// Cost evaluations (each one replay of the training set).
+    /// Model evaluations (each one replay of the steps fitted).
     pub evaluations: u64,
-    /// The optimizer met its tolerance (false: budget exhausted, or failure, see `status`).
+    /// The solver stopped at a minimum (false: budget exhausted, or failure, see `status`).
     pub converged: bool,
     /// Why it stopped, in words.
     pub status: String,
+    /// Which criterion stopped it.
+    #[serde(default)]
+    pub stop: Option<Stop>,
+    /// Solver iterations.
+    #[serde(default)]
+    pub iterations: u64,
+    /// Covariance of the continuous parameters not held at a bound.
+    #[serde(default)]
+    pub covariance: Option<Covariance>,
 }
 
-struct Problem<'a, 'b> {
+impl FitResult {
+    /// The fitted parameter named `name`.
+    pub fn param(&self, name: &str) -> Option<&FittedParam> {
+        self.params.iter().find(|p| p.name == name)
+    }
+}
+
+/// The replay of `data` with `specs` varied around `base`, as a least-squares problem.
+pub struct ReplayProblem<'a, 'b> {
     data: &'b StepSet<'a>,
     factory: &'b dyn PlantFactory,
-    base: &'b ModelParams,
-    specs: Vec<&'b ParamSpec>,
-    fixed: Vec<(&'b ParamSpec, f64)>,
-    floor: &'b NoiseFloor,
-    evals: AtomicU64,
+    base: ModelParams,
+    specs: Vec<ParamSpec>,
+    floor: [f64; 10],
+    layout: OnceLock<Layout>,
 }
 
-impl Problem<'_, '_> {
-    /// Model at normalized coordinates `x` (clamped to the box), and the squared distance
-    /// outside the box (a penalty keeps the simplex inside).
-    fn model(&self, x: &[f64]) -> Result<(ModelParams, f64)> {
-        let mut p = self.base.clone();
-        let mut outside = 0.0;
-        for (spec, xi) in self.specs.iter().zip(x) {
-            let c = xi.clamp(0.0, 1.0);
-            outside += (xi - c).powi(2);
-            p.set(&spec.name, spec.lower + c * (spec.upper - spec.lower))?;
-        }
-        for (spec, v) in &self.fixed {
-            p.set(&spec.name, *v)?;
-        }
-        Ok((p, outside))
-    }
-
-    fn eval(&self, x: &[f64]) -> f64 {
-        self.evals.fetch_add(1, Ordering::Relaxed);
-        match self.model(x) {
-            Ok((p, outside)) => match self.data.score(self.factory, &p, self.floor) {
-                Ok(s) if s.is_finite() => s * (1.0 + 100.0 * outside),
-                _ => INVALID_COST,
-            },
-            Err(_) => INVALID_COST,
+impl<'a, 'b> ReplayProblem<'a, 'b> {
+    /// The problem of fitting `specs` (continuous) of `base` on `data`.
+    pub fn new(
+        data: &'b StepSet<'a>,
+        factory: &'b dyn PlantFactory,
+        base: ModelParams,
+        specs: Vec<ParamSpec>,
+        floor: &NoiseFloor,
+    ) -> Self {
+        Self {
+            data,
+            factory,
+            base,
+            specs,
+            floor: floor.score_channels(),
+            layout: OnceLock::new(),
         }
     }
-}
 
-impl CostFunction for &Problem<'_, '_> {
-    type Param = Vec<f64>;
-    type Output = f64;
-    fn cost(&self, x: &Self::Param) -> std::result::Result<f64, argmin::core::Error> {
-        Ok(self.eval(x))
+    /// The model at parameters `x`.
+    pub fn model(&self, x: &[f64]) -> Result<ModelParams> {
+        self.base.with_values(&self.specs, x)
+    }
+
+    fn flat(&self, x: &[f64]) -> Option<(Vec<f64>, Vec<u8>, Vec<u32>)> {
+        let m = self.model(x).ok()?;
+        let res = self.data.residuals(self.factory, &m).ok()?;
+        let (mut v, mut c, mut k) = (Vec::new(), Vec::new(), Vec::new());
+        for (i, r) in res.iter().enumerate() {
+            let before = v.len();
+            r.flatten_into(&mut v, &mut c);
+            k.extend(std::iter::repeat_n(i as u32, v.len() - before));
+        }
+        Some((v, c, k))
+    }
+
+    /// Fixes the layout from an evaluation at `x` (the replay mirrors the recording's
+    /// structure, so any successful evaluation gives the same one).
+    fn init_layout(&self, x: &[f64]) -> Option<()> {
+        if self.layout.get().is_none() {
+            let (_, channel, cluster) = self.flat(x)?;
+            let _ = self.layout.set(Layout {
+                channel,
+                cluster,
+                floor: self.floor.to_vec(),
+                min_ratio: MIN_CHANNEL_RATIO,
+            });
+        }
+        Some(())
     }
 }
 
-fn start_value(base: &ModelParams, spec: &ParamSpec) -> f64 {
-    match base.get(&spec.name) {
-        Ok(Some(v)) if v >= spec.lower && v <= spec.upper => v,
-        _ => spec.start.unwrap_or((spec.lower + spec.upper) / 2.0),
+impl LeastSquares for ReplayProblem<'_, '_> {
+    fn dim(&self) -> usize {
+        self.specs.len()
+    }
+    fn bounds(&self) -> Vec<(f64, f64)> {
+        self.specs.iter().map(|s| (s.lower, s.upper)).collect()
+    }
+    fn resolution(&self, j: usize) -> Option<f64> {
+        self.specs[j].param.resolution()
+    }
+    fn residuals(&self, x: &[f64]) -> Option<Vec<f64>> {
+        let (v, c, _) = self.flat(x)?;
+        (c == self.layout.get()?.channel).then_some(v)
+    }
+    fn layout(&self) -> &Layout {
+        self.layout.get().expect("layout initialised before solving")
     }
 }
 
-/// One Nelder-Mead run from `x0` with a simplex of side `step` (normalized units): the best
-/// cost and point, and why it stopped if not by convergence. An optimizer failure keeps `x0`.
-fn nelder_mead(
-    problem: &Problem<'_, '_>,
+fn solve(
+    problem: &ReplayProblem<'_, '_>,
     x0: &[f64],
-    step: f64,
     opts: &FitOptions,
-) -> Result<(f64, Vec<f64>, Option<String>)> {
-    let mut simplex = vec![x0.to_vec()];
-    for i in 0..x0.len() {
-        let mut v = x0.to_vec();
-        v[i] += if v[i] + step <= 1.0 { step } else { -step };
-        simplex.push(v);
+    observe: &mut dyn FnMut(&Iteration),
+) -> Solution {
+    if problem.init_layout(x0).is_none() {
+        return Solution {
+            x: x0.to_vec(),
+            score: f64::NAN,
+            initial_score: f64::NAN,
+            iterations: 0,
+            evaluations: 1,
+            stop: Stop::Failed,
+            residuals: Vec::new(),
+            jacobian: None,
+        };
     }
-    let solver = NelderMead::new(simplex)
-        .with_sd_tolerance(opts.sd_tolerance)
-        .map_err(|e| Error::Analysis(format!("optimizer setup: {e}")))?;
-    let run = Executor::new(problem, solver)
-        .configure(|s| s.max_iters(opts.max_iters))
-        .run();
-    Ok(match run {
-        Ok(res) => {
-            let st = res.state();
-            let stop = match st.get_termination_reason() {
-                Some(TerminationReason::SolverConverged) => None,
-                Some(r) => Some(format!("Nelder-Mead stopped: {}", r.text())),
-                None => Some("Nelder-Mead stopped without a reason".to_string()),
-            };
-            let x = st.get_best_param().cloned().unwrap_or_else(|| x0.to_vec());
-            (st.get_best_cost(), x, stop)
-        }
-        Err(e) => (
-            problem.eval(x0),
-            x0.to_vec(),
-            Some(format!("Nelder-Mead failed: {e}; kept the start values")),
-        ),
-    })
+    match opts.optimizer {
+        Optimizer::LevenbergMarquardt => lm::minimize(problem, x0, &opts.lm, observe),
+        Optimizer::NelderMead => nelder_mead::minimize(problem, x0, &opts.nm, observe),
+    }
 }
 
-/// Fits `specs` on the steps of `data`, starting from `base` (current values, or each spec's
-/// start for an absent effect). Discrete parameters are enumerated at both bounds; continuous
-/// ones go to Nelder-Mead, restarted once with a smaller simplex after it converges. Returns the best model found and what happened; a failed or
-/// unconverged optimization is reported in [`FitResult`], not as an error.
+/// Fits `specs` on the steps of `data`, starting from `base` (its own values inside the box,
+/// else each spec's start). On/off parameters are enumerated at both values; continuous ones
+/// go to the chosen solver. The covariance of the continuous parameters not held at a bound is
+/// computed at the solution (Levenberg–Marquardt only: it needs the Jacobian). Returns the
+/// best model found and what happened; an unconverged or failed fit is reported in
+/// [`FitResult`], not as an error.
 pub fn fit(
     data: &StepSet<'_>,
     factory: &dyn PlantFactory,
@@ -260,115 +345,91 @@ pub fn fit(
     specs: &[ParamSpec],
     floor: &NoiseFloor,
     opts: &FitOptions,
+    observe: &mut dyn FnMut(&Iteration),
 ) -> Result<(ModelParams, FitResult)> {
+    let (discrete, continuous): (Vec<ParamSpec>, Vec<ParamSpec>) = specs.iter().partition(|s| s.discrete);
+    let x0: Vec<f64> = continuous.iter().map(|s| s.start_in(base)).collect();
+    // The score of the model as it is (not at the solver's start, which may differ: an effect
+    // that is off starts inside its box).
     let initial_score = data.score(factory, base, floor)?;
-    let (discrete, continuous): (Vec<&ParamSpec>, Vec<&ParamSpec>) = specs.iter().partition(|s| s.discrete);
-    // (cost, continuous coordinates, discrete values) of the best combination so far.
-    type Best<'s> = (f64, Vec<f64>, Vec<(&'s ParamSpec, f64)>);
-    let mut best: Option<Best<'_>> = None;
-    let mut evaluations = 0;
-    let mut converged = true;
-    let mut status = Vec::new();
+    let mut best: Option<(Solution, ModelParams, ReplayProblem<'_, '_>)> = None;
+    let mut evaluations = 1u64;
     for combo in 0..(1u32 << discrete.len()) {
-        let fixed: Vec<(&ParamSpec, f64)> = discrete
+        let values: Vec<f64> = discrete
             .iter()
             .enumerate()
-            .map(|(i, s)| (*s, if combo >> i & 1 == 1 { s.upper } else { s.lower }))
+            .map(|(i, s)| if combo >> i & 1 == 1 { s.upper } else { s.lower })
             .collect();
-        let problem = Problem {
-            data,
-            factory,
-            base,
-            specs: continuous.clone(),
-            fixed: fixed.clone(),
-            floor,
-            evals: AtomicU64::new(0),
+        let Ok(fixed) = base.with_values(&discrete, &values) else {
+            continue;
         };
-        let x0: Vec<f64> = continuous
-            .iter()
-            .map(|s| (start_value(base, s) - s.lower) / (s.upper - s.lower))
-            .collect();
-        let (cost, x) = if continuous.is_empty() {
-            (problem.eval(&[]), Vec::new())
-        } else {
-            let first = nelder_mead(&problem, &x0, 0.2, opts)?;
-            // A simplex can collapse before the minimum (a valley across its axes): restart
-            // once, smaller, from where it stopped, and keep the better end. Only after a
-            // converged run: a run that used its budget has nothing left to confirm with.
-            let (cost, x, stop) = match first {
-                (c, x, None) => {
-                    let half = FitOptions {
-                        max_iters: (opts.max_iters / 2).max(1),
-                        ..opts.clone()
-                    };
-                    let second = nelder_mead(&problem, &x, 0.05, &half)?;
-                    if second.0 < c {
-                        second
-                    } else {
-                        (c, x, None)
-                    }
-                }
-                other => other,
-            };
-            if let Some(why) = stop {
-                converged = false;
-                status.push(why);
-            }
-            (cost, x)
-        };
-        evaluations += problem.evals.load(Ordering::Relaxed);
-        if best.as_ref().is_none_or(|b| cost < b.0) {
-            best = Some((cost, x, fixed));
+        let problem = ReplayProblem::new(data, factory, fixed, continuous.clone(), floor);
+        let sol = solve(&problem, &x0, opts, observe);
+        evaluations += sol.evaluations as u64;
+        if sol.score.is_finite() && best.as_ref().is_none_or(|b| sol.score < b.0.score) {
+            let model = problem.model(&sol.x)?;
+            best = Some((sol, model, problem));
         }
     }
-    let (cost, x, fixed) = best.ok_or_else(|| Error::Analysis("nothing to fit".into()))?;
-    let mut model = base.clone();
-    let mut params = Vec::new();
-    let values = continuous
-        .iter()
-        .zip(&x)
-        .map(|(spec, xi)| (*spec, spec.lower + xi.clamp(0.0, 1.0) * (spec.upper - spec.lower)))
-        .chain(fixed);
-    for (spec, value) in values {
-        model.set(&spec.name, value)?;
-        params.push(FittedParam::of(spec, base.get(&spec.name)?, value));
+    let Some((sol, model, problem)) = best else {
+        return Err(Error::Analysis(format!(
+            "no model could be evaluated on the {} steps fitted ({} parameters: {})",
+            data.len(),
+            specs.len(),
+            specs
+                .iter()
+                .map(|s| s.param.name())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )));
+    };
+    let mut params: Vec<FittedParam> = Vec::new();
+    // Continuous parameters free at the solution get a covariance.
+    let free: Vec<usize> = (0..continuous.len())
+        .filter(|&i| !continuous[i].at_bound(sol.x[i]))
+        .collect();
+    let covariance = match (&sol.jacobian, free.is_empty()) {
+        (Some(jac), false) if !sol.residuals.is_empty() => Some(sandwich(
+            problem.layout(),
+            &sol.residuals,
+            jac,
+            &free,
+            free.iter().map(|&i| continuous[i].param.name()).collect(),
+        )),
+        _ => None,
+    };
+    for (i, s) in continuous.iter().enumerate() {
+        let mut p = FittedParam::of(s, initial_of(s, base), sol.x[i]);
+        if let (Some(cov), Some(k)) = (&covariance, free.iter().position(|&f| f == i)) {
+            p = p.with_uncertainty(s, cov, k);
+        }
+        params.push(p);
     }
-    if cost >= INVALID_COST {
-        converged = false;
-        status.push("every evaluated model failed to build or diverged".into());
+    for s in &discrete {
+        params.push(FittedParam::of(s, initial_of(s, base), s.param.get(&model)));
     }
-    if converged {
-        status.push("converged".into());
-    }
+    // Report in the order asked.
+    params.sort_by_key(|p| specs.iter().position(|s| s.param.name() == p.name));
     Ok((
         model,
         FitResult {
             params,
             initial_score,
-            score: cost,
+            score: sol.score,
             evaluations,
-            converged,
-            status: status.join("; "),
+            converged: sol.stop.converged(),
+            status: sol.stop.describe().to_string(),
+            stop: Some(sol.stop),
+            iterations: sol.iterations as u64,
+            covariance,
         },
     ))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn split_is_deterministic_disjoint_and_complete() {
-        let steps: Vec<u32> = (0..100).collect();
-        let (a, b) = split_steps(&steps, 0.7, 3);
-        assert_eq!((a.len(), b.len()), (70, 30));
-        assert_eq!(split_steps(&steps, 0.7, 3), (a.clone(), b.clone()));
-        assert_ne!(split_steps(&steps, 0.7, 4).0, a);
-        let mut all: Vec<u32> = a.iter().chain(&b).copied().collect();
-        all.sort_unstable();
-        assert_eq!(all, steps);
-        // Tiny sets still get one step on each side.
-        let (a, b) = split_steps(&[5, 9], 0.99, 0);
-        assert_eq!((a.len(), b.len()), (1, 1));
+fn initial_of(spec: &ParamSpec, base: &ModelParams) -> Option<f64> {
+    let v = spec.param.get(base);
+    match spec.param.neutral() {
+        Some(n) if v == n => None,
+        _ => Some(v),
     }
 }

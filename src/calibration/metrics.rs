@@ -28,7 +28,7 @@
 //! mean). A model at the noise floor scores about 1. It is what the optimizer minimizes and
 //! what the bootstrap (over steps) compares.
 
-use super::replay::StepSlice;
+use super::steps::StepSlice;
 use crate::analysis::velocity::window_kinematics;
 use crate::error::{Error, Result};
 use crate::kinematics::{IdealDiffDrive, WheelSpeeds};
@@ -75,15 +75,6 @@ fn relative(p: &Pose, q: &Pose) -> [f64; 3] {
         -s * dx + c * dy,
         wrap_angle(q.yaw_rad - p.yaw_rad),
     ]
-}
-
-/// Body-frame velocity between two poses `dt_s` apart: the displacement is rotated into the
-/// frame at the mean heading, which makes a constant-(vx, wz) arc give vy = 0 exactly.
-pub fn body_rate(p: &Pose, q: &Pose, dt_s: f64) -> [f64; 3] {
-    let (dx, dy) = (q.x_m - p.x_m, q.y_m - p.y_m);
-    let dyaw = wrap_angle(q.yaw_rad - p.yaw_rad);
-    let (s, c) = (p.yaw_rad + dyaw / 2.0).sin_cos();
-    [(c * dx + s * dy) / dt_s, (-s * dx + c * dy) / dt_s, dyaw / dt_s]
 }
 
 /// Extracts the features of one step.
@@ -236,6 +227,13 @@ impl NoiseFloor {
     }
 }
 
+impl NoiseFloor {
+    /// The floor of each score channel ([`STEADY_CHANNELS`] then [`SERIES_CHANNELS`]).
+    pub fn score_channels(&self) -> [f64; SCORE_CHANNELS] {
+        std::array::from_fn(|c| if c < 6 { self.steady[c] } else { self.series[c - 6] })
+    }
+}
+
 /// Standard deviation from absolute deviations about zero: 1.4826 · median(|d|).
 fn mad_sigma(abs_dev: &[f64]) -> f64 {
     let mut v: Vec<f64> = abs_dev.iter().copied().filter(|x| x.is_finite()).collect();
@@ -271,8 +269,71 @@ pub struct StepErrors {
     pub n_windows: usize,
 }
 
-/// Compares a replayed step with the recorded one (same step, same sampling).
-pub fn step_errors(sim: &StepFeatures, meas: &StepFeatures) -> Result<StepErrors> {
+/// The residuals (model − recording) of one replayed step, entry by entry: what the
+/// least-squares fit works on. Each entry belongs to one of the 10 score channels
+/// ([`STEADY_CHANNELS`] then [`SERIES_CHANNELS`]); the 2 s displacements are kept for the error
+/// tables but are not part of the score.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepResiduals {
+    /// Step index.
+    pub step: u32,
+    /// Per steady window, the [`STEADY_CHANNELS`] residuals of the window means.
+    pub steady: Vec<[f64; 6]>,
+    /// Per transient-window sample, the [`SERIES_CHANNELS`] residuals.
+    pub transient: Vec<[f64; 4]>,
+    /// Per window, the displacement residual (dx m, dy m, dyaw rad).
+    pub pose: Vec<[f64; 3]>,
+}
+
+/// Number of score channels: 6 steady, then 4 transient.
+pub const SCORE_CHANNELS: usize = 10;
+
+impl StepResiduals {
+    /// Sums of squares, as [`StepErrors`].
+    pub fn errors(&self) -> StepErrors {
+        let mut e = StepErrors {
+            step: self.step,
+            steady_sq: [0.0; 6],
+            n_steady: self.steady.len(),
+            transient_sq: [0.0; 4],
+            n_transient: self.transient.len(),
+            pose_sq: [0.0; 2],
+            n_windows: self.pose.len(),
+        };
+        for r in &self.steady {
+            for c in 0..6 {
+                e.steady_sq[c] += r[c] * r[c];
+            }
+        }
+        for r in &self.transient {
+            for c in 0..4 {
+                e.transient_sq[c] += r[c] * r[c];
+            }
+        }
+        for r in &self.pose {
+            e.pose_sq[0] += r[0] * r[0] + r[1] * r[1];
+            e.pose_sq[1] += r[2] * r[2];
+        }
+        e
+    }
+
+    /// The score-channel residuals in a fixed order (steady windows, then transient samples),
+    /// appended to `values`, with each entry's channel (0..[`SCORE_CHANNELS`]) appended to
+    /// `channels`.
+    pub fn flatten_into(&self, values: &mut Vec<f64>, channels: &mut Vec<u8>) {
+        for r in &self.steady {
+            values.extend_from_slice(r);
+            channels.extend(0..6u8);
+        }
+        for r in &self.transient {
+            values.extend_from_slice(r);
+            channels.extend(6..10u8);
+        }
+    }
+}
+
+/// Compares a replayed step with the recorded one (same step, same sampling), entry by entry.
+pub fn step_residuals(sim: &StepFeatures, meas: &StepFeatures) -> Result<StepResiduals> {
     if sim.step != meas.step || sim.series.len() != meas.series.len() {
         return Err(Error::Analysis(format!(
             "step {}: replay has {} samples, recording {} (step {})",
@@ -282,35 +343,33 @@ pub fn step_errors(sim: &StepFeatures, meas: &StepFeatures) -> Result<StepErrors
             meas.step
         )));
     }
-    let mut e = StepErrors {
+    let steady = sim
+        .steady
+        .iter()
+        .zip(&meas.steady)
+        .map(|(s, m)| std::array::from_fn(|c| s[c] - m[c]))
+        .collect();
+    let transient = (0..meas.series.len())
+        .filter(|&i| meas.window[i] == 0)
+        .map(|i| std::array::from_fn(|c| sim.series[i][c] - meas.series[i][c]))
+        .collect();
+    let pose = sim
+        .displacement
+        .iter()
+        .zip(&meas.displacement)
+        .map(|(s, m)| [s[0] - m[0], s[1] - m[1], wrap_angle(s[2] - m[2])])
+        .collect();
+    Ok(StepResiduals {
         step: meas.step,
-        steady_sq: [0.0; 6],
-        n_steady: 0,
-        transient_sq: [0.0; 4],
-        n_transient: 0,
-        pose_sq: [0.0; 2],
-        n_windows: 0,
-    };
-    for (s, m) in sim.steady.iter().zip(&meas.steady) {
-        for c in 0..6 {
-            e.steady_sq[c] += (s[c] - m[c]).powi(2);
-        }
-        e.n_steady += 1;
-    }
-    for i in 0..meas.series.len() {
-        if meas.window[i] == 0 {
-            for c in 0..4 {
-                e.transient_sq[c] += (sim.series[i][c] - meas.series[i][c]).powi(2);
-            }
-            e.n_transient += 1;
-        }
-    }
-    for (s, m) in sim.displacement.iter().zip(&meas.displacement) {
-        e.pose_sq[0] += (s[0] - m[0]).powi(2) + (s[1] - m[1]).powi(2);
-        e.pose_sq[1] += wrap_angle(s[2] - m[2]).powi(2);
-        e.n_windows += 1;
-    }
-    Ok(e)
+        steady,
+        transient,
+        pose,
+    })
+}
+
+/// Compares a replayed step with the recorded one (same step, same sampling).
+pub fn step_errors(sim: &StepFeatures, meas: &StepFeatures) -> Result<StepErrors> {
+    step_residuals(sim, meas).map(|r| r.errors())
 }
 
 impl StepErrors {
@@ -322,7 +381,7 @@ impl StepErrors {
 
 /// Below this share of its squared floor a channel stops counting as better: a channel that
 /// happens to match far below its noise would otherwise pull the geometric mean at will.
-const MIN_CHANNEL_RATIO: f64 = 1e-2;
+pub const MIN_CHANNEL_RATIO: f64 = 1e-2;
 
 /// The score of a model over a set of steps (the same step may appear several times, as in a
 /// bootstrap resample): for each of the 10 velocity channels, the mean squared error pooled

@@ -1,106 +1,139 @@
 //! Closing the loop with measured data: how far the simulator is from the robot, which effect
-//! the model lacks, and how much adding it closes the gap, on steps the fit never saw.
+//! the model lacks, and how much adding it closes the gap, on steps no choice ever saw.
 //!
-//! [`calibrate`] runs the loop on a [`DriveLog`]:
-//! 1. split the steps into training and held-out sets (seeded, [`fit::split_steps`]);
-//! 2. estimate the noise floor from the whole recording ([`metrics::NoiseFloor`]);
-//! 3. score the IDD and the declared model on the held-out steps (baseline);
-//! 4. fit the terrain / uncertain robot parameters the plant exposes, on the training steps;
-//!    the fit is kept if it lowers the score on all training steps and on the held-out ones;
-//! 5. residual analysis ([`residual`]) and ranking of candidate effects, each fitted on the
-//!    training steps with the terrain / robot parameters refit beside it, and judged by its
-//!    held-out error reduction ([`candidates`]);
-//! 6. greedy forward selection: add the best effect if it passes the [`SelectionRule`]
-//!    (reduction > k bootstrap standard errors and > a minimum relative gain), refit it jointly
-//!    with the terrain parameters (those may have absorbed part of the effect), re-rank the
-//!    rest on top, repeat. Every fitted change (terrain fit, joint refit) is kept only if it
-//!    lowers the score on all the training steps;
-//! 7. report everything on the held-out steps: IDD, model before, model after, noise floor.
+//! [`calibrate`] runs the loop on a [`DriveLog`] as stages ([`stages`]):
+//! 1. split the steps into training, validation and test sets (seeded, spread over the
+//!    command space, [`data::split_steps`]); estimate the noise floor and the command reach
+//!    on the training steps;
+//! 2. baseline: the IDD and the declared model; the base (terrain / robot) parameters fitted
+//!    on the training steps, kept if they lower the validation score;
+//! 3. screening (simulator model): candidates the kinematic model can represent are fitted
+//!    and ranked with it; the best few and the contact effects go on;
+//! 4. each candidate fitted on the training steps by Levenberg–Marquardt on the project's
+//!    score ([`solver`]), judged on the validation steps (reduction beyond two bootstrap
+//!    standard errors, identifiable parameters); forward selection, pairs, backward pass;
+//! 5. the final joint fit with the clustered covariance of every parameter;
+//! 6. every reported score (IDD, before, after, per channel) on the test steps, which
+//!    nothing else touched.
 //!
 //! Nothing reads what a log says was injected: the effects are found from the data alone.
 //!
-//! Caveat: the held-out steps decide which effect is added and whether the terrain fit is kept
-//! (that is the evidence asked for), so the final held-out score is slightly optimistic for the
-//! selected model; no fit (terrain, effect, joint refit) ever sees the held-out steps.
+//! Which steps each field of [`CalibrationReport`] is computed on: `floor`, `terrain_fit`,
+//! every fitted value and interval: training; `rounds`, `pairs`, `backward`, `screening`
+//! (their `heldout_*` fields) and whether a fit was kept: validation; `idd`, `before`,
+//! `after_terrain`, `after`, `table`, `step_scores`, `total_reduction`, the residual
+//! analyses: test.
 
-pub mod candidates;
+pub mod data;
 pub mod figures;
 pub mod fit;
 pub mod metrics;
 pub mod model;
+pub mod params;
 pub mod replay;
 pub mod residual;
+pub mod solver;
+pub mod stages;
+pub mod steps;
 pub mod surrogate;
 
-pub use candidates::{CandidateEvidence, CommandReach, EffectCandidate, SelectionRule};
-pub use fit::{FitOptions, FitResult, FittedParam};
+pub use data::{split_steps, Split, StepSet};
+pub use fit::{FitOptions, FitResult, FittedParam, Optimizer};
 pub use metrics::{ErrorSummary, NoiseFloor};
-pub use model::{IddFactory, KinematicFactory, ModelParams, ParamSpec, PlantFactory, SimFactory};
+pub use model::{IddFactory, KinematicFactory, ModelParams, PlantFactory, SimFactory};
+pub use params::{Param, ParamSpec};
 pub use replay::{replay_log, ReplayOptions};
 pub use residual::ResidualAnalysis;
+pub use solver::lm::LmOptions;
+pub use solver::nelder_mead::NmOptions;
+pub use stages::candidates::{Candidate, CandidateEvidence, SelectionRule};
+pub use stages::screening::ScreeningReport;
+pub use stages::selection::{BackwardStep, SelectionRound};
+pub use stages::{StageTiming, Timings};
 
+use crate::effects::CommandReach;
 use crate::error::{Error, Result};
-use crate::log::{DriveLog, Origin};
+use crate::log::DriveLog;
 use crate::robot::Robot;
 use crate::terrain::Terrain;
 use serde::{Deserialize, Serialize};
+use stages::{baseline, candidates, final_fit, report, screening, selection, Context};
 use std::path::{Path, PathBuf};
 
 /// Options of [`calibrate`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CalibrationOptions {
-    /// Seed of the train/held-out split and of the bootstrap.
+    /// Seed of the train / validation / test split and of the bootstraps.
     pub seed: u64,
     /// Fraction of the steps used for fitting.
     pub train_fraction: f64,
-    /// Fit at most this many training steps per cost evaluation (a seeded subset; all when
-    /// `None`): replays are the expensive part.
+    /// Fraction of the steps used to choose between models; the test set takes the rest.
+    #[serde(default = "default_validation_fraction")]
+    pub validation_fraction: f64,
+    /// Fit on at most this many training steps (a seeded subset; all when `None`). Estimates
+    /// from data (floor, reach) still use all the training steps.
     pub max_fit_steps: Option<usize>,
-    /// Budget of the terrain / robot-parameter fit.
-    pub terrain_fit: FitOptions,
-    /// Budget of each candidate-effect fit.
-    pub effect_fit: FitOptions,
-    /// Budget of the joint refit (terrain parameters + selected effects) after each effect is
-    /// added (0 iterations: skip it).
-    pub final_fit: FitOptions,
+    /// Solver and budgets of every fit.
+    #[serde(default)]
+    pub fit: FitOptions,
     /// Most effects added.
     pub max_effects: usize,
     /// When an effect counts as an improvement.
     pub rule: SelectionRule,
-    /// Only these candidate effects (all the plant implements when `None`).
+    /// Only these candidate effects (every registered effect the plant can run when `None`).
     pub candidates: Option<Vec<String>>,
+    /// Simulator model: candidates kept after screening with the kinematic model (the
+    /// contact effects, which it cannot represent, are always kept).
+    #[serde(default = "default_screen_keep")]
+    pub screen_keep: usize,
+    /// Pairs are tried among this many top candidates after the forward pass (0: none).
+    #[serde(default = "default_pair_top")]
+    pub pair_top: usize,
+    /// Forward rounds after the first re-rank only this many of the first round's best
+    /// (0: all).
+    #[serde(default = "default_rerank_top")]
+    pub rerank_top: usize,
     /// Grid resolution of the residual maps (m/s and rad/s).
     pub grid_step: f64,
-    /// Kernel variance of the residual maps; by robot size when `None` (0.64 for a robot
-    /// faster than 2 m/s as in the paper's Warthog figures, else 0.25 as for the Husky).
+    /// Kernel variance of the residual maps; by robot size when `None`
+    /// ([`crate::analysis::smoother::KernelCovariance::default_variance_for`]).
     pub kernel_var: Option<f64>,
+}
+
+fn default_validation_fraction() -> f64 {
+    0.2
+}
+fn default_screen_keep() -> usize {
+    3
+}
+fn default_pair_top() -> usize {
+    4
+}
+fn default_rerank_top() -> usize {
+    6
 }
 
 impl Default for CalibrationOptions {
     fn default() -> Self {
         Self {
             seed: 0,
-            train_fraction: 0.7,
+            train_fraction: 0.6,
+            validation_fraction: default_validation_fraction(),
             max_fit_steps: None,
-            terrain_fit: FitOptions::default(),
-            effect_fit: FitOptions {
-                max_iters: 40,
-                sd_tolerance: 1e-3,
-            },
-            final_fit: FitOptions {
-                max_iters: 100,
-                sd_tolerance: 1e-3,
-            },
+            fit: FitOptions::default(),
             max_effects: 3,
             rule: SelectionRule::default(),
             candidates: None,
+            screen_keep: default_screen_keep(),
+            pair_top: default_pair_top(),
+            rerank_top: default_rerank_top(),
             grid_step: 0.1,
             kernel_var: None,
         }
     }
 }
 
-/// One row of the before/after table (held-out steps).
+/// One row of the before/after table (test steps).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TableRow {
     /// Metric.
@@ -120,24 +153,13 @@ pub struct TableRow {
 /// Overall outcome.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CalibrationStatus {
-    /// Every optimizer converged.
+    /// Every optimizer stopped on a convergence criterion.
     pub converged: bool,
     /// What happened, in order (optimizer stops, skipped stages, choices made).
     pub notes: Vec<String>,
 }
 
-/// One round of the greedy selection.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SelectionRound {
-    /// Round index, from 0.
-    pub round: usize,
-    /// Candidates ranked by held-out reduction, best first.
-    pub ranking: Vec<CandidateEvidence>,
-    /// The effect added in this round, if any.
-    pub added: Option<String>,
-}
-
-/// Per held-out step scores (same step order as `heldout_steps`), for distributions.
+/// Per test step scores (same step order as `heldout_steps`), for distributions.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StepScores {
     /// IDD.
@@ -148,7 +170,8 @@ pub struct StepScores {
     pub after: Vec<f64>,
 }
 
-/// Everything [`calibrate`] found, serializable to JSON.
+/// Everything [`calibrate`] found, serializable to JSON (see the module doc for which steps
+/// each field is computed on).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CalibrationReport {
     /// Dataset name.
@@ -161,47 +184,67 @@ pub struct CalibrationReport {
     pub options: CalibrationOptions,
     /// Outcome.
     pub status: CalibrationStatus,
-    /// Training steps.
+    /// Training steps (fits, noise floor, command reach).
     pub train_steps: Vec<u32>,
-    /// Held-out steps (every figure of the table is computed on them).
+    /// Validation steps (model choices).
+    #[serde(default)]
+    pub validation_steps: Vec<u32>,
+    /// Test steps: every figure of the table is computed on them, and only there.
     pub heldout_steps: Vec<u32>,
-    /// Before/after table on the held-out steps.
+    /// Before/after table on the test steps.
     pub table: Vec<TableRow>,
-    /// Noise floor estimate.
+    /// Noise floor estimate (training steps).
     pub floor: NoiseFloor,
-    /// Held-out error of the IDD.
+    /// Test error of the IDD.
     pub idd: ErrorSummary,
-    /// Held-out error of the declared model.
+    /// Test error of the declared model.
     pub before: ErrorSummary,
-    /// Held-out error after terrain calibration only.
+    /// Test error after the base (terrain) fit only.
     pub after_terrain: ErrorSummary,
-    /// Held-out error of the final model.
+    /// Test error of the final model.
     pub after: ErrorSummary,
-    /// Per-step held-out scores.
+    /// Per-step test scores.
     pub step_scores: StepScores,
-    /// Held-out score reduction before → after, and its bootstrap standard error.
+    /// Test score reduction before → after.
     pub total_reduction: f64,
-    /// Bootstrap standard error of `total_reduction`.
+    /// Bootstrap standard error of `total_reduction` (test steps resampled).
     pub total_reduction_se: f64,
-    /// Terrain / robot-parameter fit.
+    /// Base (terrain / robot) fit, with intervals.
     pub terrain_fit: Option<FitResult>,
-    /// The terrain fit was kept (false: it did not lower the score on all training steps, or
-    /// on the held-out steps; the declared values were kept).
+    /// The base fit was kept (false: it did not lower the validation score).
     pub terrain_fit_kept: bool,
-    /// Selection rounds; the first one's ranking is the ranked list of candidate effects
-    /// against the terrain-calibrated model.
+    /// Screening with the kinematic model (simulator calibrations).
+    #[serde(default)]
+    pub screening: Option<ScreeningReport>,
+    /// Forward selection rounds; the first one's ranking is the ranked list of candidate
+    /// effects against the base-fitted model.
     pub rounds: Vec<SelectionRound>,
-    /// Effects in the final model with their fitted values (`effect.<name>`).
+    /// Pairs tried after the forward pass.
+    #[serde(default)]
+    pub pairs: Vec<CandidateEvidence>,
+    /// The backward pass.
+    #[serde(default)]
+    pub backward: Vec<BackwardStep>,
+    /// The final joint fit, with the covariance of every parameter.
+    #[serde(default)]
+    pub final_fit: Option<FitResult>,
+    /// The final joint fit replaced the selected model.
+    #[serde(default)]
+    pub final_fit_kept: bool,
+    /// Parameters that ended on a bound: likely stand-ins for an effect the model lacks.
+    #[serde(default)]
+    pub stand_ins: Vec<String>,
+    /// Effects in the final model with their fitted values (`effect.<name>`) and intervals.
     pub effects: Vec<FittedParam>,
-    /// Effects the plant implements but that were not evaluated (no known search box).
+    /// Registered effects this model cannot run (contact effects for the kinematic model).
     pub not_evaluated: Vec<String>,
     /// Model before.
     pub model_before: ModelParams,
     /// Model after.
     pub model_after: ModelParams,
-    /// Residual of the terrain-calibrated model (before effects), held-out steps.
+    /// Residual of the base-fitted model (before effects), test steps.
     pub residual_before: ResidualAnalysis,
-    /// Residual of the final model, held-out steps.
+    /// Residual of the final model, test steps.
     pub residual_after: ResidualAnalysis,
     /// A command line that reproduces this report.
     pub reproduce: String,
@@ -230,28 +273,6 @@ pub fn models_for_log(log: &DriveLog) -> Result<(Robot, Terrain, Vec<String>)> {
     Ok((robot, terrain, notes))
 }
 
-fn table(
-    idd: &ErrorSummary,
-    before: &ErrorSummary,
-    after: &ErrorSummary,
-    floor: &ErrorSummary,
-) -> Vec<TableRow> {
-    idd.rows()
-        .into_iter()
-        .zip(before.rows())
-        .zip(after.rows())
-        .zip(floor.rows())
-        .map(|(((i, b), a), f)| TableRow {
-            metric: i.metric,
-            unit: i.unit,
-            idd: i.value,
-            sim_before: b.value,
-            sim_after: a.value,
-            floor: f.value,
-        })
-        .collect()
-}
-
 /// Runs the calibration loop (see the module doc) of the plant `factory` builds, starting
 /// from `robot` and `terrain`, on `log`.
 pub fn calibrate(
@@ -261,150 +282,50 @@ pub fn calibrate(
     factory: &dyn PlantFactory,
     opts: &CalibrationOptions,
 ) -> Result<CalibrationReport> {
-    calibrate_with_progress(log, robot, terrain, factory, opts, &mut |_| {})
+    calibrate_timed(log, robot, terrain, factory, opts, &|_| {}).map(|(r, _)| r)
 }
 
-/// [`calibrate`], telling `progress` in a line what each stage found as it ends (for a CLI:
-/// a simulator calibration takes minutes).
-pub fn calibrate_with_progress(
+/// [`calibrate`], telling `progress` in a line what each stage found as it ends, and
+/// returning the per-stage timings.
+pub fn calibrate_timed(
     log: &DriveLog,
     robot: &Robot,
     terrain: &Terrain,
     factory: &dyn PlantFactory,
     opts: &CalibrationOptions,
-    progress: &mut dyn FnMut(&str),
-) -> Result<CalibrationReport> {
-    if !(opts.train_fraction > 0.0 && opts.train_fraction < 1.0) {
-        return Err(Error::Analysis(format!(
-            "train fraction must be in (0, 1), got {}",
-            opts.train_fraction
-        )));
-    }
-    let slices = replay::step_slices(log);
-    let steps: Vec<u32> = slices.iter().map(|s| s.step).collect();
-    if steps.len() < 4 {
-        return Err(Error::Analysis(format!(
-            "calibration needs at least 4 completed steps, `{}` has {}",
-            log.meta.name,
-            steps.len()
-        )));
-    }
-    let mut notes = Vec::new();
-    let mut converged = true;
-    let (train_ids, test_ids) = fit::split_steps(&steps, opts.train_fraction, opts.seed);
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<(CalibrationReport, Timings)> {
+    let mut timings = Timings::default();
+    let name = &log.meta.name;
+    // Everything that can be checked is checked before any replay.
+    let slices = steps::step_slices(log);
+    let commands: Vec<(u32, crate::kinematics::WheelSpeeds)> = slices
+        .iter()
+        .map(|s| {
+            let n = s.samples.len().max(1) as f64;
+            let (l, r) = s.samples.iter().fold((0.0, 0.0), |a, x| {
+                (a.0 + x.m.cmd.left_rad_s, a.1 + x.m.cmd.right_rad_s)
+            });
+            (s.step, crate::kinematics::WheelSpeeds::new(l / n, r / n))
+        })
+        .collect();
+    let split = split_steps(
+        name,
+        &commands,
+        opts.train_fraction,
+        opts.validation_fraction,
+        opts.seed,
+    )?;
     let rate = log.meta.rate_hz;
-    let all = fit::StepSet::new(&slices, &steps, rate)?;
-    let floor = NoiseFloor::estimate(&all.features)?;
-    let fit_ids: Vec<u32> = match opts.max_fit_steps {
-        Some(k) if k < train_ids.len() => {
-            let (mut sub, _) =
-                fit::split_steps(&train_ids, k as f64 / train_ids.len() as f64, opts.seed ^ 0x5eed);
-            sub.truncate(k.max(1));
-            notes.push(format!(
-                "cost evaluated on {} of {} training steps",
-                sub.len(),
-                train_ids.len()
-            ));
-            sub
-        }
-        _ => train_ids.clone(),
-    };
-    let train = fit::StepSet::new(&slices, &fit_ids, rate)?;
-    // Every fitted change is kept only if it lowers the score on all training steps (not only
-    // the subset the cost used): a fit that overfits the subset is rejected without looking
-    // at the held-out steps.
-    let train_full = if fit_ids.len() < train_ids.len() {
-        Some(fit::StepSet::new(&slices, &train_ids, rate)?)
-    } else {
-        None
-    };
-    let train_score = |p: &ModelParams| -> Result<f64> {
-        let set = train_full.as_ref().unwrap_or(&train);
-        Ok(metrics::score(&set.errors(factory, p)?, &floor))
-    };
-    let test = fit::StepSet::new(&slices, &test_ids, rate)?;
-
-    let declared = ModelParams::new(robot.clone(), terrain.clone());
-    let summary =
-        |p: &ModelParams, f: &dyn PlantFactory| -> Result<(ErrorSummary, Vec<metrics::StepErrors>)> {
-            let e = test.errors(f, p)?;
-            Ok((ErrorSummary::pool(&e, &floor), e))
-        };
-    let (idd, idd_errors) = summary(&declared, &IddFactory)?;
-    let (before, before_errors) = summary(&declared, factory)?;
-    progress(&format!(
-        "baseline on {} held-out steps: score IDD {:.1}, declared model {:.1} (1 = noise floor)",
-        test_ids.len(),
-        idd.score,
-        before.score
-    ));
-
-    // Terrain / robot parameters.
-    let specs = factory.calibration_params(&declared);
-    let (mut current, terrain_fit, terrain_fit_kept) = if specs.is_empty() {
-        notes.push(format!(
-            "the {} model exposes no terrain parameter: terrain fit skipped",
-            factory.name()
-        ));
-        (declared.clone(), None, false)
-    } else {
-        let (m, r) = fit::fit(&train, factory, &declared, &specs, &floor, &opts.terrain_fit)?;
-        if !r.converged {
-            converged = false;
-            notes.push(format!("terrain fit: {}", r.status));
-        }
-        let (old, new) = (train_score(&declared)?, train_score(&m)?);
-        // Like an effect, the fitted terrain is a model change: it stays only if it also
-        // lowers the held-out score (a fit that helps the training steps and hurts the others
-        // has fitted their noise).
-        let heldout = summary(&m, factory)?.0.score;
-        if new <= old && heldout <= before.score {
-            (m, Some(r), true)
-        } else if new <= old {
-            notes.push(format!(
-                "terrain fit discarded: held-out score {:.3} -> {heldout:.3} (training {old:.3} -> {new:.3})",
-                before.score
-            ));
-            (declared.clone(), Some(r), false)
-        } else {
-            notes.push(format!(
-                "terrain fit discarded: training score {old:.3} -> {new:.3} on all training steps"
-            ));
-            (declared.clone(), Some(r), false)
-        }
-    };
-    let (after_terrain, _) = summary(&current, factory)?;
-    progress(&format!(
-        "terrain fit {}: held-out score {:.1}",
-        if terrain_fit_kept { "kept" } else { "not kept" },
-        after_terrain.score
-    ));
-    let sim_feats = |p: &ModelParams| -> Result<Vec<metrics::StepFeatures>> {
-        let replayed = replay::replay_steps(&test.steps, factory, p, rate)?;
-        replayed
-            .iter()
-            .zip(&test.steps)
-            .map(|(r, s)| metrics::step_features(s.step, r))
-            .collect()
-    };
-    let space = robot.command_space();
-    let kernel_var = opts.kernel_var.unwrap_or(if robot.limits.max_lin_m_s > 2.0 {
-        0.64
-    } else {
-        0.25
-    });
-    let residual_before = residual::analyse(
-        &sim_feats(&current)?,
-        &test.features,
-        robot.idd(),
-        &space,
-        opts.grid_step,
-        kernel_var,
-    );
-
-    // Candidate effects, greedy forward selection.
-    let nominal = robot.idd();
-    let reach = log.samples.iter().fold(
+    let train_all = StepSet::new(&slices, &split.train, rate)?;
+    let floor = NoiseFloor::estimate(&train_all.features)
+        .map_err(|e| Error::Analysis(format!("`{name}`: no noise floor from its training steps: {e}")))?;
+    if floor.steps_used == 0 {
+        return Err(Error::Analysis(format!(
+            "`{name}`: no training step has two steady windows, so the steady channels have no              noise floor estimate (the floor compares the two steady windows of each step)"
+        )));
+    }
+    let reach = train_all.steps.iter().flat_map(|s| s.samples).fold(
         CommandReach {
             wheel_rad_s: 0.0,
             speed_m_s: 0.0,
@@ -412,7 +333,7 @@ pub fn calibrate_with_progress(
         },
         |r, s| {
             let c = s.m.cmd;
-            let v = nominal.body_from_wheels(c);
+            let v = robot.idd().body_from_wheels(c);
             CommandReach {
                 wheel_rad_s: r.wheel_rad_s.max(c.left_rad_s.abs()).max(c.right_rad_s.abs()),
                 speed_m_s: r.speed_m_s.max(v.vx_m_s.abs()),
@@ -420,181 +341,126 @@ pub fn calibrate_with_progress(
             }
         },
     );
-    let (mut pool, not_evaluated) = candidates::default_candidates(&factory.effect_names(), &reach);
-    if let Some(only) = &opts.candidates {
-        pool.retain(|c| only.contains(&c.name));
-    }
-    let mut rounds = Vec::new();
-    let mut selected: Vec<EffectCandidate> = Vec::new();
-    for round in 0..opts.max_effects {
-        if pool.is_empty() {
-            break;
-        }
-        let ranked = candidates::evaluate_candidates(
-            &train,
-            &test,
-            factory,
-            &current,
-            &specs,
-            terrain_fit_kept.then_some(&declared),
-            &floor,
-            &pool,
-            &opts.effect_fit,
-            &SelectionRule {
-                seed: opts.rule.seed ^ opts.seed ^ round as u64,
-                ..opts.rule
-            },
-        )?;
-        if let Some((ev, _)) = ranked.first() {
-            progress(&format!(
-                "round {round}: {} candidates, best {} (held-out {:.1} -> {:.1}, ± {:.1}){}",
-                ranked.len(),
-                ev.effect,
-                ev.heldout_before,
-                ev.heldout_after,
-                ev.reduction_se,
-                if ev.significant {
-                    ", added"
-                } else {
-                    ", not significant: stop"
-                }
+    let mut notes = Vec::new();
+    let train = match opts.max_fit_steps {
+        Some(k) if k < split.train.len() => {
+            let mut sub = split.train.clone();
+            use rand::seq::SliceRandom;
+            use rand::SeedableRng;
+            sub.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed));
+            sub.truncate(k.max(1));
+            sub.sort_unstable();
+            notes.push(format!(
+                "fits on {} of {} training steps",
+                sub.len(),
+                split.train.len()
             ));
+            StepSet::new(&slices, &sub, rate)?
         }
-        for (ev, _) in &ranked {
-            if !ev.converged {
-                notes.push(format!("round {round}, {}: {}", ev.effect, ev.fit_status));
+        _ => train_all,
+    };
+    let declared = ModelParams::new(robot.clone(), terrain.clone());
+    let (pool, not_evaluated) = candidates::candidates_for(factory, &reach, opts.candidates.as_deref());
+    if let Some(only) = &opts.candidates {
+        for n in only {
+            if crate::effects::effect(n).is_none() {
+                return Err(Error::Unknown {
+                    kind: "candidate effect",
+                    name: n.clone(),
+                    available: crate::effects::REGISTRY
+                        .iter()
+                        .map(|e| e.name())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                });
             }
-        }
-        let added = match ranked.first() {
-            Some((ev, model)) if ev.significant => {
-                current = model.clone();
-                let name = ev.effect.clone();
-                if let Some(i) = pool.iter().position(|c| c.name == name) {
-                    selected.push(pool.remove(i));
-                }
-                Some(name)
-            }
-            _ => None,
-        };
-        let stop = added.is_none();
-        if !stop && opts.final_fit.max_iters > 0 {
-            // Refit the terrain / robot parameters with every selected effect: what they had
-            // absorbed of the effect before it was in the model goes back. Kept if not worse
-            // on the held-out steps.
-            let mut joint = specs.clone();
-            joint.extend(
-                selected
-                    .iter()
-                    .flat_map(|c| c.params.iter().filter(|p| !p.discrete).cloned()),
-            );
-            let (m, r) = fit::fit(&train, factory, &current, &joint, &floor, &opts.final_fit)?;
-            let (old, new) = (train_score(&current)?, train_score(&m)?);
-            if new <= old {
-                current = m;
-                notes.push(format!(
-                    "round {round}, joint refit: training score {old:.3} -> {new:.3}"
-                ));
-            } else {
-                notes.push(format!(
-                    "round {round}, joint refit discarded: training score {old:.3} -> {new:.3}"
-                ));
-            }
-            if !r.converged {
-                converged = false;
-                notes.push(format!("round {round}, joint refit: {}", r.status));
-            }
-        }
-        rounds.push(SelectionRound {
-            round,
-            ranking: ranked.into_iter().map(|(e, _)| e).collect(),
-            added,
-        });
-        if stop {
-            break;
         }
     }
-
-    if rounds.iter().flat_map(|r| &r.ranking).any(|e| !e.converged) {
-        converged = false;
-    }
-
-    let (after, after_errors) = summary(&current, factory)?;
-    let step_scores = StepScores {
-        idd: idd_errors.iter().map(|e| e.score(&floor)).collect(),
-        before: before_errors.iter().map(|e| e.score(&floor)).collect(),
-        after: after_errors.iter().map(|e| e.score(&floor)).collect(),
-    };
-    let total_reduction = before.score - after.score;
-    let total_reduction_se = candidates::bootstrap_reduction_se(
-        &before_errors,
-        &after_errors,
-        &floor,
-        opts.rule.bootstrap_samples,
-        opts.seed,
-    );
-    let residual_after = residual::analyse(
-        &sim_feats(&current)?,
-        &test.features,
-        robot.idd(),
-        &space,
-        opts.grid_step,
-        kernel_var,
-    );
-    let effects = current
-        .effects
-        .iter()
-        .map(|(k, v)| {
-            let name = format!("effect.{k}");
-            match selected.iter().flat_map(|c| &c.params).find(|p| p.name == name) {
-                Some(spec) => FittedParam::of(spec, None, *v),
-                None => FittedParam {
-                    name,
-                    initial: None,
-                    value: *v,
-                    lower: f64::NAN,
-                    upper: f64::NAN,
-                    at_bound: false,
-                },
-            }
-        })
-        .collect();
-    let source_file = match &log.meta.origin {
-        Origin::Measured { file } => Some(file.clone()),
-        _ => None,
-    };
-    let reproduce = format!(
-        "drive-sim calibrate {} --out <DIR> --seed {}",
-        source_file.as_deref().unwrap_or(&log.meta.name),
-        opts.seed
-    );
-    Ok(CalibrationReport {
-        dataset: log.meta.name.clone(),
-        source_file,
-        model_kind: factory.name(),
-        options: opts.clone(),
-        status: CalibrationStatus { converged, notes },
-        train_steps: train_ids,
-        heldout_steps: test_ids,
-        table: table(&idd, &before, &after, &ErrorSummary::floor(&floor)),
+    let ctx = Context {
+        log,
+        factory,
+        opts,
+        validation: StepSet::new(&slices, &split.validation, rate)?,
+        test: StepSet::new(&slices, &split.test, rate)?,
+        train,
+        split,
         floor,
-        idd,
-        before,
-        after_terrain,
-        after,
-        step_scores,
-        total_reduction,
-        total_reduction_se,
-        terrain_fit,
-        terrain_fit_kept,
-        rounds,
-        effects,
-        not_evaluated,
-        model_before: declared,
-        model_after: current,
-        residual_before,
-        residual_after,
-        reproduce,
-    })
+        reach,
+        declared: declared.clone(),
+        progress,
+    };
+    progress(&format!(
+        "split of {} steps: {} train, {} validation, {} test (seed {})",
+        slices.len(),
+        ctx.split.train.len(),
+        ctx.split.validation.len(),
+        ctx.split.test.len(),
+        opts.seed
+    ));
+    let base_specs = factory.base_params(&declared);
+    let baseline = timings.time("baseline", || {
+        baseline::run(&ctx, baseline::BaselineInput { declared: &declared })
+    })?;
+    // The kinematic model is cheap enough to refit the base parameters beside every
+    // candidate; the simulator screens with it and fits effects alone, then refits jointly.
+    let screened = factory.name() == "simulator" && opts.screen_keep > 0;
+    let (screening, pool, refit) = if screened {
+        let out = timings.time("screening", || {
+            screening::run(
+                &ctx,
+                screening::ScreeningInput {
+                    candidates: &pool,
+                    declared: &declared,
+                },
+            )
+        })?;
+        (Some(out.report), out.shortlist, Vec::new())
+    } else {
+        (None, pool, base_specs.clone())
+    };
+    let selection = timings.time("selection", || {
+        selection::run(
+            &ctx,
+            selection::SelectionInput {
+                current: baseline.current.clone(),
+                current_validation: baseline.current_validation.clone(),
+                pool,
+                refit,
+                base: if baseline.base_fit_kept {
+                    base_specs.clone()
+                } else {
+                    Vec::new()
+                },
+            },
+        )
+    })?;
+    let final_fit = timings.time("final fit", || {
+        final_fit::run(
+            &ctx,
+            final_fit::FinalFitInput {
+                current: &selection.current,
+                current_validation: &selection.current_validation,
+                selected: &selection.selected,
+                base: &base_specs,
+                base_fit_kept: baseline.base_fit_kept,
+                already_fitted: selection.refit_current,
+            },
+        )
+    })?;
+    let report = timings.time("report", || {
+        report::run(
+            &ctx,
+            report::ReportInput {
+                baseline,
+                screening,
+                selection,
+                final_fit,
+                not_evaluated,
+                notes,
+            },
+        )
+    })?;
+    Ok((report, timings))
 }
 
 /// Which plant to calibrate.
@@ -669,9 +535,9 @@ pub fn replay_and_compare(log: &DriveLog, kind: ModelKind) -> Result<ReplayCompa
     let (robot, terrain, _) = models_for_log(log)?;
     let params = ModelParams::new(robot, terrain);
     let factory = kind.factory();
-    let slices = replay::step_slices(log);
-    let steps: Vec<u32> = slices.iter().map(|s| s.step).collect();
-    let all = fit::StepSet::new(&slices, &steps, log.meta.rate_hz)?;
+    let slices = steps::step_slices(log);
+    let ids: Vec<u32> = slices.iter().map(|s| s.step).collect();
+    let all = StepSet::new(&slices, &ids, log.meta.rate_hz)?;
     let floor = NoiseFloor::estimate(&all.features)?;
     let model = ErrorSummary::pool(&all.errors(factory.as_ref(), &params)?, &floor);
     let idd = ErrorSummary::pool(&all.errors(&IddFactory, &params)?, &floor);
@@ -715,6 +581,17 @@ pub fn fitted_terrain_toml(report: &CalibrationReport) -> Result<String> {
         },
         body
     ))
+}
+
+/// Writes the per-stage timings to `dir/timings.json` (kept apart from `calibration.json`,
+/// which stays byte-identical for a seed).
+pub fn write_timings(timings: &Timings, dir: &Path) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let path = dir.join("timings.json");
+    let json = serde_json::to_string_pretty(timings)
+        .map_err(|e| Error::Analysis(format!("cannot serialize the timings: {e}")))?;
+    std::fs::write(&path, json).map_err(|e| Error::io(&path, e))?;
+    Ok(path)
 }
 
 /// Writes into `dir` (created if needed): `calibration.json` (the whole report),

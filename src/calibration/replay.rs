@@ -1,84 +1,65 @@
 //! Replay: drive a [`Plant`] with the recorded commands of each step of a [`DriveLog`], each
 //! step starting from the measured state at its first sample, and log the response with the
 //! same step / window / k structure as the recording.
+//!
+//! Replays are what calibration spends its time on, so they are cheap: one plant (one rapier
+//! world) is built per chunk of steps and reset between them (a reset plant replays exactly
+//! as a new one; tested), chunks run in parallel, and the chunking is fixed so the result does
+//! not depend on the thread count.
 
 use super::model::{ModelParams, PlantFactory};
+use super::steps::{step_slices, step_start, StepSlice, StepStart};
 use crate::error::{Error, Result};
-use crate::kinematics::{BodyVelocity, WheelSpeeds};
-use crate::log::{DriveLog, Frame, LogMeta, Origin, Pose, Sample};
+use crate::log::{DriveLog, Frame, LogMeta, Origin, Sample};
 use crate::sim::Plant;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 
-/// The samples of one completed step, in time order.
-#[derive(Debug, Clone, Copy)]
-pub struct StepSlice<'a> {
-    /// Step index.
-    pub step: u32,
-    /// Its samples.
-    pub samples: &'a [Sample],
+/// Steps replayed on one plant before the next chunk gets its own.
+const STEPS_PER_PLANT: usize = 8;
+
+/// Steps replayed and plants built since the process started (for the per-stage counters).
+static STEPS_REPLAYED: AtomicU64 = AtomicU64::new(0);
+static PLANTS_BUILT: AtomicU64 = AtomicU64::new(0);
+
+/// Replay counters: steps replayed and plants (worlds) built so far in this process.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ReplayCounters {
+    /// Steps replayed.
+    pub steps: u64,
+    /// Plants built.
+    pub plants: u64,
 }
 
-/// Splits a log's samples into steps (they are stored ordered by step).
-pub fn step_slices(log: &DriveLog) -> Vec<StepSlice<'_>> {
-    log.samples
-        .chunk_by(|a, b| a.step == b.step)
-        .map(|s| StepSlice {
-            step: s[0].step,
-            samples: s,
-        })
-        .collect()
-}
-
-/// The measured state a replayed step starts from.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct StepStart {
-    /// Pose of the first sample.
-    pub pose: Pose,
-    /// Body velocity at the first sample: the source's reference estimate when it has one,
-    /// else the pose difference over the first 0.25 s of the step, in the body frame.
-    pub velocity: BodyVelocity,
-    /// Encoder wheel speeds of the first sample.
-    pub wheels: WheelSpeeds,
-}
-
-/// Estimates the state at the start of a step (see [`StepStart`]).
-pub fn step_start(samples: &[Sample]) -> Result<StepStart> {
-    let first = samples
-        .first()
-        .ok_or_else(|| Error::Analysis("empty step".into()))?;
-    let velocity = match first.m.reference {
-        Some(v) if v.is_finite() => v,
-        _ => {
-            // Forward difference inside the first window (poses restart at each window in
-            // measured logs), over up to 5 samples.
-            let end = samples
-                .iter()
-                .take(6)
-                .take_while(|s| s.window == first.window)
-                .last()
-                .unwrap_or(first);
-            let dt = end.t_in_step_s - first.t_in_step_s;
-            if dt > 0.0 {
-                let v = super::metrics::body_rate(&first.m.pose, &end.m.pose, dt);
-                BodyVelocity::new(v[0], v[1], v[2])
-            } else {
-                BodyVelocity::default()
-            }
+impl ReplayCounters {
+    /// The counters now.
+    pub fn now() -> Self {
+        Self {
+            steps: STEPS_REPLAYED.load(Ordering::Relaxed),
+            plants: PLANTS_BUILT.load(Ordering::Relaxed),
         }
-    };
-    Ok(StepStart {
-        pose: first.m.pose,
-        velocity,
-        wheels: first.m.enc,
-    })
+    }
+
+    /// What happened between `earlier` and `self`.
+    pub fn since(self, earlier: Self) -> Self {
+        Self {
+            steps: self.steps - earlier.steps,
+            plants: self.plants - earlier.plants,
+        }
+    }
 }
 
-/// Replays one step on `plant`: reset to the measured start, then for every recorded sample
-/// command, measure, advance to the next sample time (the protocol runner's order).
-pub fn replay_step(plant: &mut dyn Plant, step: StepSlice<'_>, rate_hz: f64) -> Result<Vec<Sample>> {
-    let start = step_start(step.samples)?;
+/// Replays one step on `plant` from `start`: reset, then for every recorded sample command,
+/// measure, advance to the next sample time (the protocol runner's order).
+pub fn replay_step(
+    plant: &mut dyn Plant,
+    step: StepSlice<'_>,
+    start: &StepStart,
+    rate_hz: f64,
+) -> Result<Vec<Sample>> {
     let wheels = plant.wheels_from_encoders(start.wheels);
     plant.reset(start.pose, start.velocity, wheels);
+    STEPS_REPLAYED.fetch_add(1, Ordering::Relaxed);
     let mut out = Vec::with_capacity(step.samples.len());
     for (i, s) in step.samples.iter().enumerate() {
         plant.command(s.m.cmd);
@@ -101,20 +82,50 @@ pub fn replay_step(plant: &mut dyn Plant, step: StepSlice<'_>, rate_hz: f64) -> 
     Ok(out)
 }
 
-/// Replays the given steps in parallel, one fresh plant per step; results in input order.
+/// Replays the given steps (with their starts, same order) and hands each replay to `f`;
+/// results in input order. One plant per chunk of [`STEPS_PER_PLANT`] steps, chunks in
+/// parallel.
+pub fn replay_map<T: Send>(
+    steps: &[StepSlice<'_>],
+    starts: &[StepStart],
+    factory: &dyn PlantFactory,
+    params: &ModelParams,
+    rate_hz: f64,
+    f: impl Fn(usize, Vec<Sample>) -> Result<T> + Sync,
+) -> Result<Vec<T>> {
+    if steps.len() != starts.len() {
+        return Err(Error::Analysis(format!(
+            "replay: {} steps but {} start states",
+            steps.len(),
+            starts.len()
+        )));
+    }
+    let chunks: Vec<Vec<T>> = (0..steps.len())
+        .collect::<Vec<_>>()
+        .par_chunks(STEPS_PER_PLANT)
+        .map(|idx| {
+            let mut plant = factory.build(params)?;
+            PLANTS_BUILT.fetch_add(1, Ordering::Relaxed);
+            idx.iter()
+                .map(|&i| f(i, replay_step(plant.as_mut(), steps[i], &starts[i], rate_hz)?))
+                .collect::<Result<Vec<T>>>()
+        })
+        .collect::<Result<_>>()?;
+    Ok(chunks.into_iter().flatten().collect())
+}
+
+/// Replays the given steps; results in input order.
 pub fn replay_steps(
     steps: &[StepSlice<'_>],
     factory: &dyn PlantFactory,
     params: &ModelParams,
     rate_hz: f64,
 ) -> Result<Vec<Vec<Sample>>> {
-    steps
-        .par_iter()
-        .map(|s| {
-            let mut plant = factory.build(params)?;
-            replay_step(plant.as_mut(), *s, rate_hz)
-        })
-        .collect()
+    let starts = steps
+        .iter()
+        .map(|s| step_start(s.samples))
+        .collect::<Result<Vec<_>>>()?;
+    replay_map(steps, &starts, factory, params, rate_hz, |_, s| Ok(s))
 }
 
 /// Which steps to replay.
@@ -161,6 +172,7 @@ pub fn replay_log(
                 log.meta.name,
                 params
                     .effects
+                    .values()
                     .iter()
                     .map(|(k, v)| format!("{k}={v}"))
                     .collect::<Vec<_>>()

@@ -1,14 +1,14 @@
 //! A kinematic grey-box plant: ideal differential drive, first-order wheel-speed lag, and the
 //! simulator's [`Effects`] that act outside the wheel-terrain contact (controller, powertrain,
-//! wheel size, sensors; everything but [`Effects::CONTACT`]), through the same code. It runs in microseconds per step, so the calibration
+//! wheel size, sensors; every registered effect whose stage is not the contact), through the same code. It runs in microseconds per step, so the calibration
 //! machinery (replay, metrics, optimizer, effect selection) can be tested end to end on it,
 //! and it is the fast model `calibrate` can fall back to.
 
+use crate::effects::{Effects, PlantModifiers};
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use crate::log::{GroundTruth, Measurement, Pose};
 use crate::sim::plant::{integrate_unicycle, kinematic_measurement, wrap_angle, Plant};
-use crate::sim::Effects;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -29,8 +29,10 @@ pub struct KinematicNoise {
     pub imu_wz_rad_s: f64,
 }
 
-/// Internal integration step, s: fine enough that dead time and latency act continuously.
-const SUBSTEP_S: f64 = 0.005;
+/// Internal integration step, s: the simulator's physics step, so that a dead time acts at the
+/// same resolution in both models (the lag is integrated exactly and the arc at the midpoint
+/// wheel speed, so the step costs no accuracy at the 20 Hz of the logs).
+const SUBSTEP_S: f64 = 0.01;
 
 /// IDD + first-order lag + [`Effects`] (but the contact ones); see the module doc.
 #[derive(Debug, Clone)]
@@ -38,6 +40,8 @@ pub struct KinematicPlant {
     idd: IdealDiffDrive,
     time_constant_s: f64,
     effects: Effects,
+    /// What the effects change in the dynamics, read once.
+    mods: PlantModifiers,
     noise: Option<(KinematicNoise, ChaCha8Rng)>,
     /// Commands with the time they were given, oldest first (for the dead time).
     cmds: VecDeque<(f64, WheelSpeeds)>,
@@ -59,19 +63,18 @@ impl KinematicPlant {
         effects: Effects,
         noise: Option<KinematicNoise>,
     ) -> Result<Self> {
-        if let Some((name, _)) = effects
-            .declared()
-            .into_iter()
-            .find(|(n, _)| Effects::CONTACT.contains(n))
-        {
+        if let Some(e) = effects.first_contact_effect() {
             return Err(Error::Analysis(format!(
-                "the kinematic model has no tyre model and cannot represent the effect `{name}`"
+                "the kinematic model has no tyre model and cannot represent the effect `{}`",
+                e.name()
             )));
         }
+        let mods = effects.modifiers();
         let mut p = Self {
             idd,
             time_constant_s,
             effects,
+            mods,
             noise: noise.map(|n| (n, ChaCha8Rng::seed_from_u64(n.seed))),
             cmds: VecDeque::new(),
             wheels: WheelSpeeds::default(),
@@ -86,7 +89,7 @@ impl KinematicPlant {
 
     /// The command acting on the motors at time `t` (dead time applied).
     fn delayed_cmd(&self, t: f64) -> WheelSpeeds {
-        let t = t - self.effects.dead_time_s;
+        let t = t - self.mods.dead_time_s;
         let mut c = self.cmds.front().map(|c| c.1).unwrap_or_default();
         for &(tc, cmd) in &self.cmds {
             if tc <= t + 1e-12 {
@@ -100,7 +103,7 @@ impl KinematicPlant {
 
     fn true_idd(&self) -> IdealDiffDrive {
         IdealDiffDrive {
-            wheel_radius_m: self.idd.wheel_radius_m * self.effects.wheel_radius_scale,
+            wheel_radius_m: self.idd.wheel_radius_m * self.mods.wheel_radius_scale,
             baseline_m: self.idd.baseline_m,
         }
     }
@@ -151,7 +154,7 @@ impl Plant for KinematicPlant {
         }
         let n = (dt_s / SUBSTEP_S).ceil().max(1.0) as usize;
         let h = dt_s / n as f64;
-        let tau = self.time_constant_s * self.effects.time_constant_scale;
+        let tau = self.time_constant_s * self.mods.time_constant_scale;
         let a = if tau > 0.0 { 1.0 - (-h / tau).exp() } else { 1.0 };
         let idd = self.true_idd();
         for _ in 0..n {
@@ -169,10 +172,13 @@ impl Plant for KinematicPlant {
             integrate_unicycle(&mut self.pose, idd.body_from_wheels(mid), h);
             self.time_s += h;
             self.velocity = idd.body_from_wheels(self.wheels);
-            self.poses.push_back((self.time_s, self.pose));
+            // Only a pose latency reads past poses.
+            if self.mods.pose_latency_s > 0.0 {
+                self.poses.push_back((self.time_s, self.pose));
+            }
         }
         // Keep only what the dead time and latency can still reach.
-        let horizon = self.effects.dead_time_s.max(self.effects.pose_latency_s) + 2.0 * dt_s + 0.1;
+        let horizon = self.mods.dead_time_s.max(self.mods.pose_latency_s) + 2.0 * dt_s + 0.1;
         while self.cmds.len() > 1 && self.cmds[1].0 < self.time_s - horizon {
             self.cmds.pop_front();
         }
@@ -187,8 +193,8 @@ impl Plant for KinematicPlant {
         let v = self.velocity;
         let mut enc = e.encoders(self.wheels);
         let mut wz = e.imu_yaw_rate(v.wz_rad_s);
-        let mut pose = if e.pose_latency_s > 0.0 {
-            self.pose_at(self.time_s - e.pose_latency_s)
+        let mut pose = if self.mods.pose_latency_s > 0.0 {
+            self.pose_at(self.time_s - self.mods.pose_latency_s)
         } else {
             self.pose
         };
@@ -241,6 +247,7 @@ impl Plant for KinematicPlant {
         self.cmds.clear();
         // The command history that holds the wheels where they are.
         self.cmds.push_back((f64::NEG_INFINITY, wheels));
+        self.time_s = 0.0;
         self.poses.clear();
         self.poses.push_back((self.time_s, pose));
     }

@@ -31,7 +31,7 @@ pub struct CalibrateArgs {
     /// Model calibrated: `simulator` (rapier) or `kinematic` (grey-box, fast).
     #[arg(long, default_value = "simulator")]
     pub model: String,
-    /// Seed of the training / held-out split and of the bootstrap.
+    /// Seed of the train / validation / test split and of the bootstraps.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Most effects added.
@@ -40,6 +40,13 @@ pub struct CalibrateArgs {
     /// Fit on at most this many training steps per evaluation (all by default).
     #[arg(long)]
     pub max_fit_steps: Option<usize>,
+    /// Local solver: `levenberg-marquardt` (default) or `nelder-mead` (the first
+    /// calibration's, to compare).
+    #[arg(long, default_value = "levenberg-marquardt")]
+    pub optimizer: String,
+    /// Only these candidate effects (comma-separated registry names).
+    #[arg(long, value_delimiter = ',')]
+    pub candidates: Option<Vec<String>>,
 }
 
 /// Replays a log on the declared model and reports how far it is, beside the IDD and the floor.
@@ -109,46 +116,57 @@ fn error_rows() -> Vec<Row> {
     ]
 }
 
-/// Runs the whole loop and writes its report.
+/// Runs the whole loop and writes its report, its timings and its figures.
 pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
+    // Bad input is refused before any long work.
     let kind = ModelKind::parse(&args.model)?;
+    let optimizer = calibration::Optimizer::parse(&args.optimizer)?;
+    if args.out.is_file() {
+        anyhow::bail!("--out {}: is a file, not a directory", args.out.display());
+    }
     eprintln!("drive-sim: reading {}", args.log.display());
     let log = read_log(&args.log)?;
     let (robot, terrain, notes) = calibration::models_for_log(&log)?;
-    let opts = CalibrationOptions {
+    let mut opts = CalibrationOptions {
         seed: args.seed,
         max_effects: args.max_effects,
         max_fit_steps: args.max_fit_steps,
+        candidates: args.candidates.clone(),
         ..CalibrationOptions::default()
     };
+    opts.fit.optimizer = optimizer;
     eprintln!(
-        "drive-sim: calibrating the {} model of {} on {} ({} steps; fit on {:.0} %, report on the rest)",
+        "drive-sim: calibrating the {} model of {} on {} ({} steps: fit on {:.0} %, choose on {:.0} %, report on the rest), {}",
         args.model,
         robot.name,
         terrain.name,
         log.steps().len(),
-        100.0 * opts.train_fraction
+        100.0 * opts.train_fraction,
+        100.0 * opts.validation_fraction,
+        args.optimizer
     );
     let t0 = std::time::Instant::now();
-    let mut report = calibration::calibrate_with_progress(
-        &log,
-        &robot,
-        &terrain,
-        kind.factory().as_ref(),
-        &opts,
-        &mut |line| eprintln!("drive-sim: [{:>6.0} s] {line}", t0.elapsed().as_secs_f64()),
-    )?;
+    let (mut report, timings) =
+        calibration::calibrate_timed(&log, &robot, &terrain, kind.factory().as_ref(), &opts, &|line| {
+            eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64())
+        })?;
     report.status.notes.splice(0..0, notes);
     report.reproduce = format!(
-        "drive-sim calibrate {} --model {} --seed {} --max-effects {} --out {}",
+        "drive-sim calibrate {} --model {} --seed {} --max-effects {} --optimizer {} --out {}",
         args.log.display(),
         args.model,
         args.seed,
         args.max_effects,
+        args.optimizer,
         args.out.display()
     );
-    let files = calibration::write_report(&report, &args.out)?;
+    let mut files = calibration::write_report(&report, &args.out)?;
+    files.push(calibration::write_timings(&timings, &args.out)?);
     print_report(&report)?;
+    eprintln!("drive-sim: time per stage:");
+    for line in timings.lines() {
+        eprintln!("drive-sim:   {line}");
+    }
     eprintln!(
         "drive-sim: wrote {} files into {}",
         files.len(),
@@ -157,19 +175,41 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `value ± se` or `value` alone, for an interval printed in a table.
+fn with_interval(p: &calibration::FittedParam) -> String {
+    match (p.se, p.ci95) {
+        (Some(se), Some(ci)) => format!(
+            "{:.4} ± {:.4} [{:.4}, {:.4}]{}",
+            p.value,
+            se,
+            ci[0],
+            ci[1],
+            if p.identifiable == Some(false) {
+                " not identifiable"
+            } else {
+                ""
+            }
+        ),
+        (Some(se), None) if se.is_infinite() => format!("{:.4} (not constrained by the data)", p.value),
+        _ => format!("{:.4}{}", p.value, if p.at_bound { " (at bound)" } else { "" }),
+    }
+}
+
 fn print_report(r: &CalibrationReport) -> Result<(), std::io::Error> {
     let mut out = std::io::stdout().lock();
     writeln!(
         out,
-        "{} ({} model): {} held-out steps",
+        "{} ({} model): scores on {} test steps (fits on {} training steps, choices on {} validation steps)",
         r.dataset,
         r.model_kind,
-        r.heldout_steps.len()
+        r.heldout_steps.len(),
+        r.train_steps.len(),
+        r.validation_steps.len()
     )?;
     writeln!(
         out,
         "{:<34} {:>10} {:>10} {:>10} {:>10}",
-        "held-out", "IDD", "before", "after", "floor"
+        "test", "IDD", "before", "after", "floor"
     )?;
     for row in &r.table {
         writeln!(
@@ -185,12 +225,12 @@ fn print_report(r: &CalibrationReport) -> Result<(), std::io::Error> {
     if let Some(round) = r.rounds.first() {
         writeln!(
             out,
-            "candidate effects, ranked by held-out reduction (first round):"
+            "candidate effects, ranked by validation reduction (first round):"
         )?;
         writeln!(
             out,
             "  {:<30} {:>24} {:>18} {:>7}  fitted",
-            "effect", "held-out score before→after", "reduction ± se", "share"
+            "effect", "validation score before→after", "reduction ± se", "share"
         )?;
         for c in &round.ranking {
             let fitted: Vec<String> = c
@@ -213,13 +253,48 @@ fn print_report(r: &CalibrationReport) -> Result<(), std::io::Error> {
         }
         writeln!(out, "  (* = passes the selection rule)")?;
     }
+    if let Some(best) = r.pairs.first() {
+        writeln!(
+            out,
+            "best pair: {} (validation {:.3} -> {:.3} ± {:.3}){}",
+            best.effect,
+            best.heldout_before,
+            best.heldout_after,
+            best.reduction_se,
+            if best.significant { ", added" } else { "" }
+        )?;
+    }
+    for b in &r.backward {
+        writeln!(
+            out,
+            "backward: without {} validation {:.3} -> {:.3} (± {:.3}){}",
+            b.effect,
+            b.score_with,
+            b.score_without,
+            b.se,
+            if b.dropped { ", dropped" } else { ", kept" }
+        )?;
+    }
+    if let Some(f) = r.terrain_fit.as_ref().filter(|_| r.terrain_fit_kept) {
+        for p in &f.params {
+            writeln!(out, "base parameter: {} = {}", p.name, with_interval(p))?;
+        }
+    }
     if r.effects.is_empty() {
         writeln!(out, "effects added: none")?;
     } else {
         for e in &r.effects {
-            writeln!(out, "effect added: {} = {:.4}", e.name, e.value)?;
+            writeln!(out, "effect added: {} = {}", e.name, with_interval(e))?;
         }
     }
+    for s in &r.stand_ins {
+        writeln!(out, "stand-in: {s} ended on a bound of its box")?;
+    }
+    writeln!(
+        out,
+        "test score: IDD {:.3}, declared {:.3}, calibrated {:.3} (reduction {:.3} ± {:.3}, bootstrap over test steps)",
+        r.idd.score, r.before.score, r.after.score, r.total_reduction, r.total_reduction_se
+    )?;
     writeln!(out, "converged: {}", r.status.converged)?;
     for n in &r.status.notes {
         writeln!(out, "  note: {n}")?;

@@ -39,6 +39,9 @@ pub enum Command {
     Robots,
     /// Lists the terrains (built-in and ./terrains/*.toml).
     Terrains,
+    /// Lists the model effects (`--inject`, calibration candidates): stage, parameters with
+    /// units, valid range, neutral value and calibration search box.
+    Effects,
     /// Analyses DRIVE logs (simulated .mcap or measured .csv): slips, transfer functions, ρ,
     /// risk; writes summary.json, figures and report.html. Several logs are compared.
     Analyze(analyze::AnalyzeArgs),
@@ -87,11 +90,39 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Calibrate(a)) => calibrate::calibrate(&a),
         Some(Command::Robots) => list_robots(),
         Some(Command::Terrains) => list_terrains(),
+        Some(Command::Effects) => list_effects(),
         Some(Command::Analyze(a)) => analyze::analyze(&a),
         Some(Command::Samplers(a)) => samplers::samplers(&a),
         Some(Command::Sweep(a)) => sweep::sweep(&a),
         Some(Command::SweepMerge(a)) => sweep::sweep_merge(&a),
     }
+}
+
+fn list_effects() -> anyhow::Result<()> {
+    use crate::effects::{ParamKind, SearchBox, REGISTRY};
+    let mut out = std::io::stdout().lock();
+    for e in REGISTRY {
+        writeln!(out, "{} ({}): {}", e.name(), e.stage().as_str(), e.doc())?;
+        for p in e.params() {
+            let range = match p.kind {
+                ParamKind::Flag => "0 or 1".to_string(),
+                ParamKind::Limit => format!("(0, {}], 0 or inf = off", p.max),
+                ParamKind::Continuous => format!("[{}, {}]", p.min, p.max),
+            };
+            let search = match p.search {
+                SearchBox::Fixed { lower, upper } => format!("[{lower}, {upper}]"),
+                SearchBox::Reach { lower, upper, .. } => {
+                    format!("[{lower}, {upper}] x the largest command")
+                }
+            };
+            writeln!(
+                out,
+                "    --inject {}=VALUE  [{}]  valid {range}, neutral {}, calibration searches {search}",
+                p.key, p.unit, p.neutral
+            )?;
+        }
+    }
+    Ok(())
 }
 
 fn list_robots() -> anyhow::Result<()> {

@@ -1,10 +1,11 @@
 //! `drive-sim run`: DRIVE in closed loop on the simulated robot, logged to MCAP.
 
+use crate::effects::Effects;
 use crate::error::{Error, Result};
 pub use crate::experiments::run::{describe, RunReport};
 use crate::experiments::run::{record_run, RunEvent, RunRequest};
 pub use crate::experiments::write_json;
-use crate::sim::{Effects, SensorNoise, SimConfig};
+use crate::sim::{SensorNoise, SimConfig};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 
@@ -33,7 +34,7 @@ pub struct RunArgs {
     #[arg(long, default_value_t = 100.0)]
     pub physics_hz: f64,
     /// Inject an effect the log's metadata does not declare, `NAME=VALUE` (repeatable), e.g.
-    /// `--inject motor_gain_left=0.85`. Names: see `drive_sim::sim::Effects::NAMES`.
+    /// `--inject motor_gain_left=0.85`. Names: the parameters of the effect registry (`drive_sim::effects::REGISTRY`; `drive-sim effects` lists them).
     #[arg(long = "inject", value_name = "EFFECT=VALUE")]
     pub inject: Vec<String>,
     /// Output directory.

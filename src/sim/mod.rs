@@ -26,15 +26,15 @@
 //!   and by the 20 Hz logging (5 steps per tick).
 
 mod body;
-pub mod effects;
 pub mod ground;
 pub mod plant;
 mod solve;
 pub mod tyre;
 
-pub use effects::Effects;
+pub use crate::effects::Effects;
 pub use plant::{IdealPlant, Plant};
 
+use crate::effects::PlantModifiers;
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use crate::log::{GroundTruth, ImuReading, Measurement, Pose};
@@ -195,6 +195,8 @@ pub struct Simulator {
     /// The robot file's geometry: what commands are computed with.
     nominal: IdealDiffDrive,
     effects: Effects,
+    /// What the effects change in the physics, read once.
+    mods: PlantModifiers,
     noise: SensorNoise,
     physics_hz: f64,
     rng: ChaCha8Rng,
@@ -261,11 +263,6 @@ impl Simulator {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(cfg_err(name, format!("must be a finite number >= 0, got {v}")));
             }
-        }
-        // Re-validate the effects (they may come from a deserialized file, not from `set`).
-        let mut checked = Effects::default();
-        for (name, v) in cfg.effects.declared() {
-            checked.set(name, v)?;
         }
 
         let b = &robot.body;
@@ -349,7 +346,8 @@ impl Simulator {
             ..Default::default()
         };
         let effects = cfg.effects.clone();
-        let radius_m = w.radius_m * effects.wheel_radius_scale;
+        let mods = effects.modifiers();
+        let radius_m = w.radius_m * mods.wheel_radius_scale;
         let mut sim = Self {
             bodies,
             colliders,
@@ -376,12 +374,13 @@ impl Simulator {
             side_inertia_kg_m2: w.inertia_kg_m2 * w.per_side as f64,
             torque_limit_nm: robot.powertrain.torque_limit_nm,
             accel_limit_rad_s2: robot.powertrain.wheel_accel_limit_rad_s2,
-            time_constant_s: robot.powertrain.time_constant_s * effects.time_constant_scale,
+            time_constant_s: robot.powertrain.time_constant_s * mods.time_constant_scale,
             com_height_m: b.com_height_m,
             sinkage_m,
-            tyre: TyreParams::new(terrain, radius_m, w.width_m, effects.turning_resistance_scale),
+            tyre: TyreParams::new(terrain, radius_m, w.width_m, mods.lateral_friction_scale),
             nominal: robot.idd(),
             effects,
+            mods,
             noise: cfg.noise,
             physics_hz: cfg.physics_hz,
             rng: ChaCha8Rng::seed_from_u64(cfg.seed),
@@ -408,7 +407,9 @@ impl Simulator {
 
     /// Puts the robot on the ground at `pose` (x, y, yaw; z, roll and pitch follow the
     /// ground), moving at `velocity` (body frame) with its wheels at `wheels` and the controller
-    /// holding `wheels` as its command: the state from which to replay measured data.
+    /// holding `wheels` as its command, at time 0: the state from which to replay measured data.
+    /// Nothing of the previous motion remains (the result of a replay does not depend on what
+    /// the simulator did before; tested).
     pub fn reset(&mut self, pose: Pose, velocity: BodyVelocity, wheels: WheelSpeeds) {
         let ground_z = self.ground.height_at(&self.colliders, pose.x_m, pose.y_m);
         let z = ground_z + self.com_height_m - self.sinkage_m;
@@ -434,6 +435,13 @@ impl Simulator {
         self.ramp = [wheels.left_rad_s, wheels.right_rad_s];
         self.omega = self.ramp;
         self.deflection.iter_mut().for_each(|d| *d = 0.0);
+        self.contacts.iter_mut().for_each(|c| *c = Contact::default());
+        self.forces.iter_mut().for_each(|f| *f = ContactForce::default());
+        self.motor_torque_nm = [0.0; 2];
+        self.saturated = [false; 2];
+        // Time restarts: a reset plant replays a step exactly as a new one would, so replays
+        // can reuse one world for many steps.
+        self.time_s = 0.0;
         self.airborne_s = 0.0;
         self.accel_world = [0.0; 3];
         self.pose_history.clear();
@@ -471,7 +479,7 @@ impl Simulator {
 
     fn controller_target(&mut self, dt: f64) {
         let now = self.time_s;
-        let dead = self.effects.dead_time_s;
+        let dead = self.mods.dead_time_s;
         while let Some(&(t, c)) = self.cmd_queue.front() {
             if t <= now - dead + 1e-12 {
                 self.applied = c;
@@ -581,7 +589,7 @@ impl Simulator {
             (self.omega[0] + dt / tc * self.ramp[0]) / (1.0 + dt / tc),
             (self.omega[1] + dt / tc * self.ramp[1]) / (1.0 + dt / tc),
         ];
-        let torsion = self.effects.suspension_torsion_m;
+        let torsion = self.mods.relaxation_length_m;
         let ctx = SolveCtx {
             dt,
             mass: self.mass_kg,
@@ -695,7 +703,7 @@ impl Simulator {
         self.check(u)?;
         let pose = self.true_pose();
         self.pose_history.push_back((self.time_s, pose));
-        let keep = self.effects.pose_latency_s + 0.5;
+        let keep = self.mods.pose_latency_s + 0.5;
         while self
             .pose_history
             .front()
@@ -781,7 +789,7 @@ impl Simulator {
     }
 
     fn delayed_pose(&self) -> Pose {
-        let t = self.time_s - self.effects.pose_latency_s;
+        let t = self.time_s - self.mods.pose_latency_s;
         self.pose_history
             .iter()
             .rev()
@@ -800,7 +808,7 @@ impl Plant for Simulator {
     }
     fn command(&mut self, cmd: WheelSpeeds) {
         self.cmd = cmd;
-        if self.effects.dead_time_s > 0.0 {
+        if self.mods.dead_time_s > 0.0 {
             self.cmd_queue.push_back((self.time_s, cmd));
         } else {
             self.applied = cmd;

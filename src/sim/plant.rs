@@ -17,10 +17,11 @@ pub trait Plant {
     fn true_pose(&self) -> Pose;
     /// True body velocity.
     fn true_velocity(&self) -> BodyVelocity;
-    /// Simulated time since creation, s.
+    /// Simulated time since creation or the last [`Plant::reset`], s.
     fn time_s(&self) -> f64;
     /// Puts the robot at `pose` (on the ground), moving at `velocity` (body frame) with its
-    /// wheels at `wheels`, and the wheel-speed targets at `wheels`: the start of a replayed step.
+    /// wheels at `wheels`, and the wheel-speed targets at `wheels`, with time restarting at 0:
+    /// the start of a replayed step.
     fn reset(&mut self, pose: Pose, velocity: BodyVelocity, wheels: WheelSpeeds);
     /// The wheel spins at which this plant's encoders read `encoders` (a plant with an encoder
     /// fault inverts it): a replay starts from measured readings, not from the truth.
@@ -61,15 +62,15 @@ impl IdealPlant {
 /// wrapped).
 pub fn integrate_unicycle(pose: &mut Pose, v: BodyVelocity, dt_s: f64) {
     let (yaw, dyaw) = (pose.yaw_rad, v.wz_rad_s * dt_s);
-    let (dx, dy) = if dyaw.abs() < 1e-9 {
-        (v.vx_m_s * dt_s * yaw.cos(), v.vx_m_s * dt_s * yaw.sin())
+    // The chord of the arc: length 2ρ sin(dψ/2) along the mid heading ψ + dψ/2 (one sin_cos
+    // instead of two; this runs at every integration step of the kinematic models).
+    let (s, c) = (yaw + 0.5 * dyaw).sin_cos();
+    let chord = if dyaw.abs() < 1e-9 {
+        v.vx_m_s * dt_s
     } else {
-        let rho = v.vx_m_s / v.wz_rad_s;
-        (
-            rho * ((yaw + dyaw).sin() - yaw.sin()),
-            -rho * ((yaw + dyaw).cos() - yaw.cos()),
-        )
+        2.0 * v.vx_m_s / v.wz_rad_s * (0.5 * dyaw).sin()
     };
+    let (dx, dy) = (chord * c, chord * s);
     pose.x_m += dx;
     pose.y_m += dy;
     pose.yaw_rad = wrap_angle(yaw + dyaw);
@@ -154,6 +155,7 @@ impl Plant for IdealPlant {
         self.pose = pose;
         self.wheels = wheels;
         self.cmd = wheels;
+        self.time_s = 0.0;
         self.last_velocity = self.idd.body_from_wheels(wheels);
     }
 }

@@ -1,6 +1,9 @@
 //! What the calibration tests share: printing a report's figures (shown with `--nocapture`;
 //! they are the numbers quoted in the README and the notes).
 
+#[allow(dead_code)] // not every test crate that includes this module generates data
+pub mod generator;
+
 use drive_sim::calibration::CalibrationReport;
 
 /// Prints the before/after table, the fitted terrain parameters, the first candidates of the

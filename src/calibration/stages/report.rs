@@ -1,0 +1,212 @@
+//! Stage 6: the scores reported, on the test steps only, and the report.
+
+use super::baseline::BaselineOutput;
+use super::candidates::bootstrap_reduction_se;
+use super::final_fit::FinalFitOutput;
+use super::screening::ScreeningReport;
+use super::selection::SelectionOutput;
+use super::Context;
+use crate::calibration::fit::FittedParam;
+use crate::calibration::metrics::{step_features, ErrorSummary, StepFeatures};
+use crate::calibration::model::ModelParams;
+use crate::calibration::replay::replay_map;
+use crate::calibration::residual::{self, ResidualAnalysis};
+use crate::calibration::{CalibrationReport, CalibrationStatus, StepScores, TableRow};
+use crate::error::Result;
+use crate::log::Origin;
+
+/// Input of [`run`].
+pub struct ReportInput {
+    /// Stage 1.
+    pub baseline: BaselineOutput,
+    /// Stage 2, when it ran.
+    pub screening: Option<ScreeningReport>,
+    /// Stage 4.
+    pub selection: SelectionOutput,
+    /// Stage 5.
+    pub final_fit: FinalFitOutput,
+    /// Registered effects the model cannot run.
+    pub not_evaluated: Vec<String>,
+    /// Notes of the set-up.
+    pub notes: Vec<String>,
+}
+
+fn table(
+    idd: &ErrorSummary,
+    before: &ErrorSummary,
+    after: &ErrorSummary,
+    floor: &ErrorSummary,
+) -> Vec<TableRow> {
+    idd.rows()
+        .into_iter()
+        .zip(before.rows())
+        .zip(after.rows())
+        .zip(floor.rows())
+        .map(|(((i, b), a), f)| TableRow {
+            metric: i.metric,
+            unit: i.unit,
+            idd: i.value,
+            sim_before: b.value,
+            sim_after: a.value,
+            floor: f.value,
+        })
+        .collect()
+}
+
+fn replayed_features(ctx: &Context<'_>, m: &ModelParams) -> Result<Vec<StepFeatures>> {
+    let t = &ctx.test;
+    replay_map(&t.steps, &t.starts, ctx.factory, m, t.rate_hz, |i, sim| {
+        step_features(t.steps[i].step, &sim)
+    })
+}
+
+/// Scores every model on the test steps and assembles the report.
+pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
+    let ReportInput {
+        baseline,
+        screening,
+        selection,
+        final_fit,
+        not_evaluated,
+        mut notes,
+    } = input;
+    let floor = &ctx.floor;
+    let model_after = final_fit.model.clone();
+    let after_base_test = ctx.test.errors(ctx.factory, &baseline.current)?;
+    let after_test = ctx.test.errors(ctx.factory, &model_after)?;
+    let idd = ErrorSummary::pool(&baseline.idd_test, floor);
+    let before = ErrorSummary::pool(&baseline.before_test, floor);
+    let after_terrain = ErrorSummary::pool(&after_base_test, floor);
+    let after = ErrorSummary::pool(&after_test, floor);
+    let kernel_var =
+        ctx.opts
+            .kernel_var
+            .unwrap_or(crate::analysis::smoother::KernelCovariance::default_variance_for(
+                &ctx.declared.robot,
+            ));
+    let space = ctx.declared.robot.command_space();
+    let residual_of = |m: &ModelParams| -> Result<ResidualAnalysis> {
+        Ok(residual::analyse(
+            &replayed_features(ctx, m)?,
+            &ctx.test.features,
+            ctx.declared.robot.idd(),
+            &space,
+            ctx.opts.grid_step,
+            kernel_var,
+        ))
+    };
+    let residual_before = residual_of(&baseline.current)?;
+    let residual_after = residual_of(&model_after)?;
+    let total_reduction = before.score - after.score;
+    let total_reduction_se = bootstrap_reduction_se(
+        &baseline.before_test,
+        &after_test,
+        floor,
+        ctx.opts.rule.bootstrap_samples,
+        ctx.opts.seed,
+    );
+    // Every effect parameter of the final model, with its interval from the final fit.
+    let fitted = final_fit.fit.as_ref();
+    let effects: Vec<FittedParam> = model_after
+        .effects
+        .values()
+        .into_iter()
+        .map(|(k, v)| {
+            let name = format!("effect.{k}");
+            let spec = selection
+                .selected
+                .iter()
+                .flat_map(|c| &c.params)
+                .find(|p| p.param.name() == name);
+            let from_fit = fitted.and_then(|f| f.param(&name)).cloned();
+            match (from_fit, spec) {
+                (Some(mut p), _) => {
+                    p.value = v;
+                    p
+                }
+                (None, Some(spec)) => FittedParam::of(spec, None, v),
+                (None, None) => FittedParam {
+                    name,
+                    initial: None,
+                    value: v,
+                    lower: f64::NAN,
+                    upper: f64::NAN,
+                    at_bound: false,
+                    unit: String::new(),
+                    se: None,
+                    ci95: None,
+                    identifiable: None,
+                    identifiability_note: None,
+                    neutral_in_interval: None,
+                    confounded: false,
+                },
+            }
+        })
+        .collect();
+    let mut converged = selection.converged
+        && baseline.base_fit.as_ref().is_none_or(|f| f.converged)
+        && final_fit.fit.as_ref().is_none_or(|f| f.converged);
+    if selection
+        .rounds
+        .iter()
+        .flat_map(|r| &r.ranking)
+        .any(|e| !e.converged)
+    {
+        converged = false;
+    }
+    notes.extend(baseline.notes);
+    notes.extend(selection.notes);
+    notes.extend(final_fit.notes);
+    let source_file = match &ctx.log.meta.origin {
+        Origin::Measured { file } => Some(file.clone()),
+        _ => None,
+    };
+    let reproduce = format!(
+        "drive-sim calibrate {} --model {} --seed {} --out <DIR>",
+        source_file.as_deref().unwrap_or(&ctx.log.meta.name),
+        ctx.factory.name(),
+        ctx.opts.seed
+    );
+    let score_of = |e: &[crate::calibration::metrics::StepErrors]| -> Vec<f64> {
+        e.iter().map(|s| s.score(floor)).collect()
+    };
+    Ok(CalibrationReport {
+        dataset: ctx.log.meta.name.clone(),
+        source_file,
+        model_kind: ctx.factory.name(),
+        options: ctx.opts.clone(),
+        status: CalibrationStatus { converged, notes },
+        train_steps: ctx.split.train.clone(),
+        validation_steps: ctx.split.validation.clone(),
+        heldout_steps: ctx.split.test.clone(),
+        table: table(&idd, &before, &after, &ErrorSummary::floor(floor)),
+        floor: floor.clone(),
+        idd,
+        before,
+        after_terrain,
+        after,
+        step_scores: StepScores {
+            idd: score_of(&baseline.idd_test),
+            before: score_of(&baseline.before_test),
+            after: score_of(&after_test),
+        },
+        total_reduction,
+        total_reduction_se,
+        terrain_fit: baseline.base_fit,
+        terrain_fit_kept: baseline.base_fit_kept,
+        screening,
+        rounds: selection.rounds,
+        pairs: selection.pairs,
+        backward: selection.backward,
+        final_fit: final_fit.fit,
+        final_fit_kept: final_fit.kept,
+        stand_ins: final_fit.stand_ins,
+        effects,
+        not_evaluated,
+        model_before: ctx.declared.clone(),
+        model_after,
+        residual_before,
+        residual_after,
+        reproduce,
+    })
+}

@@ -1,0 +1,554 @@
+//! The effect registry: named model components that real robots show and that the nominal
+//! model lacks (powertrain imperfections, geometry errors, the robot's own velocity controller,
+//! compliance in the tyre contact, sensor faults).
+//!
+//! One file defines one effect: its name, its parameters (typed, with units, validity bounds,
+//! the neutral value that switches it off, and the box calibration searches), where it acts
+//! ([`Stage`]) and how a plant applies it (the [`Effect`] hooks, which both the rapier
+//! simulator and the kinematic model call). [`REGISTRY`] lists them in the order a command
+//! meets them on its way to the sensors; adding an effect is adding a file and a line there,
+//! as samplers register in [`crate::protocol::samplers`].
+//!
+//! An [`Effects`] value is a set of effects switched on with their parameter values: what
+//! `--inject NAME=VALUE` builds, what a simulator runs with and what calibration fits. It
+//! serializes as a map from parameter name to value, the form logs and reports already use.
+
+mod command_speed_limit;
+mod command_yaw_rate_limit;
+mod controller_kinematics;
+mod controller_wheel_limit;
+mod dead_time;
+mod encoder_scale;
+mod imu_yaw_rate_bias;
+mod imu_yaw_rate_scale;
+mod imu_yaw_rate_sign_flip;
+mod motor_gain;
+mod pose_latency;
+mod suspension_torsion;
+mod time_constant_scale;
+mod turning_resistance;
+mod wheel_radius_scale;
+mod wheel_speed_saturation;
+
+use crate::error::{Error, Result};
+use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use std::collections::BTreeMap;
+use std::fmt;
+
+/// Where an effect acts on the way from a command to the sensors.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stage {
+    /// On the command, before or inside the robot's velocity controller (delays, clamps, the
+    /// controller's own kinematics).
+    Command,
+    /// On the wheel-speed loop (gains, limits, lag).
+    Wheel,
+    /// On how wheel spin becomes body motion (the rolling radius).
+    Body,
+    /// In the wheel-terrain contact (the tyre model): only a plant with one can run it.
+    Contact,
+    /// On what a sensor reports.
+    Sensor,
+}
+
+impl Stage {
+    /// Name in reports.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Command => "command",
+            Self::Wheel => "wheel",
+            Self::Body => "body",
+            Self::Contact => "contact",
+            Self::Sensor => "sensor",
+        }
+    }
+}
+
+/// What values a parameter takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ParamKind {
+    /// A real number in the validity bounds.
+    Continuous,
+    /// A limit: a positive number; 0 or infinity remove it (the neutral value is infinity).
+    Limit,
+    /// On / off: 0 or 1.
+    Flag,
+}
+
+/// How far a log's commands reach: the search boxes of limits are set below these.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CommandReach {
+    /// Largest commanded wheel speed, rad/s.
+    pub wheel_rad_s: f64,
+    /// Largest commanded forward speed (nominal geometry), m/s.
+    pub speed_m_s: f64,
+    /// Largest commanded yaw rate (nominal geometry), rad/s.
+    pub yaw_rate_rad_s: f64,
+}
+
+/// Which part of the [`CommandReach`] a limit's search box scales with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReachOf {
+    /// The largest commanded wheel speed.
+    Wheel,
+    /// The largest commanded forward speed.
+    Speed,
+    /// The largest commanded yaw rate.
+    YawRate,
+}
+
+/// The box calibration searches a parameter in.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SearchBox {
+    /// Fixed bounds, in the parameter's unit.
+    Fixed {
+        /// Lower bound.
+        lower: f64,
+        /// Upper bound.
+        upper: f64,
+    },
+    /// A fraction of what the log commands: a limit above the largest command does nothing.
+    Reach {
+        /// Which reach.
+        of: ReachOf,
+        /// Lower bound, as a fraction of the reach.
+        lower: f64,
+        /// Upper bound, as a fraction of the reach.
+        upper: f64,
+    },
+}
+
+impl SearchBox {
+    /// The bounds for a log that commands up to `reach`.
+    pub fn bounds(&self, reach: &CommandReach) -> (f64, f64) {
+        match *self {
+            Self::Fixed { lower, upper } => (lower, upper),
+            Self::Reach { of, lower, upper } => {
+                let r = match of {
+                    ReachOf::Wheel => reach.wheel_rad_s,
+                    ReachOf::Speed => reach.speed_m_s,
+                    ReachOf::YawRate => reach.yaw_rate_rad_s,
+                }
+                .max(1e-3);
+                (lower * r, upper * r)
+            }
+        }
+    }
+}
+
+/// One parameter of an effect.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParamDef {
+    /// Its name, unique over the registry: what `--inject NAME=VALUE` and reports use.
+    pub key: &'static str,
+    /// Unit (`-` for a ratio).
+    pub unit: &'static str,
+    /// What values it takes.
+    pub kind: ParamKind,
+    /// Smallest valid value (inclusive).
+    pub min: f64,
+    /// Largest valid value (inclusive).
+    pub max: f64,
+    /// The value at which the parameter changes nothing (gain 1, bias 0, limit infinity).
+    pub neutral: f64,
+    /// Where calibration searches it.
+    pub search: SearchBox,
+    /// Smallest change that makes a difference to a plant (a delay acts in whole integration
+    /// steps): finite differences never step below it. `None`: smooth.
+    pub resolution: Option<f64>,
+}
+
+impl ParamDef {
+    /// Checks `value` and returns it in canonical form (a limit of 0 becomes infinity, i.e.
+    /// off); the error names the parameter and the allowed range.
+    pub fn check(&self, value: f64) -> Result<f64> {
+        let bad = |why: String| Error::config("--inject", self.key, format!("{why}, got {value}"));
+        if value.is_nan() {
+            return Err(bad("must be a number".into()));
+        }
+        match self.kind {
+            ParamKind::Flag => {
+                if value == 0.0 || value == 1.0 {
+                    Ok(value)
+                } else {
+                    Err(bad("must be 0 or 1".into()))
+                }
+            }
+            ParamKind::Limit => {
+                if value == 0.0 || value == f64::INFINITY {
+                    Ok(f64::INFINITY)
+                } else if value.is_finite() && value > 0.0 && value <= self.max {
+                    Ok(value)
+                } else {
+                    Err(bad(format!(
+                        "must be a limit in (0, {}] {} (0 or infinity remove it)",
+                        self.max, self.unit
+                    )))
+                }
+            }
+            ParamKind::Continuous => {
+                if value.is_finite() && value >= self.min && value <= self.max {
+                    Ok(value)
+                } else {
+                    Err(bad(format!(
+                        "must be in [{}, {}] {}",
+                        self.min, self.max, self.unit
+                    )))
+                }
+            }
+        }
+    }
+
+    /// Whether `value` leaves the model unchanged.
+    pub fn is_neutral(&self, value: f64) -> bool {
+        value == self.neutral
+    }
+}
+
+/// Physical quantities of a plant that effects change; plants read them once when built.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlantModifiers {
+    /// Effective rolling radius over the nominal one.
+    pub wheel_radius_scale: f64,
+    /// Multiplies the wheel-speed loop's time constant.
+    pub time_constant_scale: f64,
+    /// Delay between a command and the controller acting on it, s.
+    pub dead_time_s: f64,
+    /// Multiplies the lateral friction coefficients of the tyre model.
+    pub lateral_friction_scale: f64,
+    /// Lateral relaxation length of the tyres, m (0: quasi-static tyre).
+    pub relaxation_length_m: f64,
+    /// Age of the pose when it is read, s.
+    pub pose_latency_s: f64,
+}
+
+impl Default for PlantModifiers {
+    fn default() -> Self {
+        Self {
+            wheel_radius_scale: 1.0,
+            time_constant_scale: 1.0,
+            dead_time_s: 0.0,
+            lateral_friction_scale: 1.0,
+            relaxation_length_m: 0.0,
+            pose_latency_s: 0.0,
+        }
+    }
+}
+
+/// A model effect. Each hook receives the effect's parameter values (in the order of
+/// [`Effect::params`]) and defaults to doing nothing, so an effect implements only the hooks
+/// of the stage it acts in.
+pub trait Effect: Send + Sync {
+    /// Name in reports and candidate lists.
+    fn name(&self) -> &'static str;
+    /// One line saying what it models, with the physical cause.
+    fn doc(&self) -> &'static str;
+    /// Where it acts.
+    fn stage(&self) -> Stage;
+    /// Its parameters.
+    fn params(&self) -> &'static [ParamDef];
+    /// The kinematic model (no tyre) can run it: every stage but the contact.
+    fn kinematic(&self) -> bool {
+        self.stage() != Stage::Contact
+    }
+    /// Transforms the command in the nominal body space, before the controller's kinematics
+    /// (clamps of a velocity controller). Only called when [`Effect::uses_body_space`].
+    fn body_command(&self, _p: &[f64], v: BodyVelocity) -> BodyVelocity {
+        v
+    }
+    /// The geometry the robot's controller turns body commands into wheel targets with.
+    fn controller_geometry(&self, _p: &[f64], g: IdealDiffDrive) -> IdealDiffDrive {
+        g
+    }
+    /// The command goes through the nominal body space (the controller stage runs).
+    fn uses_body_space(&self) -> bool {
+        false
+    }
+    /// Transforms the wheel-speed targets (in registry order).
+    fn wheel_targets(&self, _p: &[f64], w: WheelSpeeds) -> WheelSpeeds {
+        w
+    }
+    /// The encoder readings for the true wheel spins.
+    fn encoders(&self, _p: &[f64], w: WheelSpeeds) -> WheelSpeeds {
+        w
+    }
+    /// The wheel spins that give the encoder readings `w` (inverse of [`Effect::encoders`]).
+    fn wheels_from_encoders(&self, _p: &[f64], w: WheelSpeeds) -> WheelSpeeds {
+        w
+    }
+    /// The IMU yaw-rate reading for the reading so far `wz` (in registry order).
+    fn imu_yaw_rate(&self, _p: &[f64], wz: f64) -> f64 {
+        wz
+    }
+    /// Changes the physical quantities a plant reads when it is built.
+    fn modify_plant(&self, _p: &[f64], _m: &mut PlantModifiers) {}
+}
+
+impl fmt::Debug for dyn Effect {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Every effect, in the order a command meets them (the controller's clamps and kinematics,
+/// the wheel loop, the body, the contact, the sensors). Order matters where two effects of a
+/// stage compose: the curvature-preserving limit acts before the motor gains, the gains before
+/// the per-motor saturation.
+pub static REGISTRY: &[&dyn Effect] = &[
+    &dead_time::DeadTime,
+    &command_speed_limit::CommandSpeedLimit,
+    &command_yaw_rate_limit::CommandYawRateLimit,
+    &controller_kinematics::ControllerKinematics,
+    &controller_wheel_limit::ControllerWheelLimit,
+    &motor_gain::MotorGain,
+    &wheel_speed_saturation::WheelSpeedSaturation,
+    &time_constant_scale::TimeConstantScale,
+    &wheel_radius_scale::WheelRadiusScale,
+    &turning_resistance::TurningResistance,
+    &suspension_torsion::SuspensionTorsion,
+    &imu_yaw_rate_sign_flip::ImuYawRateSignFlip,
+    &imu_yaw_rate_scale::ImuYawRateScale,
+    &imu_yaw_rate_bias::ImuYawRateBias,
+    &pose_latency::PoseLatency,
+    &encoder_scale::EncoderScale,
+];
+
+/// The effect registered under `name`.
+pub fn effect(name: &str) -> Option<&'static dyn Effect> {
+    REGISTRY.iter().copied().find(|e| e.name() == name)
+}
+
+/// Index in [`REGISTRY`] of the effect that owns the parameter `key`, and the parameter's
+/// index in it.
+pub fn param_owner(key: &str) -> Option<(usize, usize)> {
+    REGISTRY
+        .iter()
+        .enumerate()
+        .find_map(|(i, e)| e.params().iter().position(|p| p.key == key).map(|j| (i, j)))
+}
+
+/// Every parameter name, in registry order.
+pub fn param_keys() -> Vec<&'static str> {
+    REGISTRY
+        .iter()
+        .flat_map(|e| e.params().iter().map(|p| p.key))
+        .collect()
+}
+
+/// An effect switched on, with its parameter values.
+#[derive(Clone, PartialEq)]
+struct Active {
+    /// Index in [`REGISTRY`].
+    index: usize,
+    values: Vec<f64>,
+}
+
+impl Active {
+    fn effect(&self) -> &'static dyn Effect {
+        REGISTRY[self.index]
+    }
+}
+
+/// A set of effects switched on, each with its parameter values, kept in registry order. The
+/// default is the nominal model (nothing switched on).
+#[derive(Clone, PartialEq, Default)]
+pub struct Effects {
+    active: Vec<Active>,
+}
+
+impl fmt::Debug for Effects {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_map().entries(self.values()).finish()
+    }
+}
+
+impl Effects {
+    /// Sets one parameter by name (switching its effect on, its other parameters neutral).
+    /// Booleans take 0 or 1; limits take a positive value, or 0 / infinity to remove them.
+    /// Rejects unknown names and values outside the parameter's range, naming them.
+    pub fn set(&mut self, key: &str, value: f64) -> Result<()> {
+        let (index, j) = param_owner(key).ok_or_else(|| {
+            Error::config(
+                "--inject",
+                key,
+                format!("unknown effect; known: {}", param_keys().join(", ")),
+            )
+        })?;
+        let def = &REGISTRY[index].params()[j];
+        let value = def.check(value)?;
+        let pos = match self.active.iter().position(|a| a.index >= index) {
+            Some(p) if self.active[p].index == index => p,
+            Some(p) => {
+                self.active.insert(p, Self::neutral_entry(index));
+                p
+            }
+            None => {
+                self.active.push(Self::neutral_entry(index));
+                self.active.len() - 1
+            }
+        };
+        self.active[pos].values[j] = value;
+        // An effect whose parameters are all neutral again is off.
+        let e = REGISTRY[index];
+        if self.active[pos]
+            .values
+            .iter()
+            .zip(e.params())
+            .all(|(v, d)| d.is_neutral(*v))
+        {
+            self.active.remove(pos);
+        }
+        Ok(())
+    }
+
+    fn neutral_entry(index: usize) -> Active {
+        Active {
+            index,
+            values: REGISTRY[index].params().iter().map(|p| p.neutral).collect(),
+        }
+    }
+
+    /// Current value of a parameter (its neutral value when its effect is off; a missing limit
+    /// reads as infinity, a flag as 0 or 1); `None` for an unknown name.
+    pub fn get(&self, key: &str) -> Option<f64> {
+        let (index, j) = param_owner(key)?;
+        Some(
+            self.active
+                .iter()
+                .find(|a| a.index == index)
+                .map_or(REGISTRY[index].params()[j].neutral, |a| a.values[j]),
+        )
+    }
+
+    /// The parameters that differ from their neutral value, as `(name, value)` pairs in
+    /// registry order (what a log records as "injected").
+    pub fn declared(&self) -> Vec<(&'static str, f64)> {
+        self.values()
+            .into_iter()
+            .filter(|(k, v)| param_owner(k).is_some_and(|(i, j)| !REGISTRY[i].params()[j].is_neutral(*v)))
+            .collect()
+    }
+
+    /// Every parameter of every effect switched on, with its value, in registry order.
+    pub fn values(&self) -> Vec<(&'static str, f64)> {
+        self.active
+            .iter()
+            .flat_map(|a| {
+                a.effect()
+                    .params()
+                    .iter()
+                    .zip(&a.values)
+                    .map(|(d, v)| (d.key, *v))
+            })
+            .collect()
+    }
+
+    /// The effects switched on, in registry order.
+    pub fn active(&self) -> impl Iterator<Item = &'static dyn Effect> + '_ {
+        self.active.iter().map(Active::effect)
+    }
+
+    /// Nothing switched on.
+    pub fn is_empty(&self) -> bool {
+        self.active.is_empty()
+    }
+
+    /// The first effect switched on that a plant without a tyre model cannot run.
+    pub fn first_contact_effect(&self) -> Option<&'static dyn Effect> {
+        self.active().find(|e| !e.kinematic())
+    }
+
+    /// Parses `NAME=VALUE` (the CLI's `--inject` syntax) and applies it.
+    pub fn apply_assignment(&mut self, assignment: &str) -> Result<()> {
+        let (name, value) = assignment
+            .split_once('=')
+            .ok_or_else(|| Error::config("--inject", assignment, "expected NAME=VALUE"))?;
+        let name = name.trim();
+        let v: f64 = match value.trim() {
+            "true" => 1.0,
+            "false" => 0.0,
+            t => t
+                .parse()
+                .map_err(|_| Error::config("--inject", name, format!("`{t}` is not a number")))?,
+        };
+        self.set(name, v)
+    }
+
+    /// The physical quantities a plant built with these effects uses.
+    pub fn modifiers(&self) -> PlantModifiers {
+        let mut m = PlantModifiers::default();
+        for a in &self.active {
+            a.effect().modify_plant(&a.values, &mut m);
+        }
+        m
+    }
+
+    /// The wheel-speed targets the motors receive for the command `cmd`, given the nominal
+    /// geometry the command was computed with: the controller's body-space clamps and
+    /// kinematics, then the wheel-stage effects in registry order. With nothing switched on,
+    /// `cmd` comes back unchanged (bit for bit).
+    pub fn wheel_targets(&self, cmd: WheelSpeeds, nominal: &IdealDiffDrive) -> WheelSpeeds {
+        let mut w = cmd;
+        if self.active.iter().any(|a| a.effect().uses_body_space()) {
+            let mut v = nominal.body_from_wheels(cmd);
+            v.vy_m_s = 0.0;
+            let mut controller = *nominal;
+            for a in &self.active {
+                v = a.effect().body_command(&a.values, v);
+                controller = a.effect().controller_geometry(&a.values, controller);
+            }
+            w = controller.wheels_from_body(v);
+        }
+        for a in &self.active {
+            w = a.effect().wheel_targets(&a.values, w);
+        }
+        w
+    }
+
+    /// The IMU yaw-rate reading for the true yaw rate `wz_rad_s`.
+    pub fn imu_yaw_rate(&self, wz_rad_s: f64) -> f64 {
+        self.active
+            .iter()
+            .fold(wz_rad_s, |wz, a| a.effect().imu_yaw_rate(&a.values, wz))
+    }
+
+    /// The encoder readings for the true wheel spins.
+    pub fn encoders(&self, wheels: WheelSpeeds) -> WheelSpeeds {
+        self.active
+            .iter()
+            .fold(wheels, |w, a| a.effect().encoders(&a.values, w))
+    }
+
+    /// The wheel spins that give the encoder readings `encoders` (inverse of
+    /// [`Effects::encoders`]).
+    pub fn wheels_from_encoders(&self, encoders: WheelSpeeds) -> WheelSpeeds {
+        self.active
+            .iter()
+            .rev()
+            .fold(encoders, |w, a| a.effect().wheels_from_encoders(&a.values, w))
+    }
+}
+
+impl Serialize for Effects {
+    fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        // Infinity (a limit that is off) has no JSON form; an active limit is finite.
+        let map: BTreeMap<&str, f64> = self.values().into_iter().collect();
+        map.serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for Effects {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        let map = BTreeMap::<String, f64>::deserialize(d)?;
+        let mut e = Effects::default();
+        for (k, v) in map {
+            e.set(&k, v).map_err(serde::de::Error::custom)?;
+        }
+        Ok(e)
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,143 @@
+use super::*;
+
+#[test]
+fn registry_names_and_keys_are_unique_and_documented() {
+    let mut names: Vec<&str> = REGISTRY.iter().map(|e| e.name()).collect();
+    names.sort_unstable();
+    names.dedup();
+    assert_eq!(names.len(), REGISTRY.len());
+    let mut keys = param_keys();
+    let n = keys.len();
+    keys.sort_unstable();
+    keys.dedup();
+    assert_eq!(keys.len(), n, "parameter names must be unique");
+    for e in REGISTRY {
+        assert!(!e.doc().is_empty() && !e.params().is_empty(), "{}", e.name());
+        for p in e.params() {
+            // The neutral value is valid and switches the effect off.
+            let c = p.check(p.neutral).unwrap();
+            assert!(p.is_neutral(c), "{}", p.key);
+            let reach = CommandReach {
+                wheel_rad_s: 10.0,
+                speed_m_s: 3.0,
+                yaw_rate_rad_s: 2.0,
+            };
+            let (lo, hi) = p.search.bounds(&reach);
+            assert!(lo < hi && p.check(hi).is_ok(), "{}", p.key);
+        }
+    }
+    assert_eq!(REGISTRY.len(), 16);
+    assert_eq!(n, 18);
+}
+
+#[test]
+fn default_declares_nothing_and_every_name_round_trips() {
+    let mut e = Effects::default();
+    assert!(e.declared().is_empty());
+    for n in param_keys() {
+        let v = match n {
+            "imu_yaw_rate_sign_flip" => 1.0,
+            "dead_time_s" | "pose_latency_s" | "suspension_torsion_m" => 0.3,
+            _ => 0.7,
+        };
+        e.set(n, v).unwrap();
+        assert_eq!(e.get(n), Some(v), "{n}");
+    }
+    assert_eq!(e.declared().len(), param_keys().len());
+    // Serde: a map of parameter names, which reads back to the same set.
+    let json = serde_json::to_string(&e).unwrap();
+    let back: Effects = serde_json::from_str(&json).unwrap();
+    assert_eq!(back, e);
+    assert!(serde_json::from_str::<Effects>(r#"{"warp_drive": 1.0}"#).is_err());
+    // Back to neutral, the effect is off.
+    e.set("dead_time_s", 0.0).unwrap();
+    assert!(!e.active().any(|x| x.name() == "dead_time_s"));
+}
+
+#[test]
+fn bad_values_and_names_are_named() {
+    let mut e = Effects::default();
+    let msg = e.set("motor_gain_left", -1.0).unwrap_err().to_string();
+    assert!(msg.contains("motor_gain_left"), "{msg}");
+    let msg = e.set("warp_drive", 1.0).unwrap_err().to_string();
+    assert!(
+        msg.contains("warp_drive") && msg.contains("encoder_scale"),
+        "{msg}"
+    );
+    assert!(e.set("imu_yaw_rate_sign_flip", 0.5).is_err());
+    assert!(e.set("dead_time_s", f64::NAN).is_err());
+    assert!(e.set("dead_time_s", 6.0).is_err());
+    let msg = e.apply_assignment("encoder_scale=abc").unwrap_err().to_string();
+    assert!(msg.contains("encoder_scale"), "{msg}");
+    e.apply_assignment("imu_yaw_rate_sign_flip=true").unwrap();
+    assert_eq!(e.get("imu_yaw_rate_sign_flip"), Some(1.0));
+    e.apply_assignment("wheel_speed_saturation_rad_s=12").unwrap();
+    assert_eq!(
+        e.declared(),
+        vec![
+            ("wheel_speed_saturation_rad_s", 12.0),
+            ("imu_yaw_rate_sign_flip", 1.0)
+        ]
+    );
+}
+
+#[test]
+fn wheel_targets_by_hand() {
+    // Nominal r = 0.5 m, b = 1 m: the command (1, 3) rad/s stands for v = 1 m/s, w = 1 rad/s.
+    let nominal = IdealDiffDrive {
+        wheel_radius_m: 0.5,
+        baseline_m: 1.0,
+    };
+    let cmd = WheelSpeeds::new(1.0, 3.0);
+    assert_eq!(Effects::default().wheel_targets(cmd, &nominal), cmd);
+    let close = |w: WheelSpeeds, l: f64, r: f64| {
+        assert!(
+            (w.left_rad_s - l).abs() < 1e-12 && (w.right_rad_s - r).abs() < 1e-12,
+            "{w:?} vs ({l}, {r})"
+        )
+    };
+    let mut e = Effects::default();
+    // Controller r = 0.25 m, b = 2 m: wheels (v -+ w b/2) / r = (0, 8).
+    e.set("controller_radius_scale", 0.5).unwrap();
+    e.set("controller_baseline_scale", 2.0).unwrap();
+    close(e.wheel_targets(cmd, &nominal), 0.0, 8.0);
+    // Yaw rate clamped to 0.5 rad/s: (1 -+ 0.5) / 0.25 = (2, 6).
+    e.set("command_yaw_rate_limit_rad_s", 0.5).unwrap();
+    close(e.wheel_targets(cmd, &nominal), 2.0, 6.0);
+    // Speed clamped to 0.75 m/s: (0.75 -+ 0.5) / 0.25 = (1, 5).
+    e.set("command_speed_limit_m_s", 0.75).unwrap();
+    close(e.wheel_targets(cmd, &nominal), 1.0, 5.0);
+    // Both scaled so the faster is at 2.5: (0.5, 2.5), same curvature; then the left motor's
+    // gain 2: (1, 2.5); then a per-motor clip at 0.9: (0.9, 0.9).
+    e.set("controller_wheel_limit_rad_s", 2.5).unwrap();
+    e.set("motor_gain_left", 2.0).unwrap();
+    close(e.wheel_targets(cmd, &nominal), 1.0, 2.5);
+    e.set("wheel_speed_saturation_rad_s", 0.9).unwrap();
+    assert_eq!(e.wheel_targets(cmd, &nominal), WheelSpeeds::new(0.9, 0.9));
+    // Limits come off with 0 or infinity.
+    e.set("controller_wheel_limit_rad_s", 0.0).unwrap();
+    assert_eq!(e.get("controller_wheel_limit_rad_s"), Some(f64::INFINITY));
+    assert!(e.set("command_yaw_rate_limit_rad_s", -1.0).is_err());
+}
+
+#[test]
+fn sensors_by_hand() {
+    let mut e = Effects::default();
+    e.set("imu_yaw_rate_sign_flip", 1.0).unwrap();
+    e.set("imu_yaw_rate_scale", 0.8).unwrap();
+    e.set("imu_yaw_rate_bias_rad_s", 0.1).unwrap();
+    // sign * scale * wz + bias.
+    assert!((e.imu_yaw_rate(1.0) - (-0.8 + 0.1)).abs() < 1e-12);
+    e.set("encoder_scale", 1.25).unwrap();
+    let w = WheelSpeeds::new(2.0, -4.0);
+    assert_eq!(e.encoders(w), WheelSpeeds::new(2.5, -5.0));
+    assert_eq!(e.wheels_from_encoders(e.encoders(w)), w);
+    e.set("dead_time_s", 0.2).unwrap();
+    e.set("turning_resistance_scale", 2.0).unwrap();
+    let m = e.modifiers();
+    assert_eq!((m.dead_time_s, m.lateral_friction_scale), (0.2, 2.0));
+    assert_eq!(
+        e.first_contact_effect().map(|x| x.name()),
+        Some("turning_resistance_scale")
+    );
+}
