@@ -9,12 +9,12 @@
 use drive_sim::calibration::{
     calibrate, models_for_log, write_report, CalibrationOptions, CalibrationReport, SimFactory,
 };
-use drive_sim::effects::Effects;
 use drive_sim::log::csv::read_measured_csv;
 use drive_sim::log::DriveLog;
 use drive_sim::protocol::sampler::UniformWheel;
 use drive_sim::protocol::{run_drive, ProtocolConfig};
 use drive_sim::robot::Robot;
+use drive_sim::effects::Effects;
 use drive_sim::sim::{SensorNoise, SimConfig, Simulator};
 use drive_sim::terrain::Terrain;
 

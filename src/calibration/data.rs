@@ -84,7 +84,11 @@ impl<'a> StepSet<'a> {
     }
 
     /// Replays every step on the model and returns its residuals against the recording.
-    pub fn residuals(&self, factory: &dyn PlantFactory, params: &ModelParams) -> Result<Vec<StepResiduals>> {
+    pub fn residuals(
+        &self,
+        factory: &dyn PlantFactory,
+        params: &ModelParams,
+    ) -> Result<Vec<StepResiduals>> {
         replay_map(
             &self.steps,
             &self.starts,
@@ -144,8 +148,8 @@ pub fn split_steps(
         )));
     }
     let n = commands.len();
-    let need = (MIN_STEPS_PER_SET as f64 / train_fraction.min(validation_fraction).min(test_fraction)).ceil()
-        as usize;
+    let need = (MIN_STEPS_PER_SET as f64 / train_fraction.min(validation_fraction).min(test_fraction))
+        .ceil() as usize;
     if n < need {
         return Err(Error::Analysis(format!(
             "`{dataset}` has {n} completed steps: too few for a train / validation / test split \
@@ -217,13 +221,7 @@ mod tests {
         assert_eq!((s.train.len(), s.validation.len(), s.test.len()), (60, 20, 20));
         assert_eq!(split_steps("d", &c, 0.6, 0.2, 3).unwrap(), s);
         assert_ne!(split_steps("d", &c, 0.6, 0.2, 4).unwrap(), s);
-        let mut all: Vec<u32> = s
-            .train
-            .iter()
-            .chain(&s.validation)
-            .chain(&s.test)
-            .copied()
-            .collect();
+        let mut all: Vec<u32> = s.train.iter().chain(&s.validation).chain(&s.test).copied().collect();
         all.sort_unstable();
         assert_eq!(all, (0..100).collect::<Vec<_>>());
         // Every quadrant of the wheel plane has test steps.
@@ -239,9 +237,7 @@ mod tests {
 
     #[test]
     fn too_few_steps_is_an_error_naming_the_dataset() {
-        let e = split_steps("tiny", &commands(8), 0.6, 0.2, 0)
-            .unwrap_err()
-            .to_string();
+        let e = split_steps("tiny", &commands(8), 0.6, 0.2, 0).unwrap_err().to_string();
         assert!(e.contains("tiny") && e.contains("8 completed steps"), "{e}");
         assert!(split_steps("x", &commands(100), 0.8, 0.3, 0).is_err());
     }

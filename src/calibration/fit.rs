@@ -347,7 +347,8 @@ pub fn fit(
     opts: &FitOptions,
     observe: &mut dyn FnMut(&Iteration),
 ) -> Result<(ModelParams, FitResult)> {
-    let (discrete, continuous): (Vec<ParamSpec>, Vec<ParamSpec>) = specs.iter().partition(|s| s.discrete);
+    let (discrete, continuous): (Vec<ParamSpec>, Vec<ParamSpec>) =
+        specs.iter().partition(|s| s.discrete);
     let x0: Vec<f64> = continuous.iter().map(|s| s.start_in(base)).collect();
     // The score of the model as it is (not at the solver's start, which may differ: an effect
     // that is off starts inside its box).
@@ -376,11 +377,7 @@ pub fn fit(
             "no model could be evaluated on the {} steps fitted ({} parameters: {})",
             data.len(),
             specs.len(),
-            specs
-                .iter()
-                .map(|s| s.param.name())
-                .collect::<Vec<_>>()
-                .join(", ")
+            specs.iter().map(|s| s.param.name()).collect::<Vec<_>>().join(", ")
         )));
     };
     let mut params: Vec<FittedParam> = Vec::new();

@@ -309,17 +309,12 @@ pub fn calibrate_timed(
             (s.step, crate::kinematics::WheelSpeeds::new(l / n, r / n))
         })
         .collect();
-    let split = split_steps(
-        name,
-        &commands,
-        opts.train_fraction,
-        opts.validation_fraction,
-        opts.seed,
-    )?;
+    let split = split_steps(name, &commands, opts.train_fraction, opts.validation_fraction, opts.seed)?;
     let rate = log.meta.rate_hz;
     let train_all = StepSet::new(&slices, &split.train, rate)?;
-    let floor = NoiseFloor::estimate(&train_all.features)
-        .map_err(|e| Error::Analysis(format!("`{name}`: no noise floor from its training steps: {e}")))?;
+    let floor = NoiseFloor::estimate(&train_all.features).map_err(|e| {
+        Error::Analysis(format!("`{name}`: no noise floor from its training steps: {e}"))
+    })?;
     if floor.steps_used == 0 {
         return Err(Error::Analysis(format!(
             "`{name}`: no training step has two steady windows, so the steady channels have no              noise floor estimate (the floor compares the two steady windows of each step)"
@@ -360,7 +355,8 @@ pub fn calibrate_timed(
         _ => train_all,
     };
     let declared = ModelParams::new(robot.clone(), terrain.clone());
-    let (pool, not_evaluated) = candidates::candidates_for(factory, &reach, opts.candidates.as_deref());
+    let (pool, not_evaluated) =
+        candidates::candidates_for(factory, &reach, opts.candidates.as_deref());
     if let Some(only) = &opts.candidates {
         for n in only {
             if crate::effects::effect(n).is_none() {

@@ -53,9 +53,7 @@ impl Param {
     /// Unit.
     pub fn unit(&self) -> &'static str {
         match self {
-            Self::PeakLongitudinal | Self::PeakLateral | Self::PeakSlipRatio | Self::RollingCoefficient => {
-                "-"
-            }
+            Self::PeakLongitudinal | Self::PeakLateral | Self::PeakSlipRatio | Self::RollingCoefficient => "-",
             Self::Baseline => "m",
             Self::TimeConstant => "s",
             Self::Effect { .. } => self.def().map_or("-", |d| d.unit),
@@ -97,7 +95,10 @@ impl Param {
             Self::RollingCoefficient => m.terrain.resistance.rolling_coefficient,
             Self::Baseline => m.robot.wheels.baseline_m,
             Self::TimeConstant => m.robot.powertrain.time_constant_s,
-            Self::Effect { .. } => self.def().and_then(|d| m.effects.get(d.key)).unwrap_or(f64::NAN),
+            Self::Effect { .. } => self
+                .def()
+                .and_then(|d| m.effects.get(d.key))
+                .unwrap_or(f64::NAN),
         }
     }
 
@@ -105,9 +106,7 @@ impl Param {
     /// [`ModelParams::with_values`]); an effect value is checked against its range.
     fn set_unchecked(&self, m: &mut ModelParams, v: f64) -> Result<()> {
         // An effect's limit is off at infinity; everything else must be finite.
-        let off_limit = self
-            .def()
-            .is_some_and(|d| d.kind == ParamKind::Limit && v == f64::INFINITY);
+        let off_limit = self.def().is_some_and(|d| d.kind == ParamKind::Limit && v == f64::INFINITY);
         if !(v.is_finite() || off_limit) {
             return Err(Error::Analysis(format!(
                 "parameter `{}`: non-finite value {v}",
@@ -265,9 +264,7 @@ mod tests {
         assert!(e.contains("sliding_longitudinal"), "{e}");
         let gain = Param::effect_param("motor_gain_left").unwrap();
         assert!(p.with_values(&[ParamSpec::new(gain, 0.5, 1.3)], &[-1.0]).is_err());
-        assert!(p
-            .with_values(&[ParamSpec::new(gain, 0.5, 1.3)], &[f64::NAN])
-            .is_err());
+        assert!(p.with_values(&[ParamSpec::new(gain, 0.5, 1.3)], &[f64::NAN]).is_err());
         assert!(Param::effect_param("warp_drive").is_none());
     }
 }

@@ -4,11 +4,11 @@
 //! machinery (replay, metrics, optimizer, effect selection) can be tested end to end on it,
 //! and it is the fast model `calibrate` can fall back to.
 
-use crate::effects::{Effects, PlantModifiers};
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use crate::log::{GroundTruth, Measurement, Pose};
 use crate::sim::plant::{integrate_unicycle, kinematic_measurement, wrap_angle, Plant};
+use crate::effects::{Effects, PlantModifiers};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};

@@ -122,7 +122,10 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
     let kind = ModelKind::parse(&args.model)?;
     let optimizer = calibration::Optimizer::parse(&args.optimizer)?;
     if args.out.is_file() {
-        anyhow::bail!("--out {}: is a file, not a directory", args.out.display());
+        anyhow::bail!(
+            "--out {}: is a file, not a directory",
+            args.out.display()
+        );
     }
     eprintln!("drive-sim: reading {}", args.log.display());
     let log = read_log(&args.log)?;
@@ -146,10 +149,14 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
         args.optimizer
     );
     let t0 = std::time::Instant::now();
-    let (mut report, timings) =
-        calibration::calibrate_timed(&log, &robot, &terrain, kind.factory().as_ref(), &opts, &|line| {
-            eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64())
-        })?;
+    let (mut report, timings) = calibration::calibrate_timed(
+        &log,
+        &robot,
+        &terrain,
+        kind.factory().as_ref(),
+        &opts,
+        &|line| eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64()),
+    )?;
     report.status.notes.splice(0..0, notes);
     report.reproduce = format!(
         "drive-sim calibrate {} --model {} --seed {} --max-effects {} --optimizer {} --out {}",

@@ -15,11 +15,7 @@ const PARAMS: &[ParamDef] = &[ParamDef {
     neutral: f64::INFINITY,
     // A controller's body-space limits can sit far below what a protocol commands (a Husky
     // commanded at 8.7 rad/s turns at under 2): searched down to a tenth.
-    search: SearchBox::Reach {
-        of: ReachOf::Speed,
-        lower: 0.1,
-        upper: 1.0,
-    },
+    search: SearchBox::Reach { of: ReachOf::Speed, lower: 0.1, upper: 1.0 },
     resolution: None,
 }];
 
@@ -40,9 +36,6 @@ impl Effect for CommandSpeedLimit {
         true
     }
     fn body_command(&self, p: &[f64], v: BodyVelocity) -> BodyVelocity {
-        BodyVelocity {
-            vx_m_s: v.vx_m_s.clamp(-p[0], p[0]),
-            ..v
-        }
+        BodyVelocity { vx_m_s: v.vx_m_s.clamp(-p[0], p[0]), ..v }
     }
 }

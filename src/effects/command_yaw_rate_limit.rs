@@ -13,11 +13,7 @@ const PARAMS: &[ParamDef] = &[ParamDef {
     min: 0.0,
     max: 100.0,
     neutral: f64::INFINITY,
-    search: SearchBox::Reach {
-        of: ReachOf::YawRate,
-        lower: 0.1,
-        upper: 1.0,
-    },
+    search: SearchBox::Reach { of: ReachOf::YawRate, lower: 0.1, upper: 1.0 },
     resolution: None,
 }];
 
@@ -38,9 +34,6 @@ impl Effect for CommandYawRateLimit {
         true
     }
     fn body_command(&self, p: &[f64], v: BodyVelocity) -> BodyVelocity {
-        BodyVelocity {
-            wz_rad_s: v.wz_rad_s.clamp(-p[0], p[0]),
-            ..v
-        }
+        BodyVelocity { wz_rad_s: v.wz_rad_s.clamp(-p[0], p[0]), ..v }
     }
 }

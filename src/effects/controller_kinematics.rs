@@ -18,10 +18,7 @@ const PARAMS: &[ParamDef] = &[
         min: 0.01,
         max: 100.0,
         neutral: 1.0,
-        search: SearchBox::Fixed {
-            lower: 0.4,
-            upper: 2.0,
-        },
+        search: SearchBox::Fixed { lower: 0.4, upper: 2.0 },
         resolution: None,
     },
     ParamDef {
@@ -31,10 +28,7 @@ const PARAMS: &[ParamDef] = &[
         min: 0.01,
         max: 100.0,
         neutral: 1.0,
-        search: SearchBox::Fixed {
-            lower: 0.3,
-            upper: 3.0,
-        },
+        search: SearchBox::Fixed { lower: 0.3, upper: 3.0 },
         resolution: None,
     },
 ];

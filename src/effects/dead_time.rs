@@ -13,10 +13,7 @@ const PARAMS: &[ParamDef] = &[ParamDef {
     // Beyond a few seconds a delay is a protocol fault, not a powertrain.
     max: 5.0,
     neutral: 0.0,
-    search: SearchBox::Fixed {
-        lower: 0.0,
-        upper: 0.6,
-    },
+    search: SearchBox::Fixed { lower: 0.0, upper: 0.6 },
     // Plants apply a delayed command at their integration steps (5 ms kinematic, 10 ms
     // simulator): below that, a change of delay changes nothing.
     resolution: Some(0.01),

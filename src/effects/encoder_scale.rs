@@ -13,10 +13,7 @@ const PARAMS: &[ParamDef] = &[ParamDef {
     min: 0.01,
     max: 100.0,
     neutral: 1.0,
-    search: SearchBox::Fixed {
-        lower: 0.7,
-        upper: 1.3,
-    },
+    search: SearchBox::Fixed { lower: 0.7, upper: 1.3 },
     resolution: None,
 }];
 

@@ -12,10 +12,7 @@ const PARAMS: &[ParamDef] = &[ParamDef {
     min: -100.0,
     max: 100.0,
     neutral: 0.0,
-    search: SearchBox::Fixed {
-        lower: -0.2,
-        upper: 0.2,
-    },
+    search: SearchBox::Fixed { lower: -0.2, upper: 0.2 },
     resolution: None,
 }];
 

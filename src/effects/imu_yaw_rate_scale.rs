@@ -12,10 +12,7 @@ const PARAMS: &[ParamDef] = &[ParamDef {
     min: -100.0,
     max: 100.0,
     neutral: 1.0,
-    search: SearchBox::Fixed {
-        lower: 0.5,
-        upper: 1.5,
-    },
+    search: SearchBox::Fixed { lower: 0.5, upper: 1.5 },
     resolution: None,
 }];
 

@@ -12,10 +12,7 @@ const PARAMS: &[ParamDef] = &[ParamDef {
     min: 0.0,
     max: 1.0,
     neutral: 0.0,
-    search: SearchBox::Fixed {
-        lower: 0.0,
-        upper: 1.0,
-    },
+    search: SearchBox::Fixed { lower: 0.0, upper: 1.0 },
     resolution: None,
 }];
 

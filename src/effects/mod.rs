@@ -323,10 +323,12 @@ pub fn effect(name: &str) -> Option<&'static dyn Effect> {
 /// Index in [`REGISTRY`] of the effect that owns the parameter `key`, and the parameter's
 /// index in it.
 pub fn param_owner(key: &str) -> Option<(usize, usize)> {
-    REGISTRY
-        .iter()
-        .enumerate()
-        .find_map(|(i, e)| e.params().iter().position(|p| p.key == key).map(|j| (i, j)))
+    REGISTRY.iter().enumerate().find_map(|(i, e)| {
+        e.params()
+            .iter()
+            .position(|p| p.key == key)
+            .map(|j| (i, j))
+    })
 }
 
 /// Every parameter name, in registry order.
@@ -427,7 +429,9 @@ impl Effects {
     pub fn declared(&self) -> Vec<(&'static str, f64)> {
         self.values()
             .into_iter()
-            .filter(|(k, v)| param_owner(k).is_some_and(|(i, j)| !REGISTRY[i].params()[j].is_neutral(*v)))
+            .filter(|(k, v)| {
+                param_owner(k).is_some_and(|(i, j)| !REGISTRY[i].params()[j].is_neutral(*v))
+            })
             .collect()
     }
 
@@ -435,13 +439,7 @@ impl Effects {
     pub fn values(&self) -> Vec<(&'static str, f64)> {
         self.active
             .iter()
-            .flat_map(|a| {
-                a.effect()
-                    .params()
-                    .iter()
-                    .zip(&a.values)
-                    .map(|(d, v)| (d.key, *v))
-            })
+            .flat_map(|a| a.effect().params().iter().zip(&a.values).map(|(d, v)| (d.key, *v)))
             .collect()
     }
 

@@ -15,10 +15,7 @@ const fn gain(key: &'static str) -> ParamDef {
         min: 0.01,
         max: 100.0,
         neutral: 1.0,
-        search: SearchBox::Fixed {
-            lower: 0.5,
-            upper: 1.3,
-        },
+        search: SearchBox::Fixed { lower: 0.5, upper: 1.3 },
         resolution: None,
     }
 }

@@ -12,10 +12,7 @@ const PARAMS: &[ParamDef] = &[ParamDef {
     min: 0.0,
     max: 5.0,
     neutral: 0.0,
-    search: SearchBox::Fixed {
-        lower: 0.0,
-        upper: 0.5,
-    },
+    search: SearchBox::Fixed { lower: 0.0, upper: 0.5 },
     resolution: None,
 }];
 

@@ -17,10 +17,7 @@ const PARAMS: &[ParamDef] = &[ParamDef {
     max: 10.0,
     neutral: 0.0,
     // From off to about two tyre diameters.
-    search: SearchBox::Fixed {
-        lower: 0.0,
-        upper: 1.2,
-    },
+    search: SearchBox::Fixed { lower: 0.0, upper: 1.2 },
     resolution: None,
 }];
 

@@ -13,10 +13,7 @@ const PARAMS: &[ParamDef] = &[ParamDef {
     min: 0.01,
     max: 100.0,
     neutral: 1.0,
-    search: SearchBox::Fixed {
-        lower: 0.2,
-        upper: 5.0,
-    },
+    search: SearchBox::Fixed { lower: 0.2, upper: 5.0 },
     resolution: None,
 }];
 

@@ -14,11 +14,7 @@ const PARAMS: &[ParamDef] = &[ParamDef {
     min: 0.0,
     max: 1000.0,
     neutral: f64::INFINITY,
-    search: SearchBox::Reach {
-        of: ReachOf::Wheel,
-        lower: 0.2,
-        upper: 1.0,
-    },
+    search: SearchBox::Reach { of: ReachOf::Wheel, lower: 0.2, upper: 1.0 },
     resolution: None,
 }];
 

@@ -67,7 +67,8 @@ impl Scaled<'_> {
     }
     fn eval(&self, z: &[f64]) -> Option<Vec<f64>> {
         let r = self.problem.residuals(&self.x(z))?;
-        (r.len() == self.problem.layout().channel.len() && r.iter().all(|v| v.is_finite())).then_some(r)
+        (r.len() == self.problem.layout().channel.len() && r.iter().all(|v| v.is_finite()))
+            .then_some(r)
     }
     /// Finite-difference step of parameter `j` in unit coordinates.
     fn step(&self, j: usize, opts: &LmOptions) -> f64 {
@@ -80,7 +81,13 @@ impl Scaled<'_> {
 /// parallel. A column steps forward, or backward at the upper bound or where the forward
 /// model fails. A column whose model fails both ways is zero (the parameter then has no
 /// effect on the step).
-fn jacobian(s: &Scaled<'_>, z: &[f64], r: &[f64], opts: &LmOptions, central: bool) -> (DMatrix<f64>, usize) {
+fn jacobian(
+    s: &Scaled<'_>,
+    z: &[f64],
+    r: &[f64],
+    opts: &LmOptions,
+    central: bool,
+) -> (DMatrix<f64>, usize) {
     let p = z.len();
     let cols: Vec<(Vec<f64>, usize)> = (0..p)
         .into_par_iter()
@@ -265,8 +272,13 @@ pub fn minimize(
             if !done {
                 if let Some(d) = damped_step(&g, &h, &free, 0.0) {
                     let gain = -(g.dot(&d) + 0.5 * d.dot(&(&h * &d)));
-                    let cov =
-                        super::covariance::sandwich(layout, &r, &jac, &free, vec![String::new(); free.len()]);
+                    let cov = super::covariance::sandwich(
+                        layout,
+                        &r,
+                        &jac,
+                        &free,
+                        vec![String::new(); free.len()],
+                    );
                     let within = free
                         .iter()
                         .zip(&cov.se)
@@ -298,11 +310,7 @@ pub fn minimize(
                     nu *= 2.0;
                     continue;
                 };
-                let z_new: Vec<f64> = z
-                    .iter()
-                    .zip(d.iter())
-                    .map(|(a, b)| (a + b).clamp(0.0, 1.0))
-                    .collect();
+                let z_new: Vec<f64> = z.iter().zip(d.iter()).map(|(a, b)| (a + b).clamp(0.0, 1.0)).collect();
                 let delta = DVector::from_iterator(p, z_new.iter().zip(&z).map(|(a, b)| a - b));
                 if delta.amax() < opts.xtol {
                     tiny = true;
@@ -313,11 +321,7 @@ pub fn minimize(
                 match s.eval(&z_new) {
                     Some(rn) => {
                         let phi_new = frozen_cost(layout, &w, &rn);
-                        let rho = if predicted > 0.0 {
-                            (phi - phi_new) / predicted
-                        } else {
-                            -1.0
-                        };
+                        let rho = if predicted > 0.0 { (phi - phi_new) / predicted } else { -1.0 };
                         if phi_new < phi && rho > 1e-4 {
                             lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
                             nu = 2.0;
@@ -418,11 +422,7 @@ mod tests {
         let p = Decay { t, y, layout };
         let sol = minimize(&p, &[1.0, 2.0], &LmOptions::default(), &mut |_| {});
         assert!(sol.stop.converged(), "{:?}", sol.stop);
-        assert!(
-            (sol.x[0] - 2.5).abs() < 1e-4 && (sol.x[1] - 0.7).abs() < 1e-4,
-            "{:?}",
-            sol.x
-        );
+        assert!((sol.x[0] - 2.5).abs() < 1e-4 && (sol.x[1] - 0.7).abs() < 1e-4, "{:?}", sol.x);
     }
 
     /// Two channels each see one parameter `x`: channel 0 wants x = 0 (2 entries), channel 1

@@ -62,15 +62,7 @@ pub fn run(ctx: &Context<'_>, input: BaselineInput<'_>) -> Result<BaselineOutput
             notes,
         });
     }
-    let (m, r) = fit(
-        &ctx.train,
-        f,
-        declared,
-        &specs,
-        &ctx.floor,
-        &ctx.opts.fit,
-        &mut |_| {},
-    )?;
+    let (m, r) = fit(&ctx.train, f, declared, &specs, &ctx.floor, &ctx.opts.fit, &mut |_| {})?;
     if !r.converged {
         notes.push(format!("base fit: {}", r.status));
     }

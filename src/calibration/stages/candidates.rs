@@ -219,11 +219,7 @@ pub struct EvaluateOutput {
 /// it could of a missing effect (a smaller wheel radius into a wider baseline, say); fitting
 /// the effect alone on top of that compensation would find no gain, while the nested
 /// comparison (base vs base + effect, both fitted) measures what the effect adds.
-pub fn evaluate(
-    ctx: &Context<'_>,
-    factory: &dyn PlantFactory,
-    input: EvaluateInput<'_>,
-) -> Result<EvaluateOutput> {
+pub fn evaluate(ctx: &Context<'_>, factory: &dyn PlantFactory, input: EvaluateInput<'_>) -> Result<EvaluateOutput> {
     let heldout_before = score(input.current_validation, &ctx.floor);
     let mut ranked = Vec::new();
     for (i, c) in input.candidates.iter().enumerate() {
@@ -355,11 +351,7 @@ mod tests {
         assert_eq!(names, ["dead_time_s", "motor_gain"]);
         assert_eq!(c[1].params.len(), 2);
         // Limits are searched below the reach, started mid-box.
-        let (sat, _) = candidates_for(
-            &SimFactory::default(),
-            &reach,
-            Some(&["wheel_speed_saturation_rad_s".into()]),
-        );
+        let (sat, _) = candidates_for(&SimFactory::default(), &reach, Some(&["wheel_speed_saturation_rad_s".into()]));
         let p = sat[0].params[0];
         assert_eq!((p.lower, p.upper, p.start), (2.0, 10.0, 6.0));
     }

@@ -70,21 +70,16 @@ pub fn run(ctx: &Context<'_>, input: FinalFitInput<'_>) -> Result<FinalFitOutput
         opts.lm.max_iters = 0;
         notes.push("final fit: the selected model is already the joint fit; covariance only".into());
     }
-    let (m, mut r) = fit(
-        &ctx.train,
-        ctx.factory,
-        input.current,
-        &specs,
-        &ctx.floor,
-        &opts,
-        &mut |_| {},
-    )?;
+    let (m, mut r) = fit(&ctx.train, ctx.factory, input.current, &specs, &ctx.floor, &opts, &mut |_| {})?;
     if input.already_fitted {
         r.converged = true;
         r.status = "the joint refit of the selection stage converged; covariance at its solution".into();
     }
     let v = ctx.validation.errors(ctx.factory, &m)?;
-    let (old, new) = (score(input.current_validation, &ctx.floor), score(&v, &ctx.floor));
+    let (old, new) = (
+        score(input.current_validation, &ctx.floor),
+        score(&v, &ctx.floor),
+    );
     let kept = new <= old;
     if !r.converged {
         notes.push(format!("final fit: {}", r.status));
@@ -101,15 +96,7 @@ pub fn run(ctx: &Context<'_>, input: FinalFitInput<'_>) -> Result<FinalFitOutput
     } else {
         let mut at_current = ctx.opts.fit.clone();
         at_current.lm.max_iters = 0;
-        let (_, r0) = fit(
-            &ctx.train,
-            ctx.factory,
-            input.current,
-            &specs,
-            &ctx.floor,
-            &at_current,
-            &mut |_| {},
-        )?;
+        let (_, r0) = fit(&ctx.train, ctx.factory, input.current, &specs, &ctx.floor, &at_current, &mut |_| {})?;
         crate::calibration::fit::FitResult {
             converged: r.converged,
             status: format!(

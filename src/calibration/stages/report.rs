@@ -31,12 +31,7 @@ pub struct ReportInput {
     pub notes: Vec<String>,
 }
 
-fn table(
-    idd: &ErrorSummary,
-    before: &ErrorSummary,
-    after: &ErrorSummary,
-    floor: &ErrorSummary,
-) -> Vec<TableRow> {
+fn table(idd: &ErrorSummary, before: &ErrorSummary, after: &ErrorSummary, floor: &ErrorSummary) -> Vec<TableRow> {
     idd.rows()
         .into_iter()
         .zip(before.rows())
@@ -78,12 +73,9 @@ pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
     let before = ErrorSummary::pool(&baseline.before_test, floor);
     let after_terrain = ErrorSummary::pool(&after_base_test, floor);
     let after = ErrorSummary::pool(&after_test, floor);
-    let kernel_var =
-        ctx.opts
-            .kernel_var
-            .unwrap_or(crate::analysis::smoother::KernelCovariance::default_variance_for(
-                &ctx.declared.robot,
-            ));
+    let kernel_var = ctx.opts.kernel_var.unwrap_or(
+        crate::analysis::smoother::KernelCovariance::default_variance_for(&ctx.declared.robot),
+    );
     let space = ctx.declared.robot.command_space();
     let residual_of = |m: &ModelParams| -> Result<ResidualAnalysis> {
         Ok(residual::analyse(
@@ -146,12 +138,7 @@ pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
     let mut converged = selection.converged
         && baseline.base_fit.as_ref().is_none_or(|f| f.converged)
         && final_fit.fit.as_ref().is_none_or(|f| f.converged);
-    if selection
-        .rounds
-        .iter()
-        .flat_map(|r| &r.ranking)
-        .any(|e| !e.converged)
-    {
+    if selection.rounds.iter().flat_map(|r| &r.ranking).any(|e| !e.converged) {
         converged = false;
     }
     notes.extend(baseline.notes);

@@ -42,23 +42,15 @@ pub struct ScreeningOutput {
 pub fn run(ctx: &Context<'_>, input: ScreeningInput<'_>) -> Result<ScreeningOutput> {
     let kin = KinematicFactory;
     let specs = kin.base_params(input.declared);
-    let (base, _) = fit(
-        &ctx.train,
-        &kin,
-        input.declared,
-        &specs,
-        &ctx.floor,
-        &ctx.opts.fit,
-        &mut |_| {},
-    )?;
+    let (base, _) = fit(&ctx.train, &kin, input.declared, &specs, &ctx.floor, &ctx.opts.fit, &mut |_| {})?;
     let base_validation = ctx.validation.errors(&kin, &base)?;
-    let kinematic_validation_score = crate::calibration::metrics::score(&base_validation, &ctx.floor);
-    let (screened, contact): (Vec<Candidate>, Vec<Candidate>) =
-        input.candidates.iter().cloned().partition(|c| {
-            c.effects
-                .iter()
-                .all(|&e| kin.supports(crate::effects::REGISTRY[e]))
-        });
+    let kinematic_validation_score =
+        crate::calibration::metrics::score(&base_validation, &ctx.floor);
+    let (screened, contact): (Vec<Candidate>, Vec<Candidate>) = input
+        .candidates
+        .iter()
+        .cloned()
+        .partition(|c| c.effects.iter().all(|&e| kin.supports(crate::effects::REGISTRY[e])));
     let out = evaluate(
         ctx,
         &kin,

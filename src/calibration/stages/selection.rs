@@ -99,15 +99,7 @@ fn joint_refit(ctx: &Context<'_>, st: &mut State, base: &[ParamSpec], label: &st
     if joint.is_empty() {
         return Ok(());
     }
-    let (m, r) = fit(
-        &ctx.train,
-        ctx.factory,
-        &st.current,
-        &joint,
-        &ctx.floor,
-        &ctx.opts.fit,
-        &mut |_| {},
-    )?;
+    let (m, r) = fit(&ctx.train, ctx.factory, &st.current, &joint, &ctx.floor, &ctx.opts.fit, &mut |_| {})?;
     let v = ctx.validation.errors(ctx.factory, &m)?;
     let (old, new) = (score(&st.validation, &ctx.floor), score(&v, &ctx.floor));
     if !r.converged {
@@ -118,9 +110,8 @@ fn joint_refit(ctx: &Context<'_>, st: &mut State, base: &[ParamSpec], label: &st
         st.current = m;
         st.validation = v;
         st.refit_current = true;
-        st.notes.push(format!(
-            "{label}, joint refit kept: validation {old:.3} -> {new:.3}"
-        ));
+        st.notes
+            .push(format!("{label}, joint refit kept: validation {old:.3} -> {new:.3}"));
     } else {
         st.notes.push(format!(
             "{label}, joint refit discarded: validation {old:.3} -> {new:.3}"
@@ -152,7 +143,9 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
             let keep: Vec<String> = rounds[0]
                 .ranking
                 .iter()
-                .filter(|e| e.effect != rounds[0].added.clone().unwrap_or_default() && e.reduction > 0.0)
+                .filter(|e| {
+                    e.effect != rounds[0].added.clone().unwrap_or_default() && e.reduction > 0.0
+                })
                 .take(opts.rerank_top)
                 .map(|e| e.effect.clone())
                 .collect();
@@ -181,8 +174,7 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
         )?;
         for (ev, _) in &out.ranked {
             if !ev.converged {
-                st.notes
-                    .push(format!("round {round}, {}: {}", ev.effect, ev.fit_status));
+                st.notes.push(format!("round {round}, {}: {}", ev.effect, ev.fit_status));
             }
         }
         let best = out.ranked.first().map(|(e, m)| (e.clone(), m.clone()));
@@ -262,11 +254,7 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
                     ev.heldout_before,
                     ev.heldout_after,
                     ev.reduction_se,
-                    if ev.significant {
-                        ", added"
-                    } else {
-                        ", not significant"
-                    }
+                    if ev.significant { ", added" } else { ", not significant" }
                 ));
                 if ev.significant {
                     if let Some(c) = tried.iter().find(|c| c.name == ev.effect) {
@@ -303,15 +291,7 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
                 .filter(|o| o.name != c.name)
                 .flat_map(|o| o.params.iter().filter(|p| !p.discrete).copied())
                 .collect();
-            let (m, _) = fit(
-                &ctx.train,
-                ctx.factory,
-                &without,
-                &others,
-                &ctx.floor,
-                &opts.fit,
-                &mut |_| {},
-            )?;
+            let (m, _) = fit(&ctx.train, ctx.factory, &without, &others, &ctx.floor, &opts.fit, &mut |_| {})?;
             let v = ctx.validation.errors(ctx.factory, &m)?;
             let (with_s, without_s) = (score(&st.validation, &ctx.floor), score(&v, &ctx.floor));
             let se = bootstrap_reduction_se(
