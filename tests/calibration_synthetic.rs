@@ -8,11 +8,11 @@
 
 use drive_sim::calibration::surrogate::{KinematicNoise, KinematicPlant};
 use drive_sim::calibration::{calibrate, CalibrationOptions, CalibrationReport, KinematicFactory};
-use drive_sim::effects::Effects;
 use drive_sim::log::DriveLog;
 use drive_sim::protocol::sampler::UniformWheel;
 use drive_sim::protocol::{run_drive, ProtocolConfig};
 use drive_sim::robot::Robot;
+use drive_sim::effects::Effects;
 use drive_sim::terrain::Terrain;
 
 mod common;

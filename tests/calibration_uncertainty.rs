@@ -6,11 +6,11 @@
 //!   identifiable, and the effect is not added;
 //! - changing the test steps' data changes nothing but the reported test scores.
 
-use drive_sim::calibration::steps::step_slices;
 use drive_sim::calibration::{
-    calibrate, fit::fit, CalibrationOptions, FitOptions, KinematicFactory, ModelParams, NoiseFloor, Param,
-    ParamSpec, StepSet,
+    calibrate, fit::fit, CalibrationOptions, FitOptions, KinematicFactory, ModelParams, NoiseFloor,
+    Param, ParamSpec, StepSet,
 };
+use drive_sim::calibration::steps::step_slices;
 use drive_sim::terrain::Terrain;
 
 mod common;
@@ -62,20 +62,9 @@ fn standard_errors_match_the_spread_of_refits_on_resampled_steps() {
         .with_values(&specs, &full.params.iter().map(|p| p.value).collect::<Vec<_>>())
         .unwrap();
     for _ in 0..b {
-        let idx: Vec<usize> = (0..n)
-            .map(|_| rand::RngExt::random_range(&mut rng, 0..n))
-            .collect();
+        let idx: Vec<usize> = (0..n).map(|_| rand::RngExt::random_range(&mut rng, 0..n)).collect();
         let set = all.pick(&idx);
-        let (_, r) = fit(
-            &set,
-            &KinematicFactory,
-            &start,
-            &specs,
-            &floor,
-            &opts,
-            &mut |_| {},
-        )
-        .unwrap();
+        let (_, r) = fit(&set, &KinematicFactory, &start, &specs, &floor, &opts, &mut |_| {}).unwrap();
         for (k, p) in r.params.iter().enumerate() {
             draws[k].push(p.value);
         }
@@ -86,11 +75,7 @@ fn standard_errors_match_the_spread_of_refits_on_resampled_steps() {
         let row: Vec<String> = (0..specs.len())
             .map(|c| {
                 let (ma, mc) = (mean(&draws[a]), mean(&draws[c]));
-                let cv: f64 = draws[a]
-                    .iter()
-                    .zip(&draws[c])
-                    .map(|(x, y)| (x - ma) * (y - mc))
-                    .sum();
+                let cv: f64 = draws[a].iter().zip(&draws[c]).map(|(x, y)| (x - ma) * (y - mc)).sum();
                 let va: f64 = draws[a].iter().map(|x| (x - ma).powi(2)).sum();
                 let vc: f64 = draws[c].iter().map(|y| (y - mc).powi(2)).sum();
                 format!(
@@ -107,18 +92,11 @@ fn standard_errors_match_the_spread_of_refits_on_resampled_steps() {
         let m = draws[k].iter().sum::<f64>() / b as f64;
         let sd = (draws[k].iter().map(|v| (v - m).powi(2)).sum::<f64>() / (b - 1) as f64).sqrt();
         let se = p.se.unwrap();
-        eprintln!(
-            "{}: value {:.4}, sandwich SE {se:.5}, bootstrap SD {sd:.5}",
-            p.name, p.value
-        );
+        eprintln!("{}: value {:.4}, sandwich SE {se:.5}, bootstrap SD {sd:.5}", p.name, p.value);
         // Measured (60 steps, 200 resamples): gains 0.94 and 1.00, baseline 0.77. The
         // baseline's interval is narrower than the refits' spread by about a quarter, beyond
         // the 20 % the gains meet: left open (see the README), asserted at its measured level.
-        let tol = if p.name == "robot.wheels.baseline_m" {
-            0.3
-        } else {
-            0.2
-        };
+        let tol = if p.name == "robot.wheels.baseline_m" { 0.3 } else { 0.2 };
         assert!(
             (se / sd - 1.0).abs() <= tol,
             "{}: sandwich SE {se} vs bootstrap SD {sd}",
@@ -174,21 +152,7 @@ fn test_steps_touch_nothing_but_the_reported_scores() {
         ..CalibrationOptions::default()
     };
     let a = calibrate(&log, &robot, &terrain, &KinematicFactory, &opts).unwrap();
-    for e in a.rounds[0].ranking.iter().take(3) {
-        eprintln!(
-            "{} {} {} ± {} sig {} id {:?} {:?}",
-            e.effect,
-            e.heldout_before,
-            e.heldout_after,
-            e.reduction_se,
-            e.significant,
-            e.identifiable,
-            e.params
-                .iter()
-                .map(|p| (p.value, p.identifiability_note.clone()))
-                .collect::<Vec<_>>()
-        );
-    }
+    for e in a.rounds[0].ranking.iter().take(3) { eprintln!("{} {} {} ± {} sig {} id {:?} {:?}", e.effect, e.heldout_before, e.heldout_after, e.reduction_se, e.significant, e.identifiable, e.params.iter().map(|p| (p.value, p.identifiability_note.clone())).collect::<Vec<_>>()); }
     let mut changed = log.clone();
     for s in &mut changed.samples {
         if a.heldout_steps.contains(&s.step) {
@@ -204,15 +168,10 @@ fn test_steps_touch_nothing_but_the_reported_scores() {
     assert_eq!(a.effects, b.effects);
     assert_eq!(a.rounds, b.rounds);
     assert_eq!(a.floor, b.floor);
-    assert!(
-        a.after.score != b.after.score,
-        "the test scores must see the change"
-    );
+    assert!(a.after.score != b.after.score, "the test scores must see the change");
     // The generator's weak left motor was found.
     assert!(
-        a.effects
-            .iter()
-            .any(|e| e.name == "effect.motor_gain_left" && (e.value - 0.85).abs() < 0.02),
+        a.effects.iter().any(|e| e.name == "effect.motor_gain_left" && (e.value - 0.85).abs() < 0.02),
         "{:?}",
         a.effects
     );
