@@ -3,9 +3,10 @@
 //! Data flows one way: robot, terrain and effect models ([`robot`], [`terrain`], [`effects`]) →
 //! simulator ([`sim`])
 //! driven by the protocol ([`protocol`]) → logs ([`log`]) → analysis ([`analysis`]) and
-//! calibration ([`calibration`]) → figures and reports ([`report`]). The [`cli`] wires them.
-//! The data model of a run (measurements, frames, the log of completed steps) sits below all of
-//! them in [`measurement`].
+//! calibration ([`calibration`]) → figures and reports ([`report`]) → experiments composed from
+//! them ([`experiments`]: runs, analysis, demo, sampler comparison, sweep runs). The [`cli`]
+//! parses arguments, calls those and prints. The data model of a run (measurements, frames,
+//! the log of completed steps) sits below all of them in [`measurement`].
 
 pub mod analysis;
 pub mod calibration;
@@ -13,6 +14,7 @@ pub mod cli;
 pub mod config;
 pub mod effects;
 pub mod error;
+pub mod experiments;
 pub mod geometry;
 pub mod kinematics;
 pub mod log;

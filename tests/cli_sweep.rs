@@ -16,11 +16,30 @@ steps = 5
 noise = "off"
 "#;
 
-fn drive_sim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_drive-sim"))
-        .args(args)
+/// The batch systems' index variables: cleared for every command, so that the tests run the
+/// same inside a CI job that happens to be an array task.
+const BATCH_VARS: [&str; 6] = [
+    "SLURM_ARRAY_TASK_ID",
+    "SLURM_ARRAY_TASK_MIN",
+    "SLURM_ARRAY_TASK_STEP",
+    "SLURM_ARRAY_TASK_COUNT",
+    "JOB_COMPLETION_INDEX",
+    "AWS_BATCH_JOB_ARRAY_INDEX",
+];
+
+fn drive_sim_env(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_drive-sim"));
+    for v in BATCH_VARS {
+        c.env_remove(v);
+    }
+    c.args(args)
+        .envs(env.iter().copied())
         .output()
         .expect("drive-sim runs")
+}
+
+fn drive_sim(args: &[&str]) -> Output {
+    drive_sim_env(args, &[])
 }
 
 fn ok(o: &Output) -> String {
@@ -174,4 +193,104 @@ fn sweep_reports_bad_inputs() {
 
     let o = drive_sim(&["sweep-merge", tmp.path().join("nothing").to_str().unwrap()]);
     assert!(!o.status.success());
+}
+
+#[test]
+fn sweep_takes_its_shard_from_the_batch_system_and_keeps_logs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let matrix = tmp.path().join("tiny.toml");
+    std::fs::write(&matrix, MATRIX).unwrap();
+    let m = matrix.to_str().unwrap();
+    let (k0, k1) = (tmp.path().join("k0"), tmp.path().join("k1"));
+    // A Kubernetes Indexed Job of two pods: index from JOB_COMPLETION_INDEX, count from the option.
+    for (i, dir) in [("0", &k0), ("1", &k1)] {
+        let o = drive_sim_env(
+            &[
+                "sweep",
+                m,
+                "--shard-count",
+                "2",
+                "--keep-logs",
+                "--out",
+                dir.to_str().unwrap(),
+            ],
+            &[("JOB_COMPLETION_INDEX", i)],
+        );
+        let out = ok(&o);
+        assert!(out.contains("1 done, 0 skipped"), "{out}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains(&format!(
+                "shard {i}/2 from Kubernetes Indexed Job (JOB_COMPLETION_INDEX={i})"
+            )),
+            "{err}"
+        );
+    }
+    let id = "warthog-ice-uniform-wheel-s3";
+    let log = k1.join(id).join(format!("{id}.mcap"));
+    assert!(log.exists(), "no kept log at {}", log.display());
+    assert_eq!(
+        read_json(&k1.join(id).join("run.json"))["log"],
+        format!("{id}.mcap")
+    );
+    // The kept log is a complete drive-sim log: `analyze` reads it.
+    let a = drive_sim(&[
+        "analyze",
+        log.to_str().unwrap(),
+        "--out",
+        tmp.path().join("a").to_str().unwrap(),
+    ]);
+    ok(&a);
+
+    // SLURM with a task index out of the array's range, and two systems that disagree: errors
+    // before any run.
+    let o = drive_sim_env(
+        &["sweep", m, "--out", tmp.path().join("x").to_str().unwrap()],
+        &[("SLURM_ARRAY_TASK_ID", "2"), ("SLURM_ARRAY_TASK_COUNT", "2")],
+    );
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("out of range for 2 shards"), "{err}");
+    let o = drive_sim_env(
+        &[
+            "sweep",
+            m,
+            "--shard-count",
+            "2",
+            "--out",
+            tmp.path().join("y").to_str().unwrap(),
+        ],
+        &[("SLURM_ARRAY_TASK_ID", "0"), ("AWS_BATCH_JOB_ARRAY_INDEX", "1")],
+    );
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("SLURM job array says shard 0/2") && err.contains("shard 1/2"),
+        "{err}"
+    );
+    assert!(!tmp.path().join("y").exists() || std::fs::read_dir(tmp.path().join("y")).unwrap().count() == 0);
+
+    // A run done in two directories is reported by the merge, kept once.
+    let k1b = tmp.path().join("k1b");
+    ok(&drive_sim(&[
+        "sweep",
+        m,
+        "--shard",
+        "1/2",
+        "--out",
+        k1b.to_str().unwrap(),
+    ]));
+    let out = ok(&drive_sim(&[
+        "sweep-merge",
+        k0.to_str().unwrap(),
+        k1.to_str().unwrap(),
+        k1b.to_str().unwrap(),
+        "--out",
+        tmp.path().join("merged").to_str().unwrap(),
+    ]));
+    assert!(
+        out.contains("2 runs merged") && out.contains("1 runs done more than once"),
+        "{out}"
+    );
+    assert!(out.contains(id), "{out}");
 }

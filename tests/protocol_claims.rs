@@ -8,7 +8,7 @@
 
 use drive_sim::analysis::smoother::smooth_exact;
 use drive_sim::analysis::{analyze, Analysis, AnalysisParams};
-use drive_sim::cli::samplers::{
+use drive_sim::experiments::simulate::{
     analysis_params_without_smoother, kernel_for, simulate, simulate_with, simulator_truth, truth_grid,
 };
 use drive_sim::kinematics::{BodyVelocity, WheelSpeeds};

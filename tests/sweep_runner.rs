@@ -228,11 +228,13 @@ fn merged_shards_equal_the_unsharded_sweep() {
 }
 
 #[test]
-fn merge_refuses_conflicting_copies_of_a_run() {
+fn merge_reports_runs_done_twice_and_refuses_conflicting_parameters() {
     let tmp = tempfile::tempdir().unwrap();
     let m = matrix();
     let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
     run_sweep(&m, &opts(&a, Shard::new(0, 4).unwrap()), fake).unwrap();
+    // The same shard again elsewhere: figures that differ (like a wall time) are still the
+    // same runs, done twice.
     run_sweep(
         &m,
         &opts(&b, Shard::new(0, 4).unwrap()),
@@ -243,11 +245,94 @@ fn merge_refuses_conflicting_copies_of_a_run() {
         },
     )
     .unwrap();
-    let msg = merge(&[a, b]).unwrap_err().to_string();
-    // Shard 0/4 holds index 0, 4, 8...: every run differs; the first met is named with both
-    // directories.
-    assert!(msg.contains("differs") && msg.contains("-s1`"), "{msg}");
-    assert!(msg.contains("/a/") && msg.contains("/b/"), "{msg}");
+    let merged = merge(&[a.clone(), b.clone()]).unwrap();
+    assert_eq!(merged.rows.len(), 12);
+    assert_eq!(merged.duplicates.len(), 12);
+    let d = &merged.duplicates[0];
+    assert_eq!(d.dirs.len(), 2);
+    assert!(d.dirs[0].starts_with(&a) && d.dirs[1].starts_with(&b), "{d:?}");
+    // The first directory's figures are kept.
+    assert!(merged.rows.iter().all(|r| r["tag"] != json!("other")));
+    // A run of the same id with other parameters is not the same run: the merge refuses.
+    let c = tmp.path().join("c");
+    let other = SweepMatrix::parse(
+        &MATRIX.replace("border_margin_m = 0.7", "border_margin_m = 0.9"),
+        Path::new("t.toml"),
+    )
+    .unwrap();
+    run_sweep(&other, &opts(&c, Shard::new(0, 4).unwrap()), fake).unwrap();
+    let msg = merge(&[a, c]).unwrap_err().to_string();
+    assert!(msg.contains("other parameters") && msg.contains("-s1`"), "{msg}");
+    assert!(msg.contains("/a/") && msg.contains("/c/"), "{msg}");
+}
+
+/// A sweep split across the tasks of a batch array, each taking its shard from the
+/// environment as the scheduler sets it, runs every run exactly once, and the shards merge
+/// into the whole sweep.
+#[test]
+fn a_sweep_split_across_batch_tasks_runs_every_run_once_and_merges() {
+    use drive_sim::sweep::{select_shard, ShardSource};
+    let tmp = tempfile::tempdir().unwrap();
+    let m = matrix();
+    let calls = AtomicUsize::new(0);
+    let seen = std::sync::Mutex::new(Vec::new());
+    let counting = |spec: &RunSpec, dir: &Path| {
+        calls.fetch_add(1, Ordering::SeqCst);
+        seen.lock().unwrap().push(spec.id.clone());
+        fake(spec, dir)
+    };
+    // SLURM: --array=1-9:2 gives task ids 1, 3, 5, 7, 9 (min 1, step 2, count 5).
+    let mut dirs = Vec::new();
+    for id in [1, 3, 5, 7, 9] {
+        let env = move |name: &str| match name {
+            "SLURM_ARRAY_TASK_ID" => Some(id.to_string()),
+            "SLURM_ARRAY_TASK_MIN" => Some("1".into()),
+            "SLURM_ARRAY_TASK_STEP" => Some("2".into()),
+            "SLURM_ARRAY_TASK_COUNT" => Some("5".into()),
+            _ => None,
+        };
+        let choice = select_shard(None, None, &env).unwrap();
+        assert_eq!(choice.source, ShardSource::Slurm);
+        assert_eq!(choice.shard, Shard::new((id - 1) / 2, 5).unwrap());
+        let dir = tmp.path().join(format!("slurm-{id}"));
+        run_sweep(&m, &opts(&dir, choice.shard), counting).unwrap();
+        dirs.push(dir);
+    }
+    assert_eq!(calls.load(Ordering::SeqCst), m.len());
+    let ids: BTreeSet<String> = seen.lock().unwrap().iter().cloned().collect();
+    assert_eq!(ids.len(), m.len(), "a run was done twice");
+    let merged = merge(&dirs).unwrap();
+    assert_eq!(merged.rows.len(), m.len());
+    assert!(merged.missing.is_empty() && merged.duplicates.is_empty());
+    let whole = tmp.path().join("whole");
+    run_sweep(&m, &opts(&whole, Shard::default()), fake).unwrap();
+    assert_eq!(merged.rows, merge(&[whole]).unwrap().rows);
+
+    // Kubernetes and AWS Batch: the index from the environment, the count from --shard-count.
+    for (var, source) in [
+        ("JOB_COMPLETION_INDEX", ShardSource::Kubernetes),
+        ("AWS_BATCH_JOB_ARRAY_INDEX", ShardSource::AwsBatch),
+    ] {
+        let mut dirs = Vec::new();
+        for i in 0..3 {
+            let env = move |name: &str| (name == var).then(|| i.to_string());
+            let choice = select_shard(None, Some(3), &env).unwrap();
+            assert_eq!(
+                (choice.shard, &choice.source),
+                (Shard::new(i, 3).unwrap(), &source)
+            );
+            let dir = tmp.path().join(format!("{var}-{i}"));
+            run_sweep(&m, &opts(&dir, choice.shard), fake).unwrap();
+            dirs.push(dir);
+        }
+        let merged = merge(&dirs).unwrap();
+        assert_eq!(merged.rows.len(), m.len());
+        assert!(merged.missing.is_empty() && merged.duplicates.is_empty());
+        // An index at the count is refused before any run.
+        let env = move |name: &str| (name == var).then(|| "3".to_string());
+        let e = select_shard(None, Some(3), &env).unwrap_err().to_string();
+        assert!(e.contains("out of range for 3 shards"), "{e}");
+    }
 }
 
 /// The field named by a config error.

@@ -95,8 +95,8 @@ pub struct CalibrationOptions {
     pub rerank_top: usize,
     /// Grid resolution of the residual maps (m/s and rad/s).
     pub grid_step: f64,
-    /// Kernel variance of the residual maps; by robot size when `None`
-    /// ([`crate::analysis::smoother::KernelCovariance::default_variance_for`]).
+    /// Kernel variance of the residual maps; the paper's for the robot when `None`
+    /// ([`crate::analysis::smoother::KernelCovariance::paper_variance`]).
     pub kernel_var: Option<f64>,
 }
 

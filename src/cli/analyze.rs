@@ -1,18 +1,15 @@
 //! `drive-sim analyze`: the slip and ρ pipeline on any DRIVE logs, and its report.
 
+use crate::experiments::analyze::{analyze_logs, AnalyzeEvent, AnalyzeOptions};
 use std::io::Write;
 use std::path::PathBuf;
 
 /// Options of `drive-sim analyze`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct AnalyzeArgs {
-    /// Logs to analyse: `.mcap` written by `drive-sim run`, measured `.csv` (JSON beside it), or
-    /// rosbag2 bags of the DRIVE node (directory, `.db3` or `.mcap`).
+    /// Logs to analyse: `.mcap` written by `drive-sim run`, or measured `.csv` (JSON beside it).
     #[arg(required = true)]
     pub logs: Vec<PathBuf>,
-    /// How to read bags.
-    #[command(flatten)]
-    pub input: super::input::InputArgs,
     /// Output directory.
     #[arg(long, default_value = "out/analysis")]
     pub out: PathBuf,
@@ -23,74 +20,50 @@ pub struct AnalyzeArgs {
     /// the log's robot (0.25 for the Husky, 0.64 otherwise).
     #[arg(long)]
     pub kernel_variance: Option<f64>,
+    /// Robot, terrain and topic roles of rosbag2 bags.
+    #[command(flatten)]
+    pub input: super::input::InputArgs,
 }
 
-/// The paper's kernel variance for a robot: 0.25 for the Husky (lessons learned), 0.64 for
-/// the Warthog figures, used for any other robot too.
-pub fn paper_kernel_variance(robot: &str) -> f64 {
-    if robot == "husky" {
-        0.25
-    } else {
-        0.64
+impl AnalyzeArgs {
+    /// The analysis these arguments ask for.
+    pub fn options(&self) -> AnalyzeOptions {
+        AnalyzeOptions {
+            logs: self.logs.clone(),
+            out: self.out.clone(),
+            resolution: self.resolution,
+            kernel_variance: self.kernel_variance,
+            input: self.input.options(),
+        }
     }
 }
 
-fn analysis_params(args: &AnalyzeArgs, robot: &str) -> anyhow::Result<crate::analysis::AnalysisParams> {
-    use crate::analysis::{smoother::KernelCovariance, AnalysisParams, SmootherParams};
-    if !(args.resolution > 0.0 && args.resolution.is_finite()) {
-        anyhow::bail!("--resolution must be > 0, got {}", args.resolution);
-    }
-    let variance = args
-        .kernel_variance
-        .unwrap_or_else(|| paper_kernel_variance(robot));
-    if !(variance > 0.0 && variance.is_finite()) {
-        anyhow::bail!("--kernel-variance must be > 0, got {variance}");
-    }
-    Ok(AnalysisParams {
-        smoother: SmootherParams {
-            resolution_vx_m_s: args.resolution,
-            resolution_wz_rad_s: args.resolution,
-            covariance: KernelCovariance {
-                var_vx: variance,
-                var_wz: variance,
-            },
-            ..SmootherParams::default()
-        },
-        ..AnalysisParams::default()
-    })
-}
-
-/// Reads, analyses and reports the logs of `args`.
+/// Reads, analyses and reports the logs of `args`; prints the headline table.
 pub fn analyze(args: &AnalyzeArgs) -> anyhow::Result<()> {
-    let mut logs = Vec::new();
-    for path in &args.logs {
-        eprintln!("drive-sim: reading {}", path.display());
-        logs.push(super::input::open_log(path, &args.input)?);
-    }
-    let mut analyses = Vec::new();
-    for log in &logs {
-        eprintln!(
+    let done = analyze_logs(&args.options(), &mut print_progress)?;
+    print_analysis_table(&done.analyses)?;
+    eprintln!(
+        "drive-sim: wrote {} and {} figures; report: {}",
+        done.files.summary.display(),
+        done.files.figures.len(),
+        done.files.html.display()
+    );
+    Ok(())
+}
+
+/// Progress of an analysis on stderr.
+pub fn print_progress(event: AnalyzeEvent) {
+    match event {
+        AnalyzeEvent::Reading(path) => eprintln!("drive-sim: reading {}", path.display()),
+        AnalyzeEvent::Note(n) => eprintln!("drive-sim: {n}"),
+        AnalyzeEvent::Analysing(log) => eprintln!(
             "drive-sim: analysing {} ({} on {}, {} steps)",
             log.meta.name,
             log.meta.robot,
             log.meta.terrain,
             log.steps().len()
-        );
-        analyses.push(crate::analysis::analyze(
-            log,
-            &analysis_params(args, &log.meta.robot)?,
-        )?);
+        ),
     }
-    let items: Vec<_> = logs.iter().zip(&analyses).collect();
-    let files = crate::report::analysis_report::write_analysis_report(&items, &args.out)?;
-    print_analysis_table(&analyses)?;
-    eprintln!(
-        "drive-sim: wrote {} and {} figures; report: {}",
-        files.summary.display(),
-        files.figures.len(),
-        files.html.display()
-    );
-    Ok(())
 }
 
 /// The headline figures of each analysed log, one line each: median steady-state slips signed

@@ -1,8 +1,9 @@
-//! The demonstration run by `drive-sim` with no arguments: simulated DRIVE runs on contrasting
-//! terrains, analysed together, so a first-time user gets the paper's figures in one command.
+//! `drive-sim demo` (and `drive-sim` with no arguments): runs
+//! [`crate::experiments::demo`] and says what it is doing.
 
-use super::analyze::{analyze, AnalyzeArgs};
-use super::run::{describe, run, RunArgs};
+use crate::experiments::demo::{run_demo, DemoEvent, DemoOptions, SCENARIOS};
+use crate::experiments::run::{describe, RunEvent};
+use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 
 /// Options of `drive-sim demo`.
@@ -21,22 +22,14 @@ pub struct DemoArgs {
 
 impl Default for DemoArgs {
     fn default() -> Self {
+        let d = DemoOptions::default();
         Self {
-            steps: 150,
-            seed: 7,
-            out: PathBuf::from("out/demo"),
+            steps: d.steps,
+            seed: d.seed,
+            out: d.out,
         }
     }
 }
-
-/// The scenarios of the demonstration: the Warthog on the paper's contrasting terrains, and the
-/// Husky on mud, where its motors saturate.
-pub const SCENARIOS: &[(&str, &str)] = &[
-    ("warthog", "asphalt"),
-    ("warthog", "gravel"),
-    ("warthog", "ice"),
-    ("husky", "mud"),
-];
 
 /// Runs the scenarios, then analyses their logs together.
 pub fn demo(args: &DemoArgs) -> anyhow::Result<()> {
@@ -47,31 +40,34 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<()> {
         args.seed,
         args.out.display()
     );
-    let mut logs = Vec::new();
-    for (robot, terrain) in SCENARIOS {
-        eprintln!("drive-sim demo: {robot} on {terrain}");
-        let r = run(&RunArgs {
-            robot: robot.to_string(),
-            terrain: terrain.to_string(),
-            steps: args.steps,
-            seed: args.seed,
-            sampler: "uniform-wheel".into(),
-            noise: "typical".into(),
-            physics_hz: 100.0,
-            inject: vec![],
-            out: args.out.join("logs"),
-            name: None,
-            quiet: false,
-        })?;
-        eprintln!("  {}", describe(&r));
-        logs.push(r.mcap);
-    }
-    analyze(&AnalyzeArgs {
-        logs,
+    let opts = DemoOptions {
+        steps: args.steps,
+        seed: args.seed,
         out: args.out.clone(),
-        resolution: 0.1,
-        kernel_variance: None,
-        input: Default::default(),
+    };
+    let style =
+        ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} steps, {elapsed} elapsed, eta {eta}")?
+            .progress_chars("=> ");
+    let mut bar = ProgressBar::hidden();
+    run_demo(&opts, &mut |e| match e {
+        DemoEvent::Running { robot, terrain } => {
+            eprintln!("drive-sim demo: {robot} on {terrain}");
+            bar = ProgressBar::new(args.steps as u64).with_style(style.clone());
+            bar.set_prefix(format!("{robot} on {terrain}"));
+        }
+        DemoEvent::Run(RunEvent::StepDone(n)) => bar.set_position(n as u64),
+        DemoEvent::Run(RunEvent::Failed { partial }) => {
+            bar.abandon();
+            eprintln!(
+                "drive-sim demo: run failed; what was simulated is kept in {} (not a complete log)",
+                partial.display()
+            )
+        }
+        DemoEvent::RunDone(r) => {
+            bar.finish_and_clear();
+            eprintln!("  {}", describe(r))
+        }
+        DemoEvent::Analysis(a) => super::analyze::print_progress(a),
     })?;
     eprintln!(
         "drive-sim demo: open {} in a browser; the MCAP logs in {} open in Foxglove.",

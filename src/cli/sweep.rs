@@ -1,121 +1,34 @@
 //! `drive-sim sweep` and `drive-sim sweep-merge`: many simulated DRIVE runs from a matrix file,
-//! sharded and resumable (see [`crate::sweep`]), and the merge of the shards' tables.
-//!
-//! Each run simulates in memory, writes `run.json` (its key figures) in its directory and
-//! returns them for the merged table: median slips (signed along the command, the magnitude
-//! view), median ρ, the area of T, interruptions, time efficiency, real-time factor.
-//! Matrix `[options]` read here: `noise` (`"typical"` default, or `"off"`), `physics_hz`.
-//! The protocol is the matrix's (defaults plus its `[protocol]` overrides), not
-//! `ProtocolConfig::for_run`: a sweep's runs share one protocol, so the safety operator's
-//! braking assumption does not follow the terrain unless the matrix sets it.
+//! sharded and resumable (see [`crate::sweep`]; what each run does is
+//! [`crate::experiments::sweep`]), and the merge of the shards' tables.
 
-use super::samplers::simulate_with;
-use crate::analysis::analyze;
-use crate::error::{Error, Result};
-use crate::protocol::sampler::make_sampler_for;
-use crate::robot::Robot;
-use crate::sim::{SensorNoise, SimConfig};
-use crate::sweep::{merge, run_sweep_with_progress, MergeArgs, RunOutcome, RunSpec, SweepArgs, SweepMatrix};
-use crate::terrain::Terrain;
-use serde_json::{json, Value};
-use std::path::Path;
-
-fn option_err(spec: &RunSpec, field: &str, msg: &str) -> Error {
-    Error::config(
-        format!("sweep {}", spec.sweep),
-        format!("options.{field}"),
-        msg.to_string(),
-    )
-}
-
-/// The simulator settings of a run from the matrix's options.
-fn sim_config(spec: &RunSpec) -> Result<SimConfig> {
-    let noise = match spec.options.get("noise") {
-        None => SensorNoise::typical(),
-        Some(Value::String(s)) if s == "typical" => SensorNoise::typical(),
-        Some(Value::String(s)) if s == "off" => SensorNoise::default(),
-        Some(_) => return Err(option_err(spec, "noise", "must be \"typical\" or \"off\"")),
-    };
-    let physics_hz = match spec.options.get("physics_hz") {
-        None => 100.0,
-        Some(v) => v
-            .as_f64()
-            .ok_or_else(|| option_err(spec, "physics_hz", "must be a number (Hz)"))?,
-    };
-    Ok(SimConfig {
-        seed: spec.seed,
-        physics_hz,
-        noise,
-        ..SimConfig::default()
-    })
-}
-
-/// NaN/absent-safe JSON number.
-fn num(x: Option<f64>) -> Value {
-    match x {
-        Some(v) if v.is_finite() => json!(v),
-        _ => Value::Null,
-    }
-}
-
-/// One sweep run: simulate, analyse, write `run.json` in `dir`, return the key figures.
-pub fn run_one(spec: &RunSpec, dir: &Path) -> Result<Value> {
-    let (robot, _) = Robot::resolve(&spec.robot)?;
-    let (terrain, _) = Terrain::resolve(&spec.terrain)?;
-    let mut sampler =
-        make_sampler_for(&spec.sampler, spec.seed, &spec.protocol).ok_or_else(|| Error::Unknown {
-            kind: "sampler",
-            name: spec.sampler.clone(),
-            available: crate::protocol::sampler::SAMPLERS.join(", "),
-        })?;
-    let run = simulate_with(
-        &robot,
-        &terrain,
-        sampler.as_mut(),
-        &spec.protocol,
-        sim_config(spec)?,
-    )?;
-    let a = analyze(&run.log, &super::samplers::analysis_params_without_smoother())?;
-    let st = &a.stats;
-    let med = |b: Option<crate::analysis::stats::BoxStats>| num(b.map(|b| b.median));
-    let s = &run.summary;
-    let figures = json!({
-        "median_slip": {
-            "vx_m_s": med(st.along_command.vx_m_s),
-            "vy_abs_m_s": med(st.along_command.vy_abs_m_s),
-            "wz_rad_s": med(st.along_command.wz_rad_s),
-            "left_rad_s": med(st.along_command.left_rad_s),
-            "right_rad_s": med(st.along_command.right_rad_s),
-        },
-        "median_rho": med(st.rho),
-        "t_area_pct_body": num(Some(a.spaces.t_area_pct_body)),
-        "t_area_pct_wheels": num(Some(a.spaces.t_area_pct_wheels)),
-        "steps_analysed": a.steps.len(),
-        "interruptions": s.interruptions,
-        "time_efficiency": num(Some(s.time_efficiency)),
-        "simulated_s": num(Some(s.total_time_s)),
-        "wall_s": num(Some(run.wall_s)),
-        "real_time_factor": num(Some(s.total_time_s / run.wall_s.max(1e-9))),
-    });
-    super::run::write_json(&dir.join("run.json"), &figures)?;
-    Ok(figures)
-}
+use crate::experiments::sweep::sweep_run_with;
+use crate::sweep::{merge, run_sweep_with_progress, MergeArgs, RunOutcome, SweepArgs, SweepMatrix};
 
 /// `drive-sim sweep`.
 pub fn sweep(args: &SweepArgs) -> anyhow::Result<()> {
     let matrix = SweepMatrix::load(&args.matrix)?;
     matrix.check_names(&args.matrix)?;
-    let opts = args.options();
+    let choice = args.shard_choice(&|name| std::env::var(name).ok())?;
+    let opts = args.options(choice.shard);
     let total = matrix.shard(opts.shard).len();
+    eprintln!("drive-sim sweep: {choice}");
     eprintln!(
-        "drive-sim sweep: `{}`, shard {}/{}: {total} of {} runs into {}",
+        "drive-sim sweep: `{}`, shard {}/{}: {total} of {} runs into {}{}",
         matrix.name,
         opts.shard.index,
         opts.shard.count,
         matrix.len(),
-        opts.out_dir.display()
+        opts.out_dir.display(),
+        if args.keep_logs {
+            " (keeping each run's MCAP log)"
+        } else {
+            ""
+        }
     );
-    let report = run_sweep_with_progress(&matrix, &opts, run_one, |o| match o {
+    let keep = args.keep_logs;
+    let run = |spec: &crate::sweep::RunSpec, dir: &std::path::Path| sweep_run_with(spec, dir, keep);
+    let report = run_sweep_with_progress(&matrix, &opts, run, |o| match o {
         RunOutcome::Done(r) => eprintln!("  done    {}", r.spec.id),
         RunOutcome::Skipped(r) => eprintln!("  skipped {} (complete)", r.spec.id),
         RunOutcome::Failed { id, message } => eprintln!("  FAILED  {id}: {message}"),
@@ -140,7 +53,7 @@ pub fn sweep_merge(args: &MergeArgs) -> anyhow::Result<()> {
     let merged = merge(&args.dirs)?;
     let (json_path, csv_path) = merged.write(&args.out)?;
     println!(
-        "{} runs merged into {} and {}{}",
+        "{} runs merged into {} and {}{}{}",
         merged.rows.len(),
         json_path.display(),
         csv_path.display(),
@@ -151,6 +64,28 @@ pub fn sweep_merge(args: &MergeArgs) -> anyhow::Result<()> {
                 "; {} runs missing: {}",
                 merged.missing.len(),
                 merged.missing.join(", ")
+            )
+        },
+        if merged.duplicates.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; {} runs done more than once (first kept): {}",
+                merged.duplicates.len(),
+                merged
+                    .duplicates
+                    .iter()
+                    .map(|d| format!(
+                        "{} in {}",
+                        d.id,
+                        d.dirs
+                            .iter()
+                            .map(|p| p.display().to_string())
+                            .collect::<Vec<_>>()
+                            .join(" and ")
+                    ))
+                    .collect::<Vec<_>>()
+                    .join("; ")
             )
         }
     );

@@ -4,9 +4,9 @@
 
 use super::{
     box_plots, command_space_figure, heat_maps, histograms, risk_map, value_scatter, AxisLabel, BoxPanel,
-    ColourMap, ColourScale, CommandScenario, EnergyAxis, EnergyLimit, FigureFiles, Grid2, HeatPanel,
-    HistPanel, HtmlReport, KeyFigure, RiskEllipse, RiskScenario, Samples, ScatterPanel, ValuePoint,
-    CHI2_2DOF_95,
+    ColourMap, ColourScale, CommandScenario, Comparison, EnergyAxis, EnergyLimit, FigureFiles, Grid2,
+    HeatPanel, HistPanel, HtmlReport, KeyFigure, RiskEllipse, RiskScenario, Samples, ScatterPanel,
+    ValuePoint, CHI2_2DOF_95,
 };
 use crate::analysis::risk::MotionClass;
 use crate::analysis::{velocity, Analysis, StepResult};
@@ -100,8 +100,42 @@ fn transient_accelerations(log: &DriveLog, a: &Analysis) -> (Vec<f64>, Vec<f64>)
     (ax, ay)
 }
 
+/// What the report needs of a log besides its analysis, so that a caller can drop each log as
+/// soon as it is analysed (memory then grows with the analyses, not with the logs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LogSummary {
+    /// Interrupted attempts.
+    pub interruptions: usize,
+    /// Productive over total time.
+    pub time_efficiency: f64,
+    /// Pose-derived body-frame accelerations over the transient window of every step, m/s²
+    /// (longitudinal, lateral).
+    pub transient_acc_m_s2: (Vec<f64>, Vec<f64>),
+}
+
+impl LogSummary {
+    /// The summary of `log`, analysed as `a`.
+    pub fn of(log: &DriveLog, a: &Analysis) -> Self {
+        Self {
+            interruptions: log.interruptions.len(),
+            time_efficiency: log.time_efficiency(),
+            transient_acc_m_s2: transient_accelerations(log, a),
+        }
+    }
+}
+
 /// Writes the whole report of `items` (each log with its analysis) into `dir`.
 pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Result<AnalysisReportFiles> {
+    let summaries: Vec<LogSummary> = items.iter().map(|(log, a)| LogSummary::of(log, a)).collect();
+    let pairs: Vec<(&LogSummary, &Analysis)> = summaries.iter().zip(items.iter().map(|(_, a)| *a)).collect();
+    write_analysis_report_of(&pairs, dir)
+}
+
+/// [`write_analysis_report`] from each log's [`LogSummary`] instead of the log.
+pub fn write_analysis_report_of(
+    items: &[(&LogSummary, &Analysis)],
+    dir: &Path,
+) -> Result<AnalysisReportFiles> {
     if items.is_empty() {
         return Err(Error::Report("nothing to report: no analysed log".into()));
     }
@@ -119,8 +153,8 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
             nominal: &a.nominal,
             steps_analysed: a.steps.len(),
             steps_excluded: a.exclusions.len(),
-            interruptions: log.interruptions.len(),
-            time_efficiency: log.time_efficiency(),
+            interruptions: log.interruptions,
+            time_efficiency: log.time_efficiency,
             yaw_rate_source: a.yaw_rate_source,
             crosscheck: &a.crosscheck,
             stats: &a.stats,
@@ -167,17 +201,67 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
             .collect::<Vec<_>>()
             .join(", ")
     ));
-    html.section("Key figures");
+    // First screen: what differs, one table with the datasets as columns, the key figure.
+    let metrics = super::findings::metrics(items);
+    let datasets: Vec<String> = analyses.iter().map(|a| a.dataset.clone()).collect();
+    let diffs = super::findings::differences(&metrics, &datasets);
+    html.section("Findings");
+    html.paragraph(super::findings::findings_paragraph(&metrics, &diffs, 4));
+    html.comparison(Comparison {
+        caption: "Key figures per dataset".into(),
+        columns: analyses
+            .iter()
+            .map(|a| format!("{} ({} on {})", a.dataset, a.robot, a.terrain))
+            .collect(),
+        rows: metrics
+            .iter()
+            .map(|m| {
+                (
+                    m.name.to_string(),
+                    m.unit.to_string(),
+                    m.values.iter().map(|v| m.format(*v)).collect(),
+                )
+            })
+            .collect(),
+    });
     html.paragraph(
         "Steady state = mean of the two steady windows of each step. Slip = commanded (nominal ideal \
-         differential drive) minus realized. Boxes: quartiles; whiskers: 2.5 and 97.5 %.",
+         differential drive) minus realized, signed along the command (positive = slower than \
+         commanded). Boxes: quartiles; whiskers: 2.5 and 97.5 %.",
     );
-    for ((log, a), _) in items.iter().zip(0..) {
-        html.table(
-            format!("{} ({} on {})", a.dataset, a.robot, a.terrain),
-            &key_figures(log, a),
-        );
-    }
+    html.paragraph(format!(
+        "Yaw rate measured by: {}.",
+        analyses
+            .iter()
+            .map(|a| format!("{} {:?}", a.dataset, a.yaw_rate_source))
+            .collect::<Vec<_>>()
+            .join("; ")
+    ));
+    let groups = |f: &dyn Fn(&StepResult) -> f64| -> Vec<Samples> {
+        analyses
+            .iter()
+            .map(|a| Samples::new(label(a), steady(a, f)))
+            .collect()
+    };
+    let rho_panel = [BoxPanel {
+        title: "steady state".into(),
+        value: AxisLabel::new("ρ", ""),
+        groups: groups(&|s| s.steady_rho.rho),
+    }];
+    let f = box_plots(dir, "rho_boxplot", "Unpredictability ρ per dataset", &rho_panel)?;
+    // Metric 0 is the median ρ: its two ends are the boxes to compare.
+    let look = match super::findings::differences(&metrics[..1], &datasets).first() {
+        Some(d) if d.high.0 != d.low.0 => format!(
+            " Compare the boxes of {} (median {:.3}, the least predictable) and {} (median {:.3}): a box high and wide means commands whose outcome cannot be told in advance.",
+            d.high.0, d.high.1, d.low.0, d.low.1
+        ),
+        _ => String::new(),
+    };
+    html.figure(
+        format!("Key figure: unpredictability ρ of the steady state of every step, per dataset (0: the robot does what the ideal differential drive predicts; 1: nothing of it).{look}"),
+        &f,
+    )?;
+    figures.push(f);
 
     // Command spaces, one figure per robot (U differs).
     let mut robots: Vec<&str> = analyses.iter().map(|a| a.robot.as_str()).collect();
@@ -207,13 +291,7 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
         figures.push(f);
     }
 
-    // Slip and rho box plots.
-    let groups = |f: &dyn Fn(&StepResult) -> f64| -> Vec<Samples> {
-        analyses
-            .iter()
-            .map(|a| Samples::new(label(a), steady(a, f)))
-            .collect()
-    };
+    // Slip box plots.
     let panels = vec![
         BoxPanel {
             title: "longitudinal".into(),
@@ -249,20 +327,12 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
         &panels,
     )?;
     html.figure(
-        "Steady-state slip per dataset in the body frame (vx, vy, wz) and the wheel frame (left, right).",
+        "Steady-state slip per dataset in the body frame (vx, vy, wz) and the wheel frame (left, right). Look at where each dataset's boxes sit against zero: wheel slip far from zero while the body slip is large means the wheels spin without moving the body; a box that spans zero means the terrain neither slows nor speeds the robot on average.",
         &f,
     )?;
     figures.push(f);
 
-    html.section("Unpredictability ρ");
-    let rho_panel = [BoxPanel {
-        title: "steady state".into(),
-        value: AxisLabel::new("ρ", ""),
-        groups: groups(&|s| s.steady_rho.rho),
-    }];
-    let f = box_plots(dir, "rho_boxplot", "Unpredictability ρ per dataset", &rho_panel)?;
-    html.figure("ρ of the steady state of every step.", &f)?;
-    figures.push(f);
+    html.section("Unpredictability ρ over the command space");
     let scatter: Vec<ScatterPanel> = analyses
         .iter()
         .map(|a| ScatterPanel {
@@ -291,7 +361,7 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
         &scatter,
         &rho_scale,
     )?;
-    html.figure("ρ of each step at its commanded (vx, wz).", &f)?;
+    html.figure("ρ of each step at its commanded (vx, wz). Look for where in the command space the colour turns yellow: the commands to avoid on that terrain (on grippy ground, turning on the spot; on ice, almost everywhere).", &f)?;
     figures.push(f);
 
     // Transfer functions.
@@ -384,7 +454,7 @@ pub fn write_analysis_report(items: &[(&DriveLog, &Analysis)], dir: &Path) -> Re
     let acc: Vec<(String, Vec<f64>, Vec<f64>)> = items
         .iter()
         .map(|(log, a)| {
-            let (ax, ay) = transient_accelerations(log, a);
+            let (ax, ay) = log.transient_acc_m_s2.clone();
             (label(a), ax, ay)
         })
         .collect();
@@ -483,75 +553,6 @@ fn heat_panel(a: &Analysis, name: &str) -> Option<HeatPanel> {
         grid,
         command_space: a.nominal.command_space().polygon_body(),
     })
-}
-
-fn key_figures(log: &DriveLog, a: &Analysis) -> Vec<KeyFigure> {
-    let med = |b: Option<crate::analysis::stats::BoxStats>| b.map_or(f64::NAN, |b| b.median);
-    let s = &a.stats;
-    vec![
-        KeyFigure::new(
-            "steps analysed / excluded",
-            format!("{} / {}", a.steps.len(), a.exclusions.len()),
-            "",
-        ),
-        KeyFigure::new(
-            "interruptions / time efficiency",
-            format!(
-                "{} / {:.1} %",
-                log.interruptions.len(),
-                100.0 * log.time_efficiency()
-            ),
-            "",
-        ),
-        KeyFigure::new(
-            "median slip vx (along the command)",
-            format!("{:.3}", med(s.along_command.vx_m_s)),
-            "m/s",
-        ),
-        KeyFigure::new(
-            "median |slip vy|",
-            format!("{:.3}", med(s.along_command.vy_abs_m_s)),
-            "m/s",
-        ),
-        KeyFigure::new(
-            "median slip wz (along the command)",
-            format!("{:.3}", med(s.along_command.wz_rad_s)),
-            "rad/s",
-        ),
-        KeyFigure::new(
-            "median slip left / right (along the command)",
-            format!(
-                "{:.2} / {:.2}",
-                med(s.along_command.left_rad_s),
-                med(s.along_command.right_rad_s)
-            ),
-            "rad/s",
-        ),
-        KeyFigure::new("steps commanded outside the declared U", a.commands_outside_u, ""),
-        KeyFigure::new("median ρ", format!("{:.3}", med(s.rho)), ""),
-        KeyFigure::new(
-            "IDD RMSE vx / vy / wz",
-            format!(
-                "{:.3} / {:.3} / {:.3}",
-                a.idd_rmse.vx_m_s, a.idd_rmse.vy_m_s, a.idd_rmse.wz_rad_s
-            ),
-            "m/s, m/s, rad/s",
-        ),
-        KeyFigure::new(
-            "area of T / U (body, wheels)",
-            format!(
-                "{:.1} / {:.1}",
-                a.spaces.t_area_pct_body, a.spaces.t_area_pct_wheels
-            ),
-            "%",
-        ),
-        KeyFigure::new(
-            "max kinetic energy over U",
-            format!("{:.0}", a.max_kinetic_energy.k_max_j),
-            "J",
-        ),
-        KeyFigure::new("yaw-rate source", format!("{:?}", a.yaw_rate_source), ""),
-    ]
 }
 
 /// Risk scenarios: the analysis' own (ρ, J) fits on a linear axis for one robot; for several

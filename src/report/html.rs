@@ -34,7 +34,19 @@ impl KeyFigure {
 enum Block {
     Paragraph(String),
     Table { caption: String, rows: Vec<KeyFigure> },
+    Comparison(Comparison),
     Figure { caption: String, svg: String },
+}
+
+/// A table with one column per dataset: a row per quantity, its unit, then a value per column.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Comparison {
+    /// Caption above the table.
+    pub caption: String,
+    /// Column headings (e.g. the datasets).
+    pub columns: Vec<String>,
+    /// (quantity, unit, one formatted value per column).
+    pub rows: Vec<(String, String, Vec<String>)>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -142,6 +154,12 @@ impl HtmlReport {
         self
     }
 
+    /// Adds a comparison table (quantities as rows, e.g. datasets as columns).
+    pub fn comparison(&mut self, table: Comparison) -> &mut Self {
+        self.current().blocks.push(Block::Comparison(table));
+        self
+    }
+
     /// Embeds a figure written by a builder: its SVG is read and inlined. The caption says how
     /// many non-finite values the figure left out, if any.
     pub fn figure(&mut self, caption: impl Into<String>, files: &FigureFiles) -> Result<&mut Self> {
@@ -198,6 +216,29 @@ impl HtmlReport {
                         }
                         h.push_str("</table>\n");
                     }
+                    Block::Comparison(c) => {
+                        h.push_str("<table class=\"comparison\">\n");
+                        if !c.caption.is_empty() {
+                            h.push_str(&format!("<caption>{}</caption>\n", escape(&c.caption)));
+                        }
+                        h.push_str("<tr><th>quantity</th><th>unit</th>");
+                        for col in &c.columns {
+                            h.push_str(&format!("<th>{}</th>", escape(col)));
+                        }
+                        h.push_str("</tr>\n");
+                        for (label, unit, values) in &c.rows {
+                            h.push_str(&format!(
+                                "<tr><td>{}</td><td>{}</td>",
+                                escape(label),
+                                escape(unit)
+                            ));
+                            for v in values {
+                                h.push_str(&format!("<td class=\"v\">{}</td>", escape(v)));
+                            }
+                            h.push_str("</tr>\n");
+                        }
+                        h.push_str("</table>\n");
+                    }
                     Block::Figure { caption, svg } => {
                         fig_no += 1;
                         h.push_str("<figure>\n");
@@ -234,7 +275,12 @@ mod tests {
         r.paragraph("before any section")
             .section("S1 <x>")
             .paragraph("x < y && y > z")
-            .table("t", &[KeyFigure::new("ρ's median", 0.5, "")]);
+            .table("t", &[KeyFigure::new("ρ's median", 0.5, "")])
+            .comparison(Comparison {
+                caption: "c".into(),
+                columns: vec!["ice".into(), "mud".into()],
+                rows: vec![("ρ".into(), "".into(), vec!["0.5".into(), "0.1".into()])],
+            });
         r.figure_svg(
             "cap",
             "<?xml version=\"1.0\"?>\n<svg width=\"1\"><rect/></svg>\n",
@@ -248,6 +294,8 @@ mod tests {
         assert!(h.contains("<figure>\n<svg width=\"1\"><rect/></svg>"));
         assert!(!h.contains("<?xml"));
         assert!(h.contains("Figure 1. cap"));
+        assert!(h.contains("<th>ice</th><th>mud</th>"));
+        assert!(h.contains("<tr><td>ρ</td><td></td><td class=\"v\">0.5</td><td class=\"v\">0.1</td></tr>"));
         assert!(r.figure_svg("bad", "<html></html>", "mem").is_err());
         assert!(r.figure_svg("bad", "<svg>", "mem").is_err());
     }

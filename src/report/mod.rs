@@ -29,6 +29,7 @@ mod boxplot;
 mod command_space;
 pub mod contour;
 pub mod ellipse;
+pub mod findings;
 mod heatmap;
 mod histogram;
 mod html;
@@ -43,7 +44,7 @@ pub use contour::{contour_levels, contour_polylines, contour_segments, ContourSe
 pub use ellipse::{ellipse_axes, ellipse_points, EllipseAxes, CHI2_2DOF_95};
 pub use heatmap::{heat_maps, value_scatter, ColourScale, HeatPanel, ScatterPanel, ValuePoint};
 pub use histogram::{histograms, HistPanel};
-pub use html::{HtmlReport, KeyFigure};
+pub use html::{Comparison, HtmlReport, KeyFigure};
 pub use lines::{line_bands, BandPoint, BandSeries, LineAxes};
 pub use risk::{risk_map, EnergyAxis, EnergyLimit, RiskEllipse, RiskScenario};
 pub use style::{scenario_colour, ColourMap, FigureFiles};

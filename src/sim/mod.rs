@@ -2,7 +2,9 @@
 //! and the ideal plant used as a reference.
 //!
 //! Design (see also the report in the repository's history):
-//! - The chassis is one rapier rigid body (6 DoF, box inertia, gravity); rapier integrates it.
+//! - The chassis is one rapier rigid body (6 DoF, box inertia, gravity), integrated with
+//!   rapier's free-body scheme ([`Stepping::Fast`], `body.rs`; `PhysicsPipeline::step` with
+//!   [`Stepping::Reference`]).
 //!   Wheels are not rigid bodies: each wheel is a ray cast from its suspension hard point to
 //!   the ground collider (flat half-space or seeded height field), which gives the spring-damper
 //!   normal load, as in rapier's ray-cast vehicle controller. This avoids the twitching and
@@ -16,14 +18,17 @@
 //! - Friction is stiff at low slip speed (a wheel of 1.2 kg m² against 1000 N of grip relaxes
 //!   in 0.1 ms). Instead of sub-stepping, each physics step solves the planar chassis velocity
 //!   (vx, vy, wz) and the wheel spins of saturated sides by backward Euler (Newton on a 5x5
-//!   system); the resulting forces are handed to rapier for the step. Backward Euler is
+//!   system with the tyre model's exact Jacobian, `solve.rs`); the resulting forces drive the
+//!   chassis for the step. Backward Euler is
 //!   L-stable, so rest is exactly rest (zero command gives zero force) and nothing chatters.
 //! - Physics rate: 100 Hz by default. The implicit solve removes the friction stiffness, so
 //!   the rate is bounded by the explicit suspension (Husky roll mode ~36 rad/s: ω·dt = 0.36)
 //!   and by the 20 Hz logging (5 steps per tick).
 
+mod body;
 pub mod ground;
 pub mod plant;
+mod solve;
 pub mod tyre;
 
 pub use crate::effects::Effects;
@@ -36,14 +41,14 @@ use crate::measurement::{GroundTruth, ImuReading, Measurement, Pose};
 use crate::robot::Robot;
 use crate::terrain::Terrain;
 use ground::Ground;
-use nalgebra::{SMatrix, SVector};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use rapier3d::prelude::*;
 use serde::{Deserialize, Serialize};
+use solve::SolveCtx;
 use std::collections::VecDeque;
-use tyre::{contact_force, ContactForce, TyreParams};
+use tyre::{ContactForce, TyreParams};
 
 /// Standard gravity, m/s².
 pub const GRAVITY_M_S2: f64 = 9.81;
@@ -140,6 +145,19 @@ struct Contact {
     in_contact: bool,
 }
 
+/// How a physics step is computed. Both give the same physics (the tests hold either to the
+/// same tolerances); `Reference` is the original, slower code path, kept callable so that the
+/// benchmark can time both in one run and a test can check that they agree.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Stepping {
+    /// Exact Jacobian in the implicit tyre solve; the chassis integrated directly
+    /// (rapier's free-body scheme, without the pipeline around it).
+    #[default]
+    Fast,
+    /// Finite-difference Jacobian; the chassis integrated by rapier's `PhysicsPipeline::step`.
+    Reference,
+}
+
 /// The rapier vehicle model of a skid-steering robot on a terrain.
 pub struct Simulator {
     bodies: RigidBodySet,
@@ -205,6 +223,9 @@ pub struct Simulator {
     /// World-frame acceleration of the centre of mass over the last physics step.
     accel_world: [f64; 3],
     pose_history: VecDeque<(f64, Pose)>,
+    /// Principal moments of inertia of the chassis (body axes), kg·m².
+    inertia_kg_m2: [f64; 3],
+    stepping: Stepping,
 }
 
 impl std::fmt::Debug for Simulator {
@@ -377,6 +398,8 @@ impl Simulator {
             airborne_s: 0.0,
             accel_world: [0.0; 3],
             pose_history: VecDeque::new(),
+            inertia_kg_m2: inertia,
+            stepping: Stepping::default(),
         };
         sim.reset(Pose::default(), BodyVelocity::default(), WheelSpeeds::default());
         Ok(sim)
@@ -427,6 +450,11 @@ impl Simulator {
     /// The effects this simulator runs with.
     pub fn effects(&self) -> &Effects {
         &self.effects
+    }
+
+    /// Chooses how physics steps are computed (default [`Stepping::Fast`]).
+    pub fn set_stepping(&mut self, stepping: Stepping) {
+        self.stepping = stepping;
     }
 
     /// Side wheel spins (true, without encoder effects), rad/s.
@@ -573,6 +601,10 @@ impl Simulator {
             target,
             torsion_m: torsion,
         };
+        let solve = match self.stepping {
+            Stepping::Fast => solve::solve,
+            Stepping::Reference => solve::solve_reference,
+        };
         let mut saturated = [0.0f64; 2];
         let mut u = solve(
             &ctx,
@@ -636,7 +668,54 @@ impl Simulator {
             }
         }
 
-        // Apply the forces and let rapier integrate.
+        // Apply the forces and integrate the chassis.
+        let v_before = v64;
+        match self.stepping {
+            Stepping::Fast => {
+                let mut wrench = body::Wrench {
+                    force_n: [0.0, 0.0, -GRAVITY_M_S2 * self.mass_kg],
+                    ..Default::default()
+                };
+                for (c, f) in self.contacts.iter().zip(&self.forces) {
+                    if !c.in_contact {
+                        continue;
+                    }
+                    wrench.add_at_point(
+                        [
+                            f.fx_n * ex[0] + f.fy_n * ey[0] + c.load_n * c.normal[0],
+                            f.fx_n * ex[1] + f.fy_n * ey[1] + c.load_n * c.normal[1],
+                            c.load_n * c.normal[2],
+                        ],
+                        c.point,
+                        com64,
+                    );
+                }
+                let rb = &mut self.bodies[self.body];
+                body::integrate(rb, self.mass_kg, self.inertia_kg_m2, &wrench, dt);
+            }
+            Stepping::Reference => self.rapier_step(dt, ex, ey),
+        }
+        self.time_s += dt;
+        let v_after = to64(self.bodies[self.body].linvel());
+        for k in 0..3 {
+            self.accel_world[k] = (v_after[k] - v_before[k]) / dt;
+        }
+        self.check(u)?;
+        let pose = self.true_pose();
+        self.pose_history.push_back((self.time_s, pose));
+        let keep = self.mods.pose_latency_s + 0.5;
+        while self
+            .pose_history
+            .front()
+            .is_some_and(|&(t, _)| t < self.time_s - keep)
+        {
+            self.pose_history.pop_front();
+        }
+        Ok(())
+    }
+
+    /// The reference integration: the wheel forces handed to rapier's pipeline.
+    fn rapier_step(&mut self, dt: f64, ex: [f64; 2], ey: [f64; 2]) {
         let rb = &mut self.bodies[self.body];
         // User forces and torques persist in rapier until reset; both must go.
         rb.reset_forces(false);
@@ -656,7 +735,6 @@ impl Simulator {
                 true,
             );
         }
-        let v_before = v64;
         self.params.dt = dt as f32;
         self.pipeline.step(
             Vector::new(0.0, 0.0, -GRAVITY_M_S2 as f32),
@@ -673,23 +751,6 @@ impl Simulator {
             &(),
             &(),
         );
-        self.time_s += dt;
-        let v_after = to64(self.bodies[self.body].linvel());
-        for k in 0..3 {
-            self.accel_world[k] = (v_after[k] - v_before[k]) / dt;
-        }
-        self.check(u)?;
-        let pose = self.true_pose();
-        self.pose_history.push_back((self.time_s, pose));
-        let keep = self.mods.pose_latency_s + 0.5;
-        while self
-            .pose_history
-            .front()
-            .is_some_and(|&(t, _)| t < self.time_s - keep)
-        {
-            self.pose_history.pop_front();
-        }
-        Ok(())
     }
 
     fn check(&self, u: [f64; 5]) -> Result<()> {
@@ -736,140 +797,6 @@ impl Simulator {
             .or(self.pose_history.front())
             .map_or_else(|| self.true_pose(), |&(_, p)| p)
     }
-}
-
-/// Inputs of the planar implicit solve of one physics step.
-struct SolveCtx {
-    dt: f64,
-    mass: f64,
-    izz: f64,
-    side_inertia: f64,
-    radius: f64,
-    /// External planar force and yaw moment (normal forces on slopes), heading frame.
-    ext: [f64; 3],
-    /// State at the start of the step: vx, vy, wz, omega_left, omega_right.
-    u0: [f64; 5],
-    /// Wheel spins that the unsaturated controller reaches at the end of the step.
-    target: [f64; 2],
-    torsion_m: f64,
-}
-
-type V5 = SVector<f64, 5>;
-
-/// Backward-Euler residual of the planar chassis and the wheel spins; writes contact forces.
-#[allow(clippy::too_many_arguments)]
-fn residual(
-    ctx: &SolveCtx,
-    tyre: &TyreParams,
-    wheels: &[WheelGeom],
-    contacts: &[Contact],
-    deflection: &[f64],
-    saturated: [f64; 2],
-    u: &V5,
-    forces: &mut [ContactForce],
-) -> V5 {
-    let mut fx = ctx.ext[0];
-    let mut fy = ctx.ext[1];
-    let mut mz = ctx.ext[2];
-    let mut react = [0.0; 2];
-    for (i, (wg, c)) in wheels.iter().zip(contacts).enumerate() {
-        if !c.in_contact {
-            forces[i] = ContactForce::default();
-            continue;
-        }
-        let vx = u[0] - u[2] * c.y_m;
-        let vy = u[1] + u[2] * c.x_m;
-        let lateral = (ctx.torsion_m > 0.0).then(|| {
-            // Deflection after this step (explicit in the relaxation, implicit in damping).
-            deflection[i] + ctx.dt * vy / ctx.torsion_m + TORSION_DAMPING_S * vy / ctx.torsion_m
-        });
-        let f = contact_force(tyre, c.load_n, vx, vy, u[3 + wg.side], ctx.radius, lateral);
-        forces[i] = f;
-        fx += f.fx_n;
-        fy += f.fy_n;
-        mz += c.x_m * f.fy_n - c.y_m * f.fx_n;
-        react[wg.side] += f.reaction_nm;
-    }
-    let dt = ctx.dt;
-    let mut r = V5::zeros();
-    r[0] = ctx.mass * (u[0] - ctx.u0[0]) - dt * fx;
-    r[1] = ctx.mass * (u[1] - ctx.u0[1]) - dt * fy;
-    r[2] = ctx.izz * (u[2] - ctx.u0[2]) - dt * mz;
-    for side in 0..2 {
-        r[3 + side] = if saturated[side] == 0.0 {
-            ctx.side_inertia * (u[3 + side] - ctx.target[side])
-        } else {
-            ctx.side_inertia * (u[3 + side] - ctx.u0[3 + side]) - dt * (saturated[side] - react[side])
-        };
-    }
-    r
-}
-
-/// Newton iterations with a finite-difference Jacobian and a backtracking line search.
-fn solve(
-    ctx: &SolveCtx,
-    tyre: &TyreParams,
-    wheels: &[WheelGeom],
-    contacts: &[Contact],
-    deflection: &[f64],
-    saturated: [f64; 2],
-    forces: &mut [ContactForce],
-) -> [f64; 5] {
-    let f = |u: &V5, forces: &mut [ContactForce]| {
-        residual(ctx, tyre, wheels, contacts, deflection, saturated, u, forces)
-    };
-    let mut u = V5::from_row_slice(&ctx.u0);
-    for s in 0..2 {
-        if saturated[s] == 0.0 {
-            u[3 + s] = ctx.target[s];
-        }
-    }
-    let mut r = f(&u, forces);
-    let scale = V5::new(ctx.mass, ctx.mass, ctx.izz, ctx.side_inertia, ctx.side_inertia);
-    let norm = |r: &V5| r.component_div(&scale).amax();
-    let mut scratch_buf = [ContactForce::default(); MAX_WHEELS];
-    let scratch = &mut scratch_buf[..forces.len()];
-    for _ in 0..12 {
-        if norm(&r) < 1e-10 {
-            break;
-        }
-        let mut jac = SMatrix::<f64, 5, 5>::zeros();
-        for k in 0..5 {
-            // The row of an unsaturated side is `I (w - target)`: its column is known.
-            if k >= 3 && saturated[k - 3] == 0.0 {
-                jac[(k, k)] = ctx.side_inertia;
-                continue;
-            }
-            let h = 1e-7 * (1.0 + u[k].abs());
-            let mut up = u;
-            up[k] += h;
-            let rp = f(&up, scratch);
-            jac.set_column(k, &((rp - r) / h));
-        }
-        let Some(delta) = jac.lu().solve(&(-r)) else {
-            break;
-        };
-        let mut step = 1.0;
-        let n0 = norm(&r);
-        let mut accepted = false;
-        for _ in 0..6 {
-            let trial = u + delta * step;
-            let rt = f(&trial, scratch);
-            if norm(&rt) < n0 || step < 0.05 {
-                u = trial;
-                r = rt;
-                accepted = true;
-                break;
-            }
-            step *= 0.5;
-        }
-        if !accepted || (delta * step).amax() < 1e-12 {
-            break;
-        }
-    }
-    // Forces consistent with the accepted state.
-    f(&u, forces);
-    [u[0], u[1], u[2], u[3], u[4]]
 }
 
 impl Plant for Simulator {

@@ -21,6 +21,19 @@ pub struct MergedReport {
     /// Ids of runs of the sweeps' matrices (from the directories' manifests) with no
     /// completion marker in any directory.
     pub missing: Vec<String>,
+    /// Runs completed in more than one directory (shards that overlapped, or a run repeated
+    /// by hand): the table keeps the first directory's, in the order given.
+    #[serde(default)]
+    pub duplicates: Vec<Duplicate>,
+}
+
+/// A run found complete in several directories.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Duplicate {
+    /// Id of the run.
+    pub id: String,
+    /// Its directories, the one kept first.
+    pub dirs: Vec<PathBuf>,
 }
 
 /// Flattens nested objects into dotted keys (`a.b`); arrays and scalars are leaves.
@@ -62,12 +75,14 @@ fn row_of(rec: &RunRecord) -> BTreeMap<String, Value> {
 }
 
 /// Merges the completed runs found in `dirs` (each a sweep output directory, e.g. one per
-/// shard). A run present in several directories must have the same record in each, else the
-/// merge fails naming both places.
+/// shard). A run done in several directories is reported in [`MergedReport::duplicates`] (its
+/// figures may differ in wall time only); if its parameters differ, the merge fails naming
+/// both places.
 pub fn merge(dirs: &[PathBuf]) -> Result<MergedReport> {
     let mut records: BTreeMap<String, (RunRecord, PathBuf)> = BTreeMap::new();
     let mut expected: BTreeSet<(usize, String)> = BTreeSet::new();
     let mut sweep_names: BTreeSet<String> = BTreeSet::new();
+    let mut duplicates: BTreeMap<String, Vec<PathBuf>> = BTreeMap::new();
     for dir in dirs {
         let read = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
         let manifest_path = dir.join(MANIFEST_FILE);
@@ -90,14 +105,19 @@ pub fn merge(dirs: &[PathBuf]) -> Result<MergedReport> {
                 .ok_or_else(|| Error::log(sub.join(DONE_FILE), "(whole file)", "not a run record"))?;
             sweep_names.insert(rec.spec.sweep.clone());
             match records.get(&rec.spec.id) {
-                Some((other, where_)) if other != &rec => {
+                Some((other, where_)) if other.spec != rec.spec => {
                     return Err(Error::log(
                         sub.join(DONE_FILE),
                         format!("run `{}`", rec.spec.id),
-                        format!("differs from the same run in {}", where_.display()),
+                        format!("has other parameters than the same run in {}", where_.display()),
                     ));
                 }
-                Some(_) => {}
+                Some((_, where_)) => {
+                    duplicates
+                        .entry(rec.spec.id.clone())
+                        .or_insert_with(|| vec![where_.clone()])
+                        .push(sub.clone());
+                }
                 None => {
                     records.insert(rec.spec.id.clone(), (rec, sub.clone()));
                 }
@@ -132,6 +152,10 @@ pub fn merge(dirs: &[PathBuf]) -> Result<MergedReport> {
         columns,
         rows,
         missing,
+        duplicates: duplicates
+            .into_iter()
+            .map(|(id, dirs)| Duplicate { id, dirs })
+            .collect(),
     })
 }
 

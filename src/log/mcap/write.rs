@@ -51,6 +51,7 @@ impl<W: Write + Seek> FrameEncoder<W> {
             .profile("ros2")
             .library(format!("drive-sim {}", env!("CARGO_PKG_VERSION")))
             .compression(Some(mcap::Compression::Zstd))
+            .compression_level(1)
             .compression_threads(0)
             .chunk_size(Some(CHUNK_SIZE));
         let e = |e| mcap_err(file, "header", e);

@@ -1,0 +1,121 @@
+//! The analysis of DRIVE logs behind `drive-sim analyze` and the demo: each log read, analysed
+//! with the paper's parameters for its robot, and the logs reported together.
+
+use crate::analysis::smoother::KernelCovariance;
+use crate::analysis::{Analysis, AnalysisParams, SmootherParams};
+use crate::error::{Error, Result};
+use crate::log::DriveLog;
+use crate::report::analysis_report::{write_analysis_report_of, AnalysisReportFiles, LogSummary};
+use std::path::PathBuf;
+
+/// What to analyse and how.
+#[derive(Debug, Clone)]
+pub struct AnalyzeOptions {
+    /// Logs: `.mcap` written by `drive-sim run`, or measured `.csv` (JSON beside it).
+    pub logs: Vec<PathBuf>,
+    /// Output directory.
+    pub out: PathBuf,
+    /// Transfer-function grid resolution in vx (m/s) and wz (rad/s).
+    pub resolution: f64,
+    /// Kernel variance Σ = diag(v, v); `None`: [`paper_kernel_variance`] of the log's robot.
+    pub kernel_variance: Option<f64>,
+    /// How to open inputs a log does not describe itself (rosbag2 bags: robot, terrain, roles).
+    pub input: crate::log::OpenOptions,
+}
+
+/// What [`analyze_logs`] tells its caller as it goes.
+#[derive(Debug, Clone, Copy)]
+pub enum AnalyzeEvent<'a> {
+    /// Reading this log.
+    Reading(&'a std::path::Path),
+    /// Analysing this log.
+    Analysing(&'a DriveLog),
+    /// What reading a log left out or assumed.
+    Note(&'a str),
+}
+
+/// The paper's kernel variance for a robot: 0.25 for the Husky (lessons learned), 0.64 for
+/// the Warthog figures, used for any other robot too.
+pub fn paper_kernel_variance(robot: &str) -> f64 {
+    crate::analysis::smoother::KernelCovariance::paper_variance(robot)
+}
+
+fn bad_option(field: &str, message: String) -> Error {
+    Error::config("<command line>", field, message)
+}
+
+/// The analysis parameters of `opts` for a log of `robot`.
+pub fn analysis_params(opts: &AnalyzeOptions, robot: &str) -> Result<AnalysisParams> {
+    if !(opts.resolution > 0.0 && opts.resolution.is_finite()) {
+        return Err(bad_option(
+            "--resolution",
+            format!("must be > 0, got {}", opts.resolution),
+        ));
+    }
+    let variance = opts
+        .kernel_variance
+        .unwrap_or_else(|| paper_kernel_variance(robot));
+    if !(variance > 0.0 && variance.is_finite()) {
+        return Err(bad_option(
+            "--kernel-variance",
+            format!("must be > 0, got {variance}"),
+        ));
+    }
+    Ok(AnalysisParams {
+        smoother: SmootherParams {
+            resolution_vx_m_s: opts.resolution,
+            resolution_wz_rad_s: opts.resolution,
+            covariance: KernelCovariance {
+                var_vx: variance,
+                var_wz: variance,
+            },
+            ..SmootherParams::default()
+        },
+        ..AnalysisParams::default()
+    })
+}
+
+/// The analyses and the report files of [`analyze_logs`].
+#[derive(Debug)]
+pub struct AnalyzedLogs {
+    /// One per log, in order.
+    pub analyses: Vec<Analysis>,
+    /// What the report wrote.
+    pub files: AnalysisReportFiles,
+}
+
+/// Analyses one log with `opts`'s parameters; returns what the report needs of the log, so that
+/// the log can be dropped.
+pub fn analyse_log(opts: &AnalyzeOptions, log: &DriveLog) -> Result<(LogSummary, Analysis)> {
+    let a = crate::analysis::analyze(log, &analysis_params(opts, &log.meta.robot)?)?;
+    Ok((LogSummary::of(log, &a), a))
+}
+
+/// Reads, analyses and reports the logs of `opts`, one log at a time: each is dropped once
+/// analysed, so that peak memory is that of the largest log, not of all of them.
+pub fn analyze_logs(opts: &AnalyzeOptions, progress: &mut dyn FnMut(AnalyzeEvent)) -> Result<AnalyzedLogs> {
+    // Parameters first: a bad option fails before any log is read.
+    analysis_params(opts, "")?;
+    let mut done = Vec::new();
+    for path in &opts.logs {
+        progress(AnalyzeEvent::Reading(path));
+        let opened = crate::log::open(path, &opts.input)?;
+        for n in &opened.notes {
+            progress(AnalyzeEvent::Note(n));
+        }
+        let log = opened.log;
+        progress(AnalyzeEvent::Analysing(&log));
+        done.push(analyse_log(opts, &log)?);
+    }
+    report(done, &opts.out)
+}
+
+/// Writes the report of analysed logs into `out`.
+pub fn report(done: Vec<(LogSummary, Analysis)>, out: &std::path::Path) -> Result<AnalyzedLogs> {
+    let items: Vec<(&LogSummary, &Analysis)> = done.iter().map(|(s, a)| (s, a)).collect();
+    let files = write_analysis_report_of(&items, out)?;
+    Ok(AnalyzedLogs {
+        analyses: done.into_iter().map(|(_, a)| a).collect(),
+        files,
+    })
+}

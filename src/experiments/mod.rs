@@ -1,0 +1,27 @@
+//! Experiments composed from the library's stages: DRIVE runs in memory ([`mod@simulate`]) or logged
+//! to MCAP ([`run`]), the analysis of logs ([`analyze`]), the demonstration ([`demo`]), the
+//! sampler comparison ([`samplers`]) and what one sweep run does ([`sweep`]).
+//!
+//! They sit above the stages they compose (simulator, protocol, log, analysis, report) and
+//! below the command line, which only parses arguments, calls these and prints; tests and
+//! sweeps call them directly.
+
+pub mod analyze;
+pub mod demo;
+pub mod run;
+pub mod samplers;
+pub mod simulate;
+pub mod sweep;
+
+pub use simulate::{simulate, simulate_with, unknown_sampler, SimulatedRun};
+
+use crate::error::{Error, Result};
+use serde::Serialize;
+use std::path::Path;
+
+/// Writes pretty JSON, naming the file on failure.
+pub fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
+    let text = serde_json::to_string_pretty(value)
+        .map_err(|e| Error::Analysis(format!("{}: {e}", path.display())))?;
+    std::fs::write(path, text).map_err(|e| Error::io(path, e))
+}

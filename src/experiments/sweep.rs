@@ -1,0 +1,129 @@
+//! What one run of a sweep does (the callback [`crate::sweep::run_sweep`] calls): simulate in
+//! memory, analyse, write `run.json` (its key figures) in its directory and return them for the
+//! merged table: median slips (signed along the command, the magnitude view), median ρ, the
+//! area of T, interruptions, time efficiency, real-time factor.
+//!
+//! Matrix `[options]` read here: `noise` (`"typical"` default, or `"off"`), `physics_hz`.
+//! The protocol is the matrix's (defaults plus its `[protocol]` overrides), not
+//! `ProtocolConfig::for_run`: a sweep's runs share one protocol, so the safety operator's
+//! braking assumption does not follow the terrain unless the matrix sets it.
+
+use super::simulate::{analysis_params_without_smoother, simulate_into, simulated_meta, unknown_sampler};
+use super::write_json;
+use crate::analysis::analyze;
+use crate::error::{Error, Result};
+use crate::log::mcap::McapWriter;
+use crate::protocol::sampler::make_sampler_for;
+use crate::protocol::FrameSink;
+use crate::robot::Robot;
+use crate::sim::{SensorNoise, SimConfig};
+use crate::sweep::RunSpec;
+use crate::terrain::Terrain;
+use serde_json::{json, Value};
+use std::path::Path;
+
+fn option_err(spec: &RunSpec, field: &str, msg: &str) -> Error {
+    Error::config(
+        format!("sweep {}", spec.sweep),
+        format!("options.{field}"),
+        msg.to_string(),
+    )
+}
+
+/// The simulator settings of a run from the matrix's options.
+fn sim_config(spec: &RunSpec) -> Result<SimConfig> {
+    let noise = match spec.options.get("noise") {
+        None => SensorNoise::typical(),
+        Some(Value::String(s)) if s == "typical" => SensorNoise::typical(),
+        Some(Value::String(s)) if s == "off" => SensorNoise::default(),
+        Some(_) => return Err(option_err(spec, "noise", "must be \"typical\" or \"off\"")),
+    };
+    let physics_hz = match spec.options.get("physics_hz") {
+        None => 100.0,
+        Some(v) => v
+            .as_f64()
+            .ok_or_else(|| option_err(spec, "physics_hz", "must be a number (Hz)"))?,
+    };
+    Ok(SimConfig {
+        seed: spec.seed,
+        physics_hz,
+        noise,
+        ..SimConfig::default()
+    })
+}
+
+/// NaN/absent-safe JSON number.
+fn num(x: Option<f64>) -> Value {
+    match x {
+        Some(v) if v.is_finite() => json!(v),
+        _ => Value::Null,
+    }
+}
+
+/// One sweep run: simulate, analyse, write `run.json` in `dir`, return the key figures.
+pub fn sweep_run(spec: &RunSpec, dir: &Path) -> Result<Value> {
+    sweep_run_with(spec, dir, false)
+}
+
+/// [`sweep_run`], also keeping the run's MCAP log as `<dir>/<id>.mcap` when `keep_log`
+/// (streamed as the run goes; the figures then name it under `log`).
+pub fn sweep_run_with(spec: &RunSpec, dir: &Path, keep_log: bool) -> Result<Value> {
+    let (robot, _) = Robot::resolve(&spec.robot)?;
+    let (terrain, _) = Terrain::resolve(&spec.terrain)?;
+    let mut sampler = make_sampler_for(&spec.sampler, spec.seed, &spec.protocol)
+        .ok_or_else(|| unknown_sampler(&spec.sampler))?;
+    let sim = sim_config(spec)?;
+    let log_name = format!("{}.mcap", spec.id);
+    let mut writer = if keep_log {
+        let meta = simulated_meta(
+            spec.id.clone(),
+            &robot,
+            &terrain,
+            &spec.protocol,
+            spec.seed,
+            &spec.sampler,
+        );
+        Some(McapWriter::create(dir.join(&log_name), &meta)?)
+    } else {
+        None
+    };
+    let run = simulate_into(
+        &robot,
+        &terrain,
+        sampler.as_mut(),
+        &spec.protocol,
+        sim,
+        writer.as_mut().map(|w| w as &mut dyn FrameSink),
+    )?;
+    if let Some(w) = writer {
+        w.finish()?;
+    }
+    let a = analyze(&run.log, &analysis_params_without_smoother())?;
+    let st = &a.stats;
+    let med = |b: Option<crate::analysis::stats::BoxStats>| num(b.map(|b| b.median));
+    let s = &run.summary;
+    let figures = json!({
+        "median_slip": {
+            "vx_m_s": med(st.along_command.vx_m_s),
+            "vy_abs_m_s": med(st.along_command.vy_abs_m_s),
+            "wz_rad_s": med(st.along_command.wz_rad_s),
+            "left_rad_s": med(st.along_command.left_rad_s),
+            "right_rad_s": med(st.along_command.right_rad_s),
+        },
+        "median_rho": med(st.rho),
+        "t_area_pct_body": num(Some(a.spaces.t_area_pct_body)),
+        "t_area_pct_wheels": num(Some(a.spaces.t_area_pct_wheels)),
+        "steps_analysed": a.steps.len(),
+        "interruptions": s.interruptions,
+        "time_efficiency": num(Some(s.time_efficiency)),
+        "simulated_s": num(Some(s.total_time_s)),
+        "wall_s": num(Some(run.wall_s)),
+        "real_time_factor": num(Some(s.total_time_s / run.wall_s.max(1e-9))),
+    });
+    let mut figures = figures;
+    if keep_log {
+        figures["log"] = json!(log_name);
+    }
+    write_json(&dir.join("run.json"), &figures)?;
+    Ok(figures)
+}

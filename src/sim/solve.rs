@@ -1,0 +1,288 @@
+//! The planar implicit solve of one physics step: backward Euler on the chassis velocity
+//! (vx, vy, wz) and the wheel spins, by Newton's method with a backtracking line search.
+//!
+//! Two Jacobians: the exact one ([`solve`]: the tyre model's partial derivatives, chained
+//! through the contact kinematics, in the same pass as the residual) and finite differences
+//! ([`solve_reference`], one residual per unknown), kept as the reference the exact one is
+//! checked and benchmarked against. Both stop at the same residual tolerance, so they agree
+//! to ~1e-10 of the momentum scale.
+
+use super::tyre::{contact_force, contact_force_and_jacobian, ContactForce, TyreParams};
+use super::{Contact, WheelGeom, MAX_WHEELS, TORSION_DAMPING_S};
+use nalgebra::{SMatrix, SVector};
+
+/// Inputs of the planar implicit solve of one physics step.
+pub(super) struct SolveCtx {
+    pub dt: f64,
+    pub mass: f64,
+    pub izz: f64,
+    pub side_inertia: f64,
+    pub radius: f64,
+    /// External planar force and yaw moment (normal forces on slopes), heading frame.
+    pub ext: [f64; 3],
+    /// State at the start of the step: vx, vy, wz, omega_left, omega_right.
+    pub u0: [f64; 5],
+    /// Wheel spins that the unsaturated controller reaches at the end of the step.
+    pub target: [f64; 2],
+    /// Suspension torsion length of the tyre-deflection effect, m (0: off).
+    pub torsion_m: f64,
+}
+
+type V5 = SVector<f64, 5>;
+
+/// Backward-Euler residual of the planar chassis and the wheel spins; writes contact forces.
+#[allow(clippy::too_many_arguments)]
+fn residual(
+    ctx: &SolveCtx,
+    tyre: &TyreParams,
+    wheels: &[WheelGeom],
+    contacts: &[Contact],
+    deflection: &[f64],
+    saturated: [f64; 2],
+    u: &V5,
+    forces: &mut [ContactForce],
+) -> V5 {
+    let mut fx = ctx.ext[0];
+    let mut fy = ctx.ext[1];
+    let mut mz = ctx.ext[2];
+    let mut react = [0.0; 2];
+    for (i, (wg, c)) in wheels.iter().zip(contacts).enumerate() {
+        if !c.in_contact {
+            forces[i] = ContactForce::default();
+            continue;
+        }
+        let vx = u[0] - u[2] * c.y_m;
+        let vy = u[1] + u[2] * c.x_m;
+        let lateral = (ctx.torsion_m > 0.0).then(|| {
+            // Deflection after this step (explicit in the relaxation, implicit in damping).
+            deflection[i] + ctx.dt * vy / ctx.torsion_m + TORSION_DAMPING_S * vy / ctx.torsion_m
+        });
+        let f = contact_force(tyre, c.load_n, vx, vy, u[3 + wg.side], ctx.radius, lateral);
+        forces[i] = f;
+        fx += f.fx_n;
+        fy += f.fy_n;
+        mz += c.x_m * f.fy_n - c.y_m * f.fx_n;
+        react[wg.side] += f.reaction_nm;
+    }
+    let dt = ctx.dt;
+    let mut r = V5::zeros();
+    r[0] = ctx.mass * (u[0] - ctx.u0[0]) - dt * fx;
+    r[1] = ctx.mass * (u[1] - ctx.u0[1]) - dt * fy;
+    r[2] = ctx.izz * (u[2] - ctx.u0[2]) - dt * mz;
+    for side in 0..2 {
+        r[3 + side] = if saturated[side] == 0.0 {
+            ctx.side_inertia * (u[3 + side] - ctx.target[side])
+        } else {
+            ctx.side_inertia * (u[3 + side] - ctx.u0[3 + side]) - dt * (saturated[side] - react[side])
+        };
+    }
+    r
+}
+
+/// Newton iterations with a finite-difference Jacobian and a backtracking line search: the
+/// reference solve, kept for [`super::Stepping::Reference`].
+pub(super) fn solve_reference(
+    ctx: &SolveCtx,
+    tyre: &TyreParams,
+    wheels: &[WheelGeom],
+    contacts: &[Contact],
+    deflection: &[f64],
+    saturated: [f64; 2],
+    forces: &mut [ContactForce],
+) -> [f64; 5] {
+    let f = |u: &V5, forces: &mut [ContactForce]| {
+        residual(ctx, tyre, wheels, contacts, deflection, saturated, u, forces)
+    };
+    let mut u = V5::from_row_slice(&ctx.u0);
+    for s in 0..2 {
+        if saturated[s] == 0.0 {
+            u[3 + s] = ctx.target[s];
+        }
+    }
+    let mut r = f(&u, forces);
+    let scale = V5::new(ctx.mass, ctx.mass, ctx.izz, ctx.side_inertia, ctx.side_inertia);
+    let norm = |r: &V5| r.component_div(&scale).amax();
+    let mut scratch_buf = [ContactForce::default(); MAX_WHEELS];
+    let scratch = &mut scratch_buf[..forces.len()];
+    for _ in 0..12 {
+        if norm(&r) < 1e-10 {
+            break;
+        }
+        let mut jac = SMatrix::<f64, 5, 5>::zeros();
+        for k in 0..5 {
+            // The row of an unsaturated side is `I (w - target)`: its column is known.
+            if k >= 3 && saturated[k - 3] == 0.0 {
+                jac[(k, k)] = ctx.side_inertia;
+                continue;
+            }
+            let h = 1e-7 * (1.0 + u[k].abs());
+            let mut up = u;
+            up[k] += h;
+            let rp = f(&up, scratch);
+            jac.set_column(k, &((rp - r) / h));
+        }
+        let Some(delta) = jac.lu().solve(&(-r)) else {
+            break;
+        };
+        let mut step = 1.0;
+        let n0 = norm(&r);
+        let mut accepted = false;
+        for _ in 0..6 {
+            let trial = u + delta * step;
+            let rt = f(&trial, scratch);
+            if norm(&rt) < n0 || step < 0.05 {
+                u = trial;
+                r = rt;
+                accepted = true;
+                break;
+            }
+            step *= 0.5;
+        }
+        if !accepted || (delta * step).amax() < 1e-12 {
+            break;
+        }
+    }
+    // Forces consistent with the accepted state.
+    f(&u, forces);
+    [u[0], u[1], u[2], u[3], u[4]]
+}
+
+type M5 = SMatrix<f64, 5, 5>;
+
+/// The residual of [`residual`] (same arithmetic, same rounding) and its exact Jacobian.
+#[allow(clippy::too_many_arguments)]
+fn residual_and_jacobian(
+    ctx: &SolveCtx,
+    tyre: &TyreParams,
+    wheels: &[WheelGeom],
+    contacts: &[Contact],
+    deflection: &[f64],
+    saturated: [f64; 2],
+    u: &V5,
+    forces: &mut [ContactForce],
+) -> (V5, M5) {
+    let dt = ctx.dt;
+    let mut fx = ctx.ext[0];
+    let mut fy = ctx.ext[1];
+    let mut mz = ctx.ext[2];
+    let mut react = [0.0; 2];
+    // Gradients over u of the summed forces, the yaw moment and each side's reaction.
+    let mut g_fx = [0.0; 5];
+    let mut g_fy = [0.0; 5];
+    let mut g_mz = [0.0; 5];
+    let mut g_react = [[0.0; 5]; 2];
+    for (i, (wg, c)) in wheels.iter().zip(contacts).enumerate() {
+        if !c.in_contact {
+            forces[i] = ContactForce::default();
+            continue;
+        }
+        let vx = u[0] - u[2] * c.y_m;
+        let vy = u[1] + u[2] * c.x_m;
+        let lateral = (ctx.torsion_m > 0.0).then(|| {
+            (
+                deflection[i] + ctx.dt * vy / ctx.torsion_m + TORSION_DAMPING_S * vy / ctx.torsion_m,
+                (ctx.dt + TORSION_DAMPING_S) / ctx.torsion_m,
+            )
+        });
+        let (f, j) = contact_force_and_jacobian(tyre, c.load_n, vx, vy, u[3 + wg.side], ctx.radius, lateral);
+        forces[i] = f;
+        fx += f.fx_n;
+        fy += f.fy_n;
+        mz += c.x_m * f.fy_n - c.y_m * f.fx_n;
+        react[wg.side] += f.reaction_nm;
+        // d(vx, vy, omega)/du: vx = u0 - u2 y, vy = u1 + u2 x, omega = u[3 + side].
+        let grad = |row: &[f64; 3]| {
+            let mut g = [row[0], row[1], -c.y_m * row[0] + c.x_m * row[1], 0.0, 0.0];
+            g[3 + wg.side] = row[2];
+            g
+        };
+        let (gx, gy, gr) = (grad(&j[0]), grad(&j[1]), grad(&j[2]));
+        for k in 0..5 {
+            g_fx[k] += gx[k];
+            g_fy[k] += gy[k];
+            g_mz[k] += c.x_m * gy[k] - c.y_m * gx[k];
+            g_react[wg.side][k] += gr[k];
+        }
+    }
+    let mut r = V5::zeros();
+    r[0] = ctx.mass * (u[0] - ctx.u0[0]) - dt * fx;
+    r[1] = ctx.mass * (u[1] - ctx.u0[1]) - dt * fy;
+    r[2] = ctx.izz * (u[2] - ctx.u0[2]) - dt * mz;
+    let mut jac = M5::zeros();
+    for k in 0..5 {
+        jac[(0, k)] = -dt * g_fx[k];
+        jac[(1, k)] = -dt * g_fy[k];
+        jac[(2, k)] = -dt * g_mz[k];
+    }
+    jac[(0, 0)] += ctx.mass;
+    jac[(1, 1)] += ctx.mass;
+    jac[(2, 2)] += ctx.izz;
+    for side in 0..2 {
+        let row = 3 + side;
+        if saturated[side] == 0.0 {
+            r[row] = ctx.side_inertia * (u[row] - ctx.target[side]);
+        } else {
+            r[row] = ctx.side_inertia * (u[row] - ctx.u0[row]) - dt * (saturated[side] - react[side]);
+            for k in 0..5 {
+                jac[(row, k)] = dt * g_react[side][k];
+            }
+        }
+        jac[(row, row)] += ctx.side_inertia;
+    }
+    (r, jac)
+}
+
+/// Newton iterations with the exact Jacobian and a backtracking line search; writes the
+/// contact forces of the accepted state into `forces`.
+pub(super) fn solve(
+    ctx: &SolveCtx,
+    tyre: &TyreParams,
+    wheels: &[WheelGeom],
+    contacts: &[Contact],
+    deflection: &[f64],
+    saturated: [f64; 2],
+    forces: &mut [ContactForce],
+) -> [f64; 5] {
+    let f = |u: &V5, forces: &mut [ContactForce]| {
+        residual_and_jacobian(ctx, tyre, wheels, contacts, deflection, saturated, u, forces)
+    };
+    let mut u = V5::from_row_slice(&ctx.u0);
+    for s in 0..2 {
+        if saturated[s] == 0.0 {
+            u[3 + s] = ctx.target[s];
+        }
+    }
+    let (mut r, mut jac) = f(&u, forces);
+    let scale = V5::new(ctx.mass, ctx.mass, ctx.izz, ctx.side_inertia, ctx.side_inertia);
+    let norm = |r: &V5| r.component_div(&scale).amax();
+    let mut scratch_buf = [ContactForce::default(); MAX_WHEELS];
+    let scratch = &mut scratch_buf[..forces.len()];
+    for _ in 0..12 {
+        let n0 = norm(&r);
+        if n0 < 1e-10 {
+            break;
+        }
+        let Some(delta) = jac.lu().solve(&(-r)) else {
+            break;
+        };
+        let mut step = 1.0;
+        let mut accepted = false;
+        for _ in 0..6 {
+            let trial = u + delta * step;
+            let (rt, jt) = f(&trial, scratch);
+            if norm(&rt) < n0 || step < 0.05 {
+                u = trial;
+                r = rt;
+                jac = jt;
+                forces.copy_from_slice(scratch);
+                accepted = true;
+                break;
+            }
+            step *= 0.5;
+        }
+        if !accepted || (delta * step).amax() < 1e-12 {
+            break;
+        }
+    }
+    [u[0], u[1], u[2], u[3], u[4]]
+}
