@@ -78,9 +78,12 @@ pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
     let before = ErrorSummary::pool(&baseline.before_test, floor);
     let after_terrain = ErrorSummary::pool(&after_base_test, floor);
     let after = ErrorSummary::pool(&after_test, floor);
-    let kernel_var = ctx.opts.kernel_var.unwrap_or(
-        crate::analysis::smoother::KernelCovariance::paper_variance(&ctx.declared.robot.name),
-    );
+    let kernel_var =
+        ctx.opts
+            .kernel_var
+            .unwrap_or(crate::analysis::smoother::KernelCovariance::paper_variance(
+                &ctx.declared.robot.name,
+            ));
     let space = ctx.declared.robot.command_space();
     let residual_of = |m: &ModelParams| -> Result<ResidualAnalysis> {
         Ok(residual::analyse(
