@@ -402,7 +402,8 @@ pub fn calibrate_timed(
         baseline::run(&ctx, baseline::BaselineInput { declared: &declared })
     })?;
     // The kinematic model is cheap enough to refit the base parameters beside every
-    // candidate; the simulator screens with it and fits effects alone, then refits jointly.
+    // candidate; the simulator screens with it and fits effects with the time constant only,
+    // then refits jointly.
     let screened = factory.name() == "simulator" && opts.screen_keep > 0;
     let (screening, pool, refit) = if screened {
         let out = timings.time("screening", || {
@@ -414,7 +415,15 @@ pub fn calibrate_timed(
                 },
             )
         })?;
-        (Some(out.report), out.shortlist, Vec::new())
+        // Beside each effect the simulator refits the wheel loop's time constant only: the
+        // base parameter that stands in for powertrain effects (a slower loop for a dead time);
+        // the terrain's are refit jointly once an effect is added.
+        let refit: Vec<ParamSpec> = base_specs
+            .iter()
+            .filter(|p| p.param == Param::TimeConstant)
+            .copied()
+            .collect();
+        (Some(out.report), out.shortlist, refit)
     } else {
         (None, pool, base_specs.clone())
     };
