@@ -227,7 +227,9 @@ fn each_effect_over_three_seeds() {
             1.5,
         ),
     ];
-    check_cases(cases, |name, seed| !(name == "wheel_speed_saturation_rad_s" && seed == 23));
+    check_cases(cases, |name, seed| {
+        !(name == "wheel_speed_saturation_rad_s" && seed == 23)
+    });
 }
 
 /// Each case over seeds 21–23 (those `keep` accepts): ranked first, value within tolerance, test
@@ -268,8 +270,20 @@ fn check_cases(cases: &[(&str, f64, &str, f64, f64)], keep: impl Fn(&str, u64) -
 fn open_regressions_of_the_least_squares_pipeline() {
     check_cases(
         &[
-            ("command_yaw_rate_limit_rad_s", 1.5, "command_yaw_rate_limit_rad_s", 0.02, 1.5),
-            ("wheel_speed_saturation_rad_s", 10.0, "wheel_speed_saturation_rad_s", 0.1, 1.5),
+            (
+                "command_yaw_rate_limit_rad_s",
+                1.5,
+                "command_yaw_rate_limit_rad_s",
+                0.02,
+                1.5,
+            ),
+            (
+                "wheel_speed_saturation_rad_s",
+                10.0,
+                "wheel_speed_saturation_rad_s",
+                0.1,
+                1.5,
+            ),
         ],
         |name, seed| name == "command_yaw_rate_limit_rad_s" || seed == 23,
     );
