@@ -83,7 +83,7 @@ pub fn replay_step(
 }
 
 /// Replays the given steps (with their starts, same order) and hands each replay to `f`;
-/// results in input order. One plant per chunk of [`STEPS_PER_PLANT`] steps, chunks in
+/// results in input order. One plant per chunk of `STEPS_PER_PLANT` (8) steps, chunks in
 /// parallel.
 pub fn replay_map<T: Send>(
     steps: &[StepSlice<'_>],

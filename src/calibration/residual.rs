@@ -27,7 +27,7 @@ pub struct ResidualMap {
     pub vx_m_s: Vec<f64>,
     /// Grid ordinates: commanded wz, rad/s.
     pub wz_rad_s: Vec<f64>,
-    /// `values[j][i]` at (vx[i], wz[j]); `None` outside the command space.
+    /// `values[j][i]` at (`vx[i]`, `wz[j]`); `None` outside the command space.
     pub values: Vec<Vec<Option<f64>>>,
     /// Kernel variance (same on both axes, in the units of the axes squared).
     pub kernel_var: f64,

@@ -73,7 +73,7 @@ impl SensorNoise {
     /// Noise of typical field sensors, for runs meant to look like real data: a lidar ICP pose
     /// good to about 1 cm and 0.2° between scans, a MEMS gyro with 0.01 rad/s of white noise
     /// and 0.05 m/s² on the accelerometer, and encoders quantized to about 0.02 rad/s at 20 Hz.
-    /// [est] orders of magnitude of the Warthog's sensors, not fitted.
+    /// \[est\] orders of magnitude of the Warthog's sensors, not fitted.
     pub fn typical() -> Self {
         Self {
             encoder_rad_s: 0.02,
