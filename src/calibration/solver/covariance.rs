@@ -8,7 +8,7 @@
 //! estimating equation of the fit is `Σ_s ψ_s(θ) = 0` with `ψ_s` the step's influence on the
 //! log score's gradient (through its residuals and through the channel weights its squared
 //! errors set); its covariance is `A⁻¹ B A⁻¹` with the bread
-//! `A` the log score's Hessian ([`super::gradient_and_hessian`]) and the meat
+//! `A` the Gauss–Newton Hessian ([`super::weighted_normal_equations`]) and the meat
 //! `B = S/(S−1) Σ_s ψ_s ψ_sᵀ` over the `S` steps. It holds whatever the noise's variance per
 //! channel, and does not assume the model is right.
 
@@ -65,22 +65,8 @@ pub fn sandwich(
     let p = free.len();
     // The bread: the Gauss–Newton Hessian of the log score with the weights at their
     // estimates (positive semi-definite; the weights' own variability is in the meat).
-    let mut a = DMatrix::<f64>::zeros(p, p);
-    for i in 0..r.len() {
-        let wi = w[layout.channel[i] as usize];
-        if wi == 0.0 {
-            continue;
-        }
-        for (aa, &ja) in free.iter().enumerate() {
-            let ga = jacobian[(i, ja)];
-            if ga == 0.0 {
-                continue;
-            }
-            for (bb, &jb) in free.iter().enumerate() {
-                a[(aa, bb)] += wi * ga * jacobian[(i, jb)];
-            }
-        }
-    }
+    let (_, h) = super::weighted_normal_equations(layout, &w, r, jacobian);
+    let a = DMatrix::<f64>::from_fn(p, p, |i, j| h[(free[i], free[j])]);
     let mut clusters: Vec<u32> = layout.cluster.clone();
     clusters.sort_unstable();
     clusters.dedup();

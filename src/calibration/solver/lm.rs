@@ -141,41 +141,6 @@ fn damped_step(g: &DVector<f64>, h: &DMatrix<f64>, free: &[usize], lambda: f64) 
     d.iter().all(|v| v.is_finite()).then_some(full)
 }
 
-/// Gradient and Hessian of `½ Σ_i w_c(i) r_i²` with the channel weights `w` frozen.
-fn frozen_model(
-    layout: &super::Layout,
-    w: &[f64],
-    r: &[f64],
-    jac: &DMatrix<f64>,
-) -> (DVector<f64>, DMatrix<f64>) {
-    let p = jac.ncols();
-    let mut g = DVector::zeros(p);
-    let mut h = DMatrix::zeros(p, p);
-    for (i, (&ri, &c)) in r.iter().zip(&layout.channel).enumerate() {
-        let wi = w[c as usize];
-        if wi == 0.0 {
-            continue;
-        }
-        let row = jac.row(i);
-        for a in 0..p {
-            let ja = row[a];
-            if ja == 0.0 {
-                continue;
-            }
-            g[a] += wi * ri * ja;
-            for b in a..p {
-                h[(a, b)] += wi * ja * row[b];
-            }
-        }
-    }
-    for a in 0..p {
-        for b in 0..a {
-            h[(a, b)] = h[(b, a)];
-        }
-    }
-    (g, h)
-}
-
 /// `½ Σ_i w_c(i) r_i²`.
 fn frozen_cost(layout: &super::Layout, w: &[f64], r: &[f64]) -> f64 {
     0.5 * r
@@ -254,7 +219,7 @@ pub fn minimize(
         let f_outer = f;
         let mut moved = false;
         loop {
-            let (g, h) = frozen_model(layout, &w, &r, &jac);
+            let (g, h) = super::weighted_normal_equations(layout, &w, &r, &jac);
             let free: Vec<usize> = (0..p)
                 .filter(|&i| !((z[i] <= edge && g[i] > 0.0) || (z[i] >= 1.0 - edge && g[i] < 0.0)))
                 .collect();

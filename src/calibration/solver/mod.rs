@@ -94,26 +94,19 @@ impl Layout {
     }
 }
 
-/// Gradient and Hessian of the log score `F = (1/C) Σ_c ln S_c` at residuals `r` with
-/// Jacobian `jac` (entries × parameters): `g = Σ_c (2/(C S_c)) J_cᵀ r_c` and
-/// `H = Σ_c (2/(C S_c)) J_cᵀ J_c − Σ_c (4/(C S_c²)) (J_cᵀ r_c)(J_cᵀ r_c)ᵀ`, the second-order
-/// terms of the residuals left out as in Gauss–Newton. The second term is what makes this the
-/// Hessian of the log score rather than of a least-squares problem with frozen weights: where
-/// channels pull the parameters different ways (each alone would fit other values), it is not
-/// small, and without it the steps are too short and the standard errors too small.
-/// Channels under the score's clamp contribute nothing.
-pub fn gradient_and_hessian(
+/// Gradient and Gauss–Newton Hessian of `½ Σ_i w_c(i) r_i²` with the channel weights `w`
+/// frozen (for `w` = [`Layout::weights`], the log score's gradient and its Gauss–Newton model):
+/// `g = Σ_i w_c r_i ∇r_i`, `H = Σ_i w_c ∇r_i ∇r_iᵀ`, with `jac` the residuals' Jacobian
+/// (entries × parameters). The solver's step and the covariance's bread both use it.
+pub fn weighted_normal_equations(
     layout: &Layout,
+    w: &[f64],
     r: &[f64],
     jac: &nalgebra::DMatrix<f64>,
 ) -> (nalgebra::DVector<f64>, nalgebra::DMatrix<f64>) {
-    let w = layout.weights(r);
     let p = jac.ncols();
-    let nc = layout.n_channels();
     let mut g = nalgebra::DVector::zeros(p);
     let mut h = nalgebra::DMatrix::zeros(p, p);
-    // Per channel: J_cᵀ r_c.
-    let mut v = vec![nalgebra::DVector::<f64>::zeros(p); nc];
     for (i, (&ri, &c)) in r.iter().zip(&layout.channel).enumerate() {
         let wi = w[c as usize];
         if wi == 0.0 {
@@ -125,23 +118,9 @@ pub fn gradient_and_hessian(
             if ja == 0.0 {
                 continue;
             }
-            v[c as usize][a] += ri * ja;
+            g[a] += wi * ri * ja;
             for b in a..p {
                 h[(a, b)] += wi * ja * row[b];
-            }
-        }
-    }
-    let (s, _) = layout.channel_sums(r);
-    for c in 0..nc {
-        if w[c] == 0.0 {
-            continue;
-        }
-        g += &v[c] * w[c];
-        // 4 / (C S_c²) = w_c · 2 / S_c.
-        let k = w[c] * 2.0 / s[c];
-        for a in 0..p {
-            for b in a..p {
-                h[(a, b)] -= k * v[c][a] * v[c][b];
             }
         }
     }

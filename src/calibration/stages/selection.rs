@@ -129,6 +129,17 @@ fn joint_refit(ctx: &Context<'_>, st: &mut State, base: &[ParamSpec], label: &st
     Ok(())
 }
 
+/// Every pair of `top`, each once.
+fn pairs_of(top: &[&Candidate]) -> Vec<Candidate> {
+    let mut pairs = Vec::new();
+    for (i, a) in top.iter().enumerate() {
+        for b in &top[i + 1..] {
+            pairs.push(Candidate::pair(a, b));
+        }
+    }
+    pairs
+}
+
 /// Runs forward selection, pairs and the backward pass.
 pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> {
     let opts = ctx.opts;
@@ -216,12 +227,7 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
                     c.warm_from(m)
                 })
                 .collect();
-            let mut tried = Vec::new();
-            for i in 0..warm.len() {
-                for j in i + 1..warm.len() {
-                    tried.push(Candidate::pair(&warm[i], &warm[j]));
-                }
-            }
+            let tried = pairs_of(&warm.iter().collect::<Vec<_>>());
             if let (false, Some((single, single_model))) = (tried.is_empty(), &best) {
                 let pairs_out = evaluate(
                     ctx,
@@ -320,12 +326,7 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
             .filter_map(|e| pool.iter().find(|c| c.name == e.effect))
             .take(opts.pair_top)
             .collect();
-        let mut tried = Vec::new();
-        for i in 0..top.len() {
-            for j in i + 1..top.len() {
-                tried.push(Candidate::pair(top[i], top[j]));
-            }
-        }
+        let tried = pairs_of(&top);
         if !tried.is_empty() {
             let out = evaluate(
                 ctx,
