@@ -7,7 +7,7 @@ use super::metrics::{
 };
 use super::model::{ModelParams, PlantFactory};
 use super::replay::replay_map;
-use super::steps::{step_start, StepSlice, StepStart};
+use super::steps::{step_start_in, StepSlice, StepStart};
 use crate::error::{Error, Result};
 use crate::kinematics::WheelSpeeds;
 use rand::seq::SliceRandom;
@@ -48,7 +48,7 @@ impl<'a> StepSet<'a> {
             .collect::<Result<_>>()?;
         let starts = steps
             .iter()
-            .map(|s| step_start(s.samples))
+            .map(|s| step_start_in(all, *s))
             .collect::<Result<_>>()?;
         Ok(Self {
             steps,

@@ -71,6 +71,10 @@ pub fn candidates_for(
     let mut out = Vec::new();
     let mut unsupported = Vec::new();
     for (i, e) in REGISTRY.iter().enumerate() {
+        // Generic terms are proposed by equation discovery, not tried from the catalogue.
+        if e.generic() {
+            continue;
+        }
         if !factory.supports(*e) {
             unsupported.push(e.name().to_string());
             continue;
