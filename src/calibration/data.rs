@@ -95,6 +95,19 @@ impl<'a> StepSet<'a> {
         )
     }
 
+    /// Replays every step on the model and returns the model's own features (what the
+    /// estimators extract from the replay), in step order.
+    pub fn replay_features(&self, factory: &dyn PlantFactory, params: &ModelParams) -> Result<Vec<StepFeatures>> {
+        replay_map(
+            &self.steps,
+            &self.starts,
+            factory,
+            params,
+            self.rate_hz,
+            |i, sim| step_features(self.steps[i].step, &sim),
+        )
+    }
+
     /// Replays every step on the model and compares it with the recording.
     pub fn errors(&self, factory: &dyn PlantFactory, params: &ModelParams) -> Result<Vec<StepErrors>> {
         Ok(self

@@ -302,6 +302,18 @@ impl TermTarget {
         }
     }
 
+    /// Name of the registered effect (`term_body_vy`, ...).
+    pub fn effect_name(self) -> &'static str {
+        match self {
+            Self::WheelLeft => "term_wheel_left",
+            Self::WheelRight => "term_wheel_right",
+            Self::BodyVx => "term_body_vx",
+            Self::BodyVy => "term_body_vy",
+            Self::BodyWz => "term_body_wz",
+            Self::ImuWz => "term_imu_wz",
+        }
+    }
+
     /// The quantity's symbol in an equation.
     pub fn symbol(self) -> &'static str {
         match self {
@@ -362,7 +374,8 @@ pub struct Term {
 }
 
 impl Term {
-    fn new(target: TermTarget, name: &'static str) -> Self {
+    fn new(target: TermTarget) -> Self {
+        let name = target.effect_name();
         let features = target.features();
         let params = features
             .iter()
@@ -416,12 +429,12 @@ impl Term {
 /// [`super::REGISTRY`]).
 pub static TERMS: LazyLock<[Term; 6]> = LazyLock::new(|| {
     [
-        Term::new(TermTarget::WheelLeft, "term_wheel_left"),
-        Term::new(TermTarget::WheelRight, "term_wheel_right"),
-        Term::new(TermTarget::BodyVx, "term_body_vx"),
-        Term::new(TermTarget::BodyVy, "term_body_vy"),
-        Term::new(TermTarget::BodyWz, "term_body_wz"),
-        Term::new(TermTarget::ImuWz, "term_imu_wz"),
+        Term::new(TermTarget::WheelLeft),
+        Term::new(TermTarget::WheelRight),
+        Term::new(TermTarget::BodyVx),
+        Term::new(TermTarget::BodyVy),
+        Term::new(TermTarget::BodyWz),
+        Term::new(TermTarget::ImuWz),
     ]
 });
 
