@@ -277,3 +277,66 @@ fn channel(name: String, kind: ChannelKind, e: &[Entry], floor: f64, median_step
         location,
     }
 }
+
+/// "What the model lacks", in lines a report leads with: each channel's residual / floor on
+/// the test steps before and after calibration, the equations discovery found and what it
+/// added and why, and what is still above the floor (with where it lives).
+pub fn lacks_summary(report: &super::CalibrationReport) -> Vec<String> {
+    let mut lines = Vec::new();
+    let (Some(before), Some(after)) = (&report.diagnosis_before, &report.diagnosis_after) else {
+        return lines;
+    };
+    lines.push(format!(
+        "residual / noise floor on {} test steps, declared → calibrated model (flag: > {STEADY_FLAG} steady, > {TRANSIENT_FLAG} transient and pose):",
+        after.steps
+    ));
+    for b in &before.channels {
+        if let Some(a) = after.channel(&b.channel) {
+            lines.push(format!(
+                "  {:<22} {:>8.2} → {:>6.2}{}",
+                b.channel,
+                b.ratio,
+                a.ratio,
+                if a.flagged { "  still flagged" } else { "" }
+            ));
+        }
+    }
+    if let Some(d) = &report.discovery {
+        for round in &d.rounds {
+            for e in &round.equations {
+                lines.push(format!("discovered ({}): {}", e.channels.join(", "), e.text));
+                for r in &e.reading {
+                    lines.push(format!("  reading: {r}"));
+                }
+            }
+            for s in &round.skipped {
+                lines.push(format!("no equation for {}: {}", s.target, s.reason));
+            }
+            match &round.added {
+                Some(a) => lines.push(format!("added {a}: {}", round.why)),
+                None if !round.why.is_empty() => {
+                    lines.push(format!("nothing added at the {}: {}", round.stage, round.why))
+                }
+                None => {}
+            }
+        }
+        for b in d.backward.iter().filter(|b| b.dropped) {
+            lines.push(format!(
+                "dropped {} after discovery (validation {:.3} → {:.3} without it, ± {:.3})",
+                b.effect, b.score_with, b.score_without, b.se
+            ));
+        }
+    }
+    let still: Vec<String> = after
+        .channels
+        .iter()
+        .filter(|c| c.flagged)
+        .map(|c| format!("{} ({:.1}×, {})", c.channel, c.ratio, c.location))
+        .collect();
+    lines.push(if still.is_empty() {
+        "every channel within its flag threshold on the test steps".into()
+    } else {
+        format!("still above the floor: {}", still.join("; "))
+    });
+    lines
+}

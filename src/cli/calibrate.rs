@@ -203,6 +203,13 @@ fn with_interval(p: &calibration::FittedParam) -> String {
 
 fn print_report(r: &CalibrationReport) -> Result<(), std::io::Error> {
     let mut out = std::io::stdout().lock();
+    let lacks = calibration::diagnosis::lacks_summary(r);
+    if !lacks.is_empty() {
+        writeln!(out, "what the model lacks:")?;
+        for line in lacks {
+            writeln!(out, "  {line}")?;
+        }
+    }
     writeln!(
         out,
         "{} ({} model): scores on {} test steps (fits on {} training steps, choices on {} validation steps)",

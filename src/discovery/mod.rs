@@ -442,7 +442,7 @@ pub fn least_squares(a: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>>
     let svd = a.clone().svd(true, true);
     let smax = svd.singular_values.max();
     let smin = svd.singular_values.min();
-    if !(smax > 0.0) || smin <= smax * 1e-10 {
+    if smax.is_nan() || smax <= 0.0 || smin <= smax * 1e-10 {
         return None;
     }
     let x = svd.solve(b, 0.0).ok()?;

@@ -350,7 +350,10 @@ impl TermTarget {
 
     /// The features of this target, in parameter order.
     pub fn features(self) -> Vec<Feature> {
-        Feature::ALL.into_iter().filter(|f| self.has_feature(*f)).collect()
+        Feature::ALL
+            .into_iter()
+            .filter(|f| self.has_feature(*f))
+            .collect()
     }
 
     /// The registered effect of this target.
@@ -382,7 +385,16 @@ impl Term {
             .map(|&f| ParamDef {
                 // Built once per process: the registry's keys are 'static.
                 key: Box::leak(target.key(f).into_boxed_str()),
-                unit: Box::leak(format!("{}/({})", target.unit(), f.unit()).into_boxed_str()),
+                unit: Box::leak(
+                    if f.unit() == "1" {
+                        target.unit().to_string()
+                    } else if f.unit() == target.unit() {
+                        "-".to_string()
+                    } else {
+                        format!("({})/({})", target.unit(), f.unit())
+                    }
+                    .into_boxed_str(),
+                ),
                 kind: ParamKind::Continuous,
                 min: -1e4,
                 max: 1e4,

@@ -90,7 +90,7 @@ impl TestRobot {
     }
 
     /// The body velocity the wheels command (before the body lag).
-    fn from_wheels(&self) -> (f64, f64) {
+    fn wheel_body_velocity(&self) -> (f64, f64) {
         let s = &self.spec;
         let reverse = self.cmd.left_rad_s + self.cmd.right_rad_s < 0.0;
         let track = match self.extra.reverse_track_m {
@@ -106,7 +106,7 @@ impl TestRobot {
         if self.extra.body_lag_s > 0.0 {
             (self.body_v, self.body_w)
         } else {
-            self.from_wheels()
+            self.wheel_body_velocity()
         }
     }
 
@@ -145,7 +145,7 @@ impl Plant for TestRobot {
                 *w += h / self.spec.lag_s * (t - *w);
             }
             if self.extra.body_lag_s > 0.0 {
-                let (v, w) = self.from_wheels();
+                let (v, w) = self.wheel_body_velocity();
                 self.body_v += h / self.extra.body_lag_s * (v - self.body_v);
                 self.body_w += h / self.extra.body_lag_s * (w - self.body_w);
             }
@@ -214,7 +214,7 @@ impl Plant for TestRobot {
         self.yaw = pose.yaw_rad;
         self.wheels = [wheels.left_rad_s, wheels.right_rad_s];
         self.cmd = wheels;
-        let (v, w) = self.from_wheels();
+        let (v, w) = self.wheel_body_velocity();
         self.body_v = v;
         self.body_w = w;
         self.t = 0.0;

@@ -111,6 +111,13 @@ pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
         .effects
         .values()
         .into_iter()
+        // A discovered term carries a coefficient for every library feature; those its
+        // equation does not use stay at 0 and are not part of the model.
+        .filter(|(k, v)| {
+            let generic =
+                crate::effects::param_owner(k).is_some_and(|(i, _)| crate::effects::REGISTRY[i].generic());
+            !(generic && *v == 0.0)
+        })
         .map(|(k, v)| {
             let name = format!("effect.{k}");
             let spec = selection
