@@ -211,7 +211,7 @@ fn pose_outlier_and_gap_are_excluded_with_their_step() {
 
     // A bad input into the same folder: refused, and the complete analysis stays as it was.
     let before = tree(d);
-    let o = drive_sim(&["analyze", "jumpy.csv", "--kernel-variance", "-1", "--out", "out"], d);
+    let o = drive_sim(&["analyze", "jumpy.csv", "--kernel-variance=-1", "--out", "out"], d);
     assert_refused(&o, &["--kernel-variance"], d, &before);
     assert!(
         !std::fs::read_dir(d).unwrap().any(|e| e
