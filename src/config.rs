@@ -139,11 +139,20 @@ pub fn non_negative(field: &str, v: f64) -> std::result::Result<(), (String, Str
 
 /// Checks that a value is finite and within `[lo, hi]` (in `unit`); the message gives the
 /// allowed range with its unit.
-pub fn in_range(field: &str, v: f64, lo: f64, hi: f64, unit: &str) -> std::result::Result<(), (String, String)> {
+pub fn in_range(
+    field: &str,
+    v: f64,
+    lo: f64,
+    hi: f64,
+    unit: &str,
+) -> std::result::Result<(), (String, String)> {
     if v.is_finite() && v >= lo && v <= hi {
         Ok(())
     } else {
-        Err((field.to_string(), format!("must be in [{lo}, {hi}] {unit}, got {v}")))
+        Err((
+            field.to_string(),
+            format!("must be in [{lo}, {hi}] {unit}, got {v}"),
+        ))
     }
 }
 

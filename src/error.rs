@@ -94,7 +94,9 @@ impl Error {
         match self {
             Error::Config { .. } | Error::Unknown { .. } | Error::Log { .. } => true,
             Error::Io { source, .. } => source.kind() == std::io::ErrorKind::NotFound,
-            Error::Diverged { .. } | Error::Interrupted { .. } | Error::Analysis(_) | Error::Report(_) => false,
+            Error::Diverged { .. } | Error::Interrupted { .. } | Error::Analysis(_) | Error::Report(_) => {
+                false
+            }
         }
     }
     /// Builds an [`Error::Io`] error.

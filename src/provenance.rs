@@ -49,7 +49,9 @@ pub struct Provenance {
     pub version: String,
     /// [`SCHEMA_VERSION`] of the output.
     pub schema_version: u32,
-    /// The command line, as run.
+    /// The command line, as run; left out of logs (empty), whose bytes must depend only on
+    /// the options, not on where they were written.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub command: Vec<String>,
     /// Input files with their SHA-256 (robot, terrain, logs), by role.
     pub inputs: Vec<InputFile>,

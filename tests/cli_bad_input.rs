@@ -95,7 +95,12 @@ fn unknown_terrain_label_is_an_error_that_points_to_the_terrain_option() {
     let o = drive_sim(&["analyze", "lava.csv", "--out", "out"], d);
     assert_refused(
         &o,
-        &["lava.csv", "unknown terrain `lava`", "--terrain NAME|FILE", "gravel"],
+        &[
+            "lava.csv",
+            "unknown terrain `lava`",
+            "--terrain NAME|FILE",
+            "gravel",
+        ],
         d,
         &before,
     );
@@ -138,7 +143,12 @@ fn absurd_rate_in_log_metadata_is_refused_with_the_range() {
     );
     let before = tree(d);
     let o = drive_sim(&["analyze", "fast.csv", "--out", "out"], d);
-    assert_refused(&o, &["fast.json", "rate_hz", "[1, 1000] Hz", "1000000000000"], d, &before);
+    assert_refused(
+        &o,
+        &["fast.json", "rate_hz", "[1, 1000] Hz", "1000000000000"],
+        d,
+        &before,
+    );
 }
 
 /// Case 3: `analyze --resolution 1e-6` is refused before any log is read, with the range.
@@ -174,8 +184,11 @@ fn pose_outlier_and_gap_are_excluded_with_their_step() {
                         return Some(r);
                     }
                     let mut f: Vec<String> = r.split(',').map(str::to_string).collect();
-                    let (step, window, k): (u32, u32, u32) =
-                        (f[0].parse().unwrap(), f[1].parse().unwrap(), f[2].parse().unwrap());
+                    let (step, window, k): (u32, u32, u32) = (
+                        f[0].parse().unwrap(),
+                        f[1].parse().unwrap(),
+                        f[2].parse().unwrap(),
+                    );
                     if step == 20 && window == 2 && (10..15).contains(&k) {
                         return None;
                     }
@@ -211,22 +224,35 @@ fn pose_outlier_and_gap_are_excluded_with_their_step() {
 
     // A bad input into the same folder: refused, and the complete analysis stays as it was.
     let before = tree(d);
-    let o = drive_sim(&["analyze", "jumpy.csv", "--kernel-variance=-1", "--out", "out"], d);
+    let o = drive_sim(
+        &["analyze", "jumpy.csv", "--kernel-variance=-1", "--out", "out"],
+        d,
+    );
     assert_refused(&o, &["--kernel-variance"], d, &before);
     assert!(
-        !std::fs::read_dir(d).unwrap().any(|e| e
+        !std::fs::read_dir(d)
             .unwrap()
-            .file_name()
-            .to_string_lossy()
-            .contains("partial")),
+            .any(|e| e.unwrap().file_name().to_string_lossy().contains("partial")),
         "no staging folder left behind"
     );
 }
 
 fn run_args<'a>(name: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
     let mut a = vec![
-        "run", "--robot", "husky", "--terrain", "gravel", "--steps", "2", "--seed", "3", "--out", "out",
-        "--name", name, "--quiet",
+        "run",
+        "--robot",
+        "husky",
+        "--terrain",
+        "gravel",
+        "--steps",
+        "2",
+        "--seed",
+        "3",
+        "--out",
+        "out",
+        "--name",
+        name,
+        "--quiet",
     ];
     a.extend_from_slice(extra);
     a
@@ -293,10 +319,18 @@ fn robot_with_absurd_wheel_speed_is_refused_before_simulating() {
         .replace("max_wheel_rad_s = 16.6667", "max_wheel_rad_s = 1e6");
     std::fs::write(d.join("fast.toml"), text).unwrap();
     let before = tree(d);
-    let o = drive_sim(&["run", "--robot", "fast.toml", "--steps", "150", "--out", "out"], d);
+    let o = drive_sim(
+        &["run", "--robot", "fast.toml", "--steps", "150", "--out", "out"],
+        d,
+    );
     assert_refused(
         &o,
-        &["fast.toml", "powertrain.max_wheel_rad_s", "[0.1, 200] rad/s", "1000000"],
+        &[
+            "fast.toml",
+            "powertrain.max_wheel_rad_s",
+            "[0.1, 200] rad/s",
+            "1000000",
+        ],
         d,
         &before,
     );
@@ -307,7 +341,12 @@ fn robot_with_absurd_wheel_speed_is_refused_before_simulating() {
     std::fs::write(d.join("typo.toml"), text).unwrap();
     let before = tree(d);
     let o = drive_sim(&["run", "--robot", "typo.toml", "--out", "out"], d);
-    assert_refused(&o, &["typo.toml", "mas_kg", "did you mean `mass_kg`?"], d, &before);
+    assert_refused(
+        &o,
+        &["typo.toml", "mas_kg", "did you mean `mass_kg`?"],
+        d,
+        &before,
+    );
 }
 
 /// Case 8: `calibrate --out` under a path that is a file is refused at once, before reading
@@ -319,8 +358,16 @@ fn calibrate_out_under_a_file_is_refused_before_any_work() {
     std::fs::write(d.join("results"), "my notes").unwrap();
     let before = tree(d);
     let log = format!("{MEASURED}/warthog_gravel.csv");
-    let o = drive_sim(&["calibrate", &log, "--model", "kinematic", "--out", "results/cal"], d);
-    assert_refused(&o, &["--out", "results", "is a file, not a directory"], d, &before);
+    let o = drive_sim(
+        &["calibrate", &log, "--model", "kinematic", "--out", "results/cal"],
+        d,
+    );
+    assert_refused(
+        &o,
+        &["--out", "results", "is a file, not a directory"],
+        d,
+        &before,
+    );
     assert!(!stderr(&o).contains("calibrating"), "{}", stderr(&o));
 }
 
@@ -343,7 +390,12 @@ fn sweep_matrix_typo_is_refused_with_a_suggestion() {
         &before,
     );
     let o = drive_sim(&["sweep", "top.toml", "--out", "runs"], d);
-    assert_refused(&o, &["top.toml", "terains", "did you mean `terrains`?"], d, &before);
+    assert_refused(
+        &o,
+        &["top.toml", "terains", "did you mean `terrains`?"],
+        d,
+        &before,
+    );
 }
 
 /// Case 10: SIGINT during `run` closes the log with a valid summary as
@@ -359,8 +411,18 @@ fn sigint_during_run_leaves_a_readable_interrupted_log() {
     let d = dir.path();
     let child = Command::new(env!("CARGO_BIN_EXE_drive-sim"))
         .args([
-            "run", "--robot", "husky", "--terrain", "gravel", "--steps", "5000", "--out", "out", "--name",
-            "long", "--quiet",
+            "run",
+            "--robot",
+            "husky",
+            "--terrain",
+            "gravel",
+            "--steps",
+            "5000",
+            "--out",
+            "out",
+            "--name",
+            "long",
+            "--quiet",
         ])
         .current_dir(d)
         .stderr(std::process::Stdio::piped())
@@ -370,7 +432,10 @@ fn sigint_during_run_leaves_a_readable_interrupted_log() {
     let partial = d.join("out/long.mcap.partial");
     let t0 = Instant::now();
     while std::fs::metadata(&partial).map_or(0, |m| m.len()) < 200_000 {
-        assert!(t0.elapsed() < Duration::from_secs(120), "the run never started writing");
+        assert!(
+            t0.elapsed() < Duration::from_secs(120),
+            "the run never started writing"
+        );
         std::thread::sleep(Duration::from_millis(50));
     }
     let kill = Command::new("kill")
@@ -381,7 +446,10 @@ fn sigint_during_run_leaves_a_readable_interrupted_log() {
     let out = child.wait_with_output().unwrap();
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(130), "{err}");
-    assert!(err.contains("interrupted") && err.contains("long.interrupted.mcap"), "{err}");
+    assert!(
+        err.contains("interrupted") && err.contains("long.interrupted.mcap"),
+        "{err}"
+    );
     let log = d.join("out/long.interrupted.mcap");
     assert!(log.exists(), "{err}");
     assert!(!partial.exists() && !d.join("out/long.mcap").exists());

@@ -181,17 +181,20 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
     files.push(calibration::write_timings(&timings, staged.path())?);
     crate::provenance::stamp_json_file(
         &staged.path().join("calibration.json"),
-        &provenance(&args.log, serde_json::json!({
-            "model": args.model,
-            "seed": args.seed,
-            "max_effects": args.max_effects,
-            "max_fit_steps": args.max_fit_steps,
-            "optimizer": args.optimizer,
-            "candidates": args.candidates,
-            "robot": args.input.robot,
-            "terrain": args.input.terrain,
-            "roles": args.input.roles,
-        })),
+        &provenance(
+            &args.log,
+            serde_json::json!({
+                "model": args.model,
+                "seed": args.seed,
+                "max_effects": args.max_effects,
+                "max_fit_steps": args.max_fit_steps,
+                "optimizer": args.optimizer,
+                "candidates": args.candidates,
+                "robot": args.input.robot,
+                "terrain": args.input.terrain,
+                "roles": args.input.roles,
+            }),
+        ),
     )?;
     staged.commit()?;
     print_report(&report)?;

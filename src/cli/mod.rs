@@ -79,9 +79,12 @@ pub fn main() -> i32 {
             0
         }
         Err(e)
-            if e
-                .chain()
-                .any(|c| matches!(c.downcast_ref::<crate::Error>(), Some(crate::Error::Interrupted { .. }))) =>
+            if e.chain().any(|c| {
+                matches!(
+                    c.downcast_ref::<crate::Error>(),
+                    Some(crate::Error::Interrupted { .. })
+                )
+            }) =>
         {
             eprintln!("drive-sim: {e:#}");
             crate::interrupt::EXIT_CODE
@@ -103,8 +106,14 @@ pub fn main() -> i32 {
 
 fn dispatch(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        None => demo::demo(&demo::DemoArgs::default()),
-        Some(Command::Demo(a)) => demo::demo(&a),
+        None => {
+            crate::interrupt::install();
+            demo::demo(&demo::DemoArgs::default())
+        }
+        Some(Command::Demo(a)) => {
+            crate::interrupt::install();
+            demo::demo(&a)
+        }
         Some(Command::Run(a)) => {
             crate::interrupt::install();
             eprintln!(

@@ -141,7 +141,10 @@ pub fn analyze_logs(opts: &AnalyzeOptions, progress: &mut dyn FnMut(AnalyzeEvent
         "terrain": opts.input.terrain,
         "roles": opts.input.roles,
     });
-    crate::provenance::stamp_json_file(&out.files.summary, &crate::provenance::Provenance::new(inputs, options))?;
+    crate::provenance::stamp_json_file(
+        &out.files.summary,
+        &crate::provenance::Provenance::new(inputs, options),
+    )?;
     out.files.relocate(&|p| staged.final_path(p));
     staged.commit()?;
     Ok(out)

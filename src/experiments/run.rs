@@ -209,7 +209,14 @@ fn record(
         },
     };
     let mut sink = Sink {
-        writer: McapWriter::create_with_provenance(&mcap_path, &meta, Some(&provenance))?,
+        writer: McapWriter::create_with_provenance(
+            &mcap_path,
+            &meta,
+            Some(&Provenance {
+                command: Vec::new(),
+                ..provenance.clone()
+            }),
+        )?,
         kept: keep_frames.then(Vec::new),
         progress,
     };
@@ -319,7 +326,9 @@ fn refuse_other_options(mcap: &Path, run_json: &Path, options: &serde_json::Valu
             .iter()
             .filter(|(k, v)| old.get(k.as_str()) != Some(v))
             .map(|(k, v)| {
-                let was = old.get(k.as_str()).map_or("(not recorded)".to_string(), |o| o.to_string());
+                let was = old
+                    .get(k.as_str())
+                    .map_or("(not recorded)".to_string(), |o| o.to_string());
                 format!("{k} {v} (log: {was})")
             })
             .collect(),

@@ -62,7 +62,7 @@ pub fn validate_matrix(matrix: &SweepMatrix, file: &Path) -> Result<()> {
         }
     }
     if let Some(spec) = matrix.expand().first() {
-        let sim = sim_config(spec).map_err(|e| Error::config(file, "options", e.to_string()))?;
+        let sim = sim_config(spec)?;
         let (lo, hi) = super::run::PHYSICS_HZ_RANGE;
         if !(sim.physics_hz.is_finite() && (lo..=hi).contains(&sim.physics_hz)) {
             return Err(Error::config(

@@ -128,9 +128,7 @@ fn read_meta(csv_path: &Path) -> Result<(MeasuredJson, PathBuf)> {
         windows_per_step: meta.windows_per_step,
         samples_per_window: meta.samples_per_window,
         nominal: meta.nominal.clone(),
-        origin: Origin::Measured {
-            file: String::new(),
-        },
+        origin: Origin::Measured { file: String::new() },
     };
     if let Err((field, msg)) = probe.validate() {
         return bad(&field, &msg);

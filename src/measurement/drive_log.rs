@@ -127,13 +127,28 @@ impl LogMeta {
             if v.is_finite() && v >= lo && v <= hi {
                 Ok(())
             } else {
-                Err((field.to_string(), format!("must be in [{lo}, {hi}] {unit}, got {v}")))
+                Err((
+                    field.to_string(),
+                    format!("must be in [{lo}, {hi}] {unit}, got {v}"),
+                ))
             }
         };
         range("rate_hz", self.rate_hz, 1.0, 1_000.0, "Hz")?;
         range("window_s", self.window_s, 0.05, 60.0, "s")?;
-        range("windows_per_step", self.windows_per_step as f64, 2.0, 20.0, "windows")?;
-        range("samples_per_window", self.samples_per_window as f64, 1.0, 10_000.0, "samples")?;
+        range(
+            "windows_per_step",
+            self.windows_per_step as f64,
+            2.0,
+            20.0,
+            "windows",
+        )?;
+        range(
+            "samples_per_window",
+            self.samples_per_window as f64,
+            1.0,
+            10_000.0,
+            "samples",
+        )?;
         let expected = self.rate_hz * self.window_s;
         if (self.samples_per_window as f64 - expected).abs() > 1.0 {
             return Err((

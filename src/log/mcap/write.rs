@@ -359,7 +359,12 @@ impl McapWriter {
         // An existing log at `path` stays untouched until `finish` atomically renames the new
         // one over it: a failed run loses nothing that was already written.
         let file = File::create(&partial).map_err(|e| Error::io(&partial, e))?;
-        let enc = FrameEncoder::new(BufWriter::with_capacity(1 << 16, file), meta, &partial, provenance)?;
+        let enc = FrameEncoder::new(
+            BufWriter::with_capacity(1 << 16, file),
+            meta,
+            &partial,
+            provenance,
+        )?;
         Ok(Self {
             enc: Some(enc),
             path,
