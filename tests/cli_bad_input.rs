@@ -468,3 +468,64 @@ fn sigint_during_run_leaves_a_readable_interrupted_log() {
     let frames = drive_sim::log::mcap::read_mcap_frames(&log).unwrap().1;
     assert_eq!(frames.len() as u64, markers);
 }
+
+/// SIGINT during `sweep`: no new run starts, the runs done are kept, the exit code is 130, and
+/// the same command resumes where it stopped (the done runs are skipped, the others run).
+#[test]
+fn sigint_during_sweep_stops_and_the_sweep_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let matrix = "name = \"s\"\nrobots = [\"husky\"]\nterrains = [\"gravel\"]\n\
+                  samplers = [\"uniform-wheel\"]\nseeds = [1, 2, 3, 4, 5, 6]\nsteps = 60\n";
+    std::fs::write(d.join("m.toml"), matrix).unwrap();
+    let args = ["sweep", "m.toml", "--out", "runs", "--threads", "1"];
+    let child = Command::new(env!("CARGO_BIN_EXE_drive-sim"))
+        .args(args)
+        .current_dir(d)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let done = || {
+        std::fs::read_dir(d.join("runs"))
+            .map(|rd| {
+                rd.flatten()
+                    .filter(|e| e.path().join("done.json").exists())
+                    .count()
+            })
+            .unwrap_or(0)
+    };
+    let t0 = Instant::now();
+    while done() == 0 {
+        assert!(t0.elapsed() < Duration::from_secs(120), "no sweep run completed");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let out = child.wait_with_output().unwrap();
+    let err = stderr(&out);
+    let kept = done();
+    eprintln!(
+        "interrupted sweep: exit {:?}, {kept} of 6 runs done",
+        out.status.code()
+    );
+    if out.status.code() == Some(0) {
+        // The signal came after the last run had started and ended: nothing to resume.
+        assert_eq!(kept, 6, "{err}");
+        return;
+    }
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(err.contains("rerun the same command to resume"), "{err}");
+    assert!((1..6).contains(&kept), "{kept} runs done\n{err}");
+
+    let again = drive_sim(&args, d);
+    assert!(again.status.success(), "{}", stderr(&again));
+    let stdout = String::from_utf8_lossy(&again.stdout);
+    assert!(
+        stdout.contains(&format!("{} done, {kept} skipped", 6 - kept)),
+        "{stdout}"
+    );
+}
