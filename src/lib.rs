@@ -12,6 +12,7 @@ pub mod analysis;
 pub mod calibration;
 pub mod cli;
 pub mod config;
+pub mod discovery;
 pub mod effects;
 pub mod error;
 pub mod experiments;

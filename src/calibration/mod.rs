@@ -25,6 +25,7 @@
 //! analyses: test.
 
 pub mod data;
+pub mod diagnosis;
 pub mod figures;
 pub mod fit;
 pub mod metrics;
@@ -93,6 +94,10 @@ pub struct CalibrationOptions {
     /// (0: all).
     #[serde(default = "default_rerank_top")]
     pub rerank_top: usize,
+    /// After selection, look for what the catalogue lacks: diagnose the residual, discover
+    /// equations in it and try them as model terms ([`stages::discovery`]).
+    #[serde(default = "default_discover")]
+    pub discover: bool,
     /// Grid resolution of the residual maps (m/s and rad/s).
     pub grid_step: f64,
     /// Kernel variance of the residual maps; the paper's for the robot when `None`
@@ -103,6 +108,10 @@ pub struct CalibrationOptions {
 fn default_validation_fraction() -> f64 {
     0.2
 }
+fn default_discover() -> bool {
+    true
+}
+
 fn default_screen_keep() -> usize {
     3
 }
@@ -127,6 +136,7 @@ impl Default for CalibrationOptions {
             screen_keep: default_screen_keep(),
             pair_top: default_pair_top(),
             rerank_top: default_rerank_top(),
+            discover: default_discover(),
             grid_step: 0.1,
             kernel_var: None,
         }
@@ -234,6 +244,15 @@ pub struct CalibrationReport {
     /// Parameters that ended on a bound: likely stand-ins for an effect the model lacks.
     #[serde(default)]
     pub stand_ins: Vec<String>,
+    /// What discovery did after selection (rounds, equations, what was added and why).
+    #[serde(default)]
+    pub discovery: Option<stages::discovery::DiscoveryReport>,
+    /// Residual diagnosis of the declared model on the test steps (RMSE / floor per channel).
+    #[serde(default)]
+    pub diagnosis_before: Option<diagnosis::Diagnosis>,
+    /// Residual diagnosis of the calibrated model on the test steps.
+    #[serde(default)]
+    pub diagnosis_after: Option<diagnosis::Diagnosis>,
     /// Effects in the final model with their fitted values (`effect.<name>`) and intervals.
     pub effects: Vec<FittedParam>,
     /// Registered effects this model cannot run (contact effects for the kinematic model).
@@ -423,6 +442,7 @@ pub fn calibrate_timed(
     } else {
         (None, pool, base_specs.clone())
     };
+    let refit_for_discovery = refit.clone();
     let selection = timings.time("selection", || {
         selection::run(
             &ctx,
@@ -439,6 +459,29 @@ pub fn calibrate_timed(
             },
         )
     })?;
+    let mut selection = selection;
+    let discovery = if opts.discover {
+        let out = timings.time("discovery", || {
+            stages::discovery::run(
+                &ctx,
+                stages::discovery::DiscoveryInput {
+                    current: selection.current.clone(),
+                    current_validation: selection.current_validation.clone(),
+                    selected: selection.selected.clone(),
+                    refit: refit_for_discovery.clone(),
+                },
+            )
+        })?;
+        if out.added {
+            selection.current = out.current;
+            selection.current_validation = out.current_validation;
+            selection.selected = out.selected;
+            selection.refit_current = false;
+        }
+        Some(out.report)
+    } else {
+        None
+    };
     let final_fit = timings.time("final fit", || {
         final_fit::run(
             &ctx,
@@ -452,7 +495,7 @@ pub fn calibrate_timed(
             },
         )
     })?;
-    let report = timings.time("report", || {
+    let mut report = timings.time("report", || {
         report::run(
             &ctx,
             report::ReportInput {
@@ -465,6 +508,18 @@ pub fn calibrate_timed(
             },
         )
     })?;
+    timings.time("diagnosis", || -> Result<()> {
+        let idd = robot.idd();
+        for (model, slot) in [
+            (&report.model_before, &mut report.diagnosis_before),
+            (&report.model_after, &mut report.diagnosis_after),
+        ] {
+            let r = ctx.test.residuals(factory, model)?;
+            *slot = Some(diagnosis::diagnose(&r, &ctx.test.features, &ctx.floor, &idd));
+        }
+        Ok(())
+    })?;
+    report.discovery = discovery;
     Ok((report, timings))
 }
 

@@ -143,8 +143,24 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
 fn list_effects() -> anyhow::Result<()> {
     use crate::effects::{ParamKind, SearchBox, REGISTRY};
     let mut out = std::io::stdout().lock();
-    for e in REGISTRY {
+    for e in REGISTRY.iter() {
         writeln!(out, "{} ({}): {}", e.name(), e.stage().as_str(), e.doc())?;
+        if e.generic() {
+            // One coefficient per library feature: listed by pattern, not one by one.
+            let first = e.params().first().map_or("", |p| p.key);
+            let stem = first.split("__").next().unwrap_or(first);
+            writeln!(
+                out,
+                "    --inject {stem}__FEATURE=VALUE  coefficient of a feature ({} features: {}), neutral 0",
+                e.params().len(),
+                e.params()
+                    .iter()
+                    .map(|p| p.key.split("__").nth(1).unwrap_or(""))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )?;
+            continue;
+        }
         for p in e.params() {
             let range = match p.kind {
                 ParamKind::Flag => "0 or 1".to_string(),

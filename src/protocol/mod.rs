@@ -195,6 +195,10 @@ impl Runner<'_> {
             let mut attempts_of_cmd = 0;
             let mut cmd = self.draw(sampler, step, previous, &history);
             loop {
+                self.plant.begin_step(crate::effects::StepContext {
+                    step,
+                    previous_cmd: previous,
+                });
                 match self.attempt(step, attempt, cmd)? {
                     AttemptEnd::Completed(outcome) => {
                         history.push(outcome);
