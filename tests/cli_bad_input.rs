@@ -277,7 +277,7 @@ fn run_refuses_to_overwrite_a_log_made_with_other_options() {
 
     let before = tree(d);
     for (extra, needle) in [
-        (vec!["--noise", "off"], "--noise"),
+        (vec!["--noise", "off"], "--noise \"off\" (log: \"typical\")"),
         (vec!["--inject", "motor_gain_left=0.85"], "--inject"),
         (vec!["--sampler", "uniform-step"], "--sampler"),
     ] {

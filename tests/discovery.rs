@@ -95,26 +95,37 @@ fn added(r: &CalibrationReport) -> Vec<String> {
 /// The fitted value of `effect.<key>` is within 10 % of `truth`, or 3 standard errors.
 fn assert_close(r: &CalibrationReport, key: &str, truth: f64) {
     let name = format!("effect.{key}");
-    let p = r
-        .effects
-        .iter()
-        .find(|p| p.name == name)
-        .unwrap_or_else(|| panic!("{key} not kept; effects {:?}; discovery {:#?}", r.effects, r.discovery));
+    let p = r.effects.iter().find(|p| p.name == name).unwrap_or_else(|| {
+        panic!(
+            "{key} not kept; effects {:?}; discovery {:#?}",
+            r.effects, r.discovery
+        )
+    });
     let tol = (0.1 * truth.abs()).max(3.0 * p.se.unwrap_or(0.0));
-    assert!((p.value - truth).abs() <= tol, "{key} = {} (se {:?}), truth {truth}", p.value, p.se);
+    assert!(
+        (p.value - truth).abs() <= tol,
+        "{key} = {} (se {:?}), truth {truth}",
+        p.value,
+        p.se
+    );
 }
 
 /// The channel ends within 1.5× its floor on the test steps.
 fn assert_at_floor(r: &CalibrationReport, channel: &str) {
     let d = r.diagnosis_after.as_ref().unwrap();
     let c = d.channel(channel).unwrap();
-    assert!(c.ratio <= 1.5, "{channel}: {:.2}× its floor after; {d:#?}", c.ratio);
+    assert!(
+        c.ratio <= 1.5,
+        "{channel}: {:.2}× its floor after; {d:#?}",
+        c.ratio
+    );
 }
 
 fn assert_found(r: &CalibrationReport, target: &str, feature: &str) {
     let eqs = equations(r);
     assert!(
-        eqs.iter().any(|(t, f)| t == target && f.iter().any(|x| x == feature)),
+        eqs.iter()
+            .any(|(t, f)| t == target && f.iter().any(|x| x == feature)),
         "no {target} equation in {feature}: {eqs:?}"
     );
 }
@@ -161,7 +172,8 @@ fn motor_gain_falling_with_the_step_index() {
     );
     let eqs = equations(&r);
     assert!(
-        eqs.iter().any(|(t, f)| t.starts_with("wheel_") && f.iter().any(|x| x.starts_with("step"))),
+        eqs.iter()
+            .any(|(t, f)| t.starts_with("wheel_") && f.iter().any(|x| x.starts_with("step"))),
         "{eqs:?}"
     );
     assert_close(&r, "motor_gain_drift_per_step", -0.002);
@@ -181,7 +193,8 @@ fn body_lagging_its_wheels() {
     );
     let eqs = equations(&r);
     assert!(
-        eqs.iter().any(|(t, f)| t.starts_with("body_") && f.iter().any(|x| x == "ax" || x == "alpha")),
+        eqs.iter()
+            .any(|(t, f)| t.starts_with("body_") && f.iter().any(|x| x == "ax" || x == "alpha")),
         "{eqs:?}"
     );
     assert_close(&r, "body_time_constant_s", 0.3);
@@ -200,7 +213,8 @@ fn wider_baseline_in_reverse() {
     );
     let eqs = equations(&r);
     assert!(
-        eqs.iter().any(|(t, f)| t == "body_wz" && f.iter().any(|x| x.starts_with("rev"))),
+        eqs.iter()
+            .any(|(t, f)| t == "body_wz" && f.iter().any(|x| x.starts_with("rev"))),
         "{eqs:?}"
     );
     assert_close(&r, "reverse_baseline_scale", 1.5 / 1.08);

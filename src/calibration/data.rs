@@ -97,7 +97,11 @@ impl<'a> StepSet<'a> {
 
     /// Replays every step on the model and returns the model's own features (what the
     /// estimators extract from the replay), in step order.
-    pub fn replay_features(&self, factory: &dyn PlantFactory, params: &ModelParams) -> Result<Vec<StepFeatures>> {
+    pub fn replay_features(
+        &self,
+        factory: &dyn PlantFactory,
+        params: &ModelParams,
+    ) -> Result<Vec<StepFeatures>> {
         replay_map(
             &self.steps,
             &self.starts,

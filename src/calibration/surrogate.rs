@@ -170,7 +170,11 @@ impl Plant for KinematicPlant {
         let a = if tau > 0.0 { 1.0 - (-h / tau).exp() } else { 1.0 };
         let idd = self.true_idd();
         let body_tau = self.mods.body_time_constant_s;
-        let b = if body_tau > 0.0 { 1.0 - (-h / body_tau).exp() } else { 1.0 };
+        let b = if body_tau > 0.0 {
+            1.0 - (-h / body_tau).exp()
+        } else {
+            1.0
+        };
         let on_body = self.effects.acts_on_body();
         let latest = self.cmds.back().map(|c| c.1).unwrap_or_default();
         let mut x = TermInput {
@@ -231,7 +235,11 @@ impl Plant for KinematicPlant {
             }
             integrate_unicycle(&mut self.pose, v_mid, h);
             self.time_s += h;
-            self.velocity = if on_body { v_mid } else { idd.body_from_wheels(self.wheels) };
+            self.velocity = if on_body {
+                v_mid
+            } else {
+                idd.body_from_wheels(self.wheels)
+            };
             // Only a pose latency reads past poses.
             if self.mods.pose_latency_s > 0.0 {
                 self.poses.push_back((self.time_s, self.pose));

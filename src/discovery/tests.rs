@@ -45,7 +45,10 @@ fn finds_a_sparse_law_with_intervals() {
     }
     assert!(eq.validation_r2 > 0.9, "{}", eq.validation_r2);
     // The constant column is left out with its reason.
-    assert!(eq.skipped.iter().any(|s| s.what == "const" && s.reason.contains("constant")));
+    assert!(eq
+        .skipped
+        .iter()
+        .any(|s| s.what == "const" && s.reason.contains("constant")));
 }
 
 #[test]
@@ -88,7 +91,10 @@ fn bad_designs_are_skipped_with_a_reason() {
         &opts,
     )
     .unwrap();
-    assert!(eq.skipped.iter().any(|s| s.what == "a_again" && s.reason.contains("collinear")));
+    assert!(eq
+        .skipped
+        .iter()
+        .any(|s| s.what == "a_again" && s.reason.contains("collinear")));
     assert!(eq.terms.iter().all(|t| t.coefficient.is_finite()));
     // Non-finite response: skipped, not NaN.
     let mut bad = rows(10, 5, 0.1, |_| 0.0);

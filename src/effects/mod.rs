@@ -592,7 +592,8 @@ impl Effects {
     /// Whether any effect switched on acts at the body stage (offsets or a lag): plants skip
     /// the body-stage bookkeeping otherwise.
     pub fn acts_on_body(&self) -> bool {
-        self.active().any(|e| e.stage() == Stage::Body && e.name() != "wheel_radius_scale")
+        self.active()
+            .any(|e| e.stage() == Stage::Body && e.name() != "wheel_radius_scale")
     }
 
     /// The IMU yaw-rate reading for the true yaw rate `wz_rad_s`.

@@ -350,7 +350,10 @@ impl TermTarget {
 
     /// The features of this target, in parameter order.
     pub fn features(self) -> Vec<Feature> {
-        Feature::ALL.into_iter().filter(|f| self.has_feature(*f)).collect()
+        Feature::ALL
+            .into_iter()
+            .filter(|f| self.has_feature(*f))
+            .collect()
     }
 
     /// The registered effect of this target.

@@ -170,7 +170,10 @@ fn structural_effects_and_terms_by_hand() {
     e.set("centripetal_slip_s", 0.2).unwrap();
     e.set("reverse_baseline_scale", 2.0).unwrap();
     let o = e.body_offset(&x);
-    assert!((o.vy_m_s - (0.1 - 0.04)).abs() < 1e-12 && (o.wz_rad_s + 0.2).abs() < 1e-12, "{o:?}");
+    assert!(
+        (o.vy_m_s - (0.1 - 0.04)).abs() < 1e-12 && (o.wz_rad_s + 0.2).abs() < 1e-12,
+        "{o:?}"
+    );
     assert!(e.acts_on_body());
     // Forward, the reverse baseline does nothing.
     let fwd = TermInput {
@@ -194,7 +197,10 @@ fn structural_effects_and_terms_by_hand() {
     i.set("term_imu_wz__1", 0.02).unwrap();
     assert!((i.imu_yaw_rate_in(0.4, &x) - 0.42).abs() < 1e-12);
     // Terms are generic: the catalogue does not list them.
-    assert!(REGISTRY.iter().filter(|e| e.generic()).all(|e| e.name().starts_with("term_")));
+    assert!(REGISTRY
+        .iter()
+        .filter(|e| e.generic())
+        .all(|e| e.name().starts_with("term_")));
     assert!(param_owner("term_wheel_left__step_cmd_wheel").is_some());
     assert!(param_owner("term_body_vy__cmd_wheel").is_none());
 }

@@ -287,9 +287,24 @@ fn run_options(req: &RunRequest, robot_file: &Path, terrain_file: &Path) -> serd
         "--seed": req.sim.seed,
         "--sampler": req.sampler,
         "--physics-hz": req.sim.physics_hz,
-        "--noise": req.sim.noise,
+        "--noise": noise_label(&serde_json::to_value(req.sim.noise).unwrap_or_default()),
         "--inject": req.sim.effects,
     })
+}
+
+/// `"off"` or `"typical"` for the sensor noise the command line names, else the values.
+fn noise_label(noise: &serde_json::Value) -> serde_json::Value {
+    use crate::sim::SensorNoise;
+    let named = [
+        ("off", SensorNoise::default()),
+        ("typical", SensorNoise::typical()),
+    ];
+    for (name, n) in named {
+        if serde_json::to_value(n).ok().as_ref() == Some(noise) {
+            return serde_json::Value::from(name);
+        }
+    }
+    noise.clone()
 }
 
 /// The same options as recorded by an earlier run's `run.json` (also by versions that wrote
@@ -306,7 +321,7 @@ fn recorded_options(run_json: &serde_json::Value) -> Option<serde_json::Value> {
         "--seed": sim.get("seed")?,
         "--sampler": run_json.get("sampler")?,
         "--physics-hz": sim.get("physics_hz")?,
-        "--noise": sim.get("noise")?,
+        "--noise": noise_label(sim.get("noise")?),
         "--inject": sim.get("effects")?,
     }))
 }

@@ -20,11 +20,11 @@
 
 use super::candidates::{evaluate, Candidate, CandidateEvidence, EvaluateInput};
 use super::Context;
+use crate::calibration::data::StepSet;
 use crate::calibration::diagnosis::{diagnose, Diagnosis};
 use crate::calibration::metrics::{StepErrors, StepFeatures};
 use crate::calibration::model::ModelParams;
 use crate::calibration::params::{Param, ParamSpec};
-use crate::calibration::data::StepSet;
 use crate::discovery::{discover, DiscoveryOptions, Equation, Library, Rows};
 use crate::effects::{self, Feature, TermInput, TermTarget};
 use crate::error::Result;
@@ -195,7 +195,10 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
         let stage_of = |t: TermTarget| t.stage().as_str();
         // Upstream first: the stages with a flagged channel, in the order a command meets them.
         let mut stages: Vec<&str> = Vec::new();
-        for s in SOURCES.iter().filter(|s| s.channels().iter().any(|c| flagged.contains(c))) {
+        for s in SOURCES
+            .iter()
+            .filter(|s| s.channels().iter().any(|c| flagged.contains(c)))
+        {
             if !stages.contains(&stage_of(s.target)) {
                 stages.push(stage_of(s.target));
             }
@@ -282,7 +285,11 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
                 round + 1,
                 flagged.len(),
                 flagged.join(", "),
-                candidates.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", ")
+                candidates
+                    .iter()
+                    .map(|c| c.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ));
             // The effects selected so far are refit beside each candidate: one selected as a
             // stand-in for what the equation describes can let go of it.
@@ -374,7 +381,13 @@ fn library_of(target: TermTarget) -> Library {
 /// The regression rows of one target: the residual (recording − model) of each channel it is
 /// fitted on, divided by the channel's floor, with the features computed from the model's
 /// replay and the command at the same place.
-fn rows_of(src: &Source, set: &StepSet<'_>, model: &[StepFeatures], idd: &IdealDiffDrive, ctx: &Context<'_>) -> Rows {
+fn rows_of(
+    src: &Source,
+    set: &StepSet<'_>,
+    model: &[StepFeatures],
+    idd: &IdealDiffDrive,
+    ctx: &Context<'_>,
+) -> Rows {
     let target = src.target;
     let features = target.features();
     let side = |c: WheelSpeeds| match target {
@@ -525,7 +538,11 @@ fn read(target: TermTarget, eq: &Equation) -> (Vec<String>, Vec<String>) {
         ));
         suggests.push("centripetal_slip");
     }
-    if has(Feature::ReverseVx) || has(Feature::ReverseWz) || has(Feature::ReverseCmdWheel) || has(Feature::SignVx) {
+    if has(Feature::ReverseVx)
+        || has(Feature::ReverseWz)
+        || has(Feature::ReverseCmdWheel)
+        || has(Feature::SignVx)
+    {
         reading.push("direction-dependent: the robot behaves differently in reverse".into());
         if target == TermTarget::BodyWz {
             suggests.push("reverse_baseline_scale");
@@ -559,7 +576,11 @@ fn read(target: TermTarget, eq: &Equation) -> (Vec<String>, Vec<String>) {
     if has(Feature::TimeInStep) {
         reading.push("changes within the step: a transient the model lacks".into());
     }
-    if has(Feature::PrevCmdVx) || has(Feature::PrevCmdWz) || has(Feature::DeltaCmdVx) || has(Feature::DeltaCmdWz) {
+    if has(Feature::PrevCmdVx)
+        || has(Feature::PrevCmdWz)
+        || has(Feature::DeltaCmdVx)
+        || has(Feature::DeltaCmdWz)
+    {
         reading.push("depends on the previous command: memory from one step to the next".into());
     }
     if has(Feature::VxSq) || has(Feature::WzSq) || has(Feature::AbsVx) || has(Feature::AbsWz) {
