@@ -279,16 +279,12 @@ pub fn models_for_log(log: &DriveLog) -> Result<(Robot, Terrain, Vec<String>)> {
     robot.wheels.baseline_m = n.baseline_m;
     robot.powertrain.max_wheel_rad_s = n.max_wheel_rad_s;
     let mut notes = Vec::new();
-    let terrain = match Terrain::resolve(&log.meta.terrain) {
-        Ok((t, _)) => t,
-        Err(_) => {
-            notes.push(format!(
-                "terrain `{}` has no terrain file: started from `asphalt`",
-                log.meta.terrain
-            ));
-            Terrain::resolve("asphalt")?.0
-        }
+    let file = match &log.meta.origin {
+        crate::log::Origin::Measured { file } => std::path::PathBuf::from(file),
+        _ => std::path::PathBuf::from(&log.meta.name),
     };
+    let (terrain, warning) = crate::log::terrain_of_log(&log.meta, &file)?;
+    notes.extend(warning);
     Ok((robot, terrain, notes))
 }
 

@@ -66,8 +66,9 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
         log.meta.name,
         args.model
     );
+    let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
     let cmp = calibration::replay_and_compare(&log, kind)?;
-    std::fs::create_dir_all(&args.out).map_err(|e| crate::Error::io(&args.out, e))?;
+    let dir = staged.path();
     // The replay as a log of its own, readable by `analyze` and Foxglove.
     let mut meta = cmp.replayed.meta.clone();
     meta.name = format!("{}_replay", log.meta.name);
@@ -78,11 +79,22 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
     }
     let frames: Vec<_> = cmp.replayed.samples.iter().map(|s| s.to_frame()).collect();
     let mcap = args.out.join(format!("{}.mcap", meta.name));
-    write_mcap(&mcap, &meta, &frames)?;
+    write_mcap(dir.join(format!("{}.mcap", meta.name)), &meta, &frames)?;
     super::run::write_json(
-        &args.out.join("replay.json"),
-        &serde_json::json!({"model": cmp.model, "idd": cmp.idd, "floor": cmp.floor}),
+        &dir.join("replay.json"),
+        &serde_json::json!({
+            "model": cmp.model,
+            "idd": cmp.idd,
+            "floor": cmp.floor,
+            "provenance": provenance(&args.log, serde_json::json!({
+                "model": args.model,
+                "robot": args.input.robot,
+                "terrain": args.input.terrain,
+                "roles": args.input.roles,
+            })),
+        }),
     )?;
+    staged.commit()?;
     let mut out = std::io::stdout().lock();
     writeln!(
         out,
@@ -127,9 +139,8 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
     // Bad input is refused before any long work.
     let kind = ModelKind::parse(&args.model)?;
     let optimizer = calibration::Optimizer::parse(&args.optimizer)?;
-    if args.out.is_file() {
-        anyhow::bail!("--out {}: is a file, not a directory", args.out.display());
-    }
+    // The output folder is checked (and staged) before the long work; it appears whole.
+    let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
     eprintln!("drive-sim: reading {}", args.log.display());
     let log = super::input::open_log(&args.log, &args.input)?;
     let (robot, terrain, notes) = calibration::models_for_log(&log)?;
@@ -166,8 +177,26 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
         args.optimizer,
         args.out.display()
     );
-    let mut files = calibration::write_report(&report, &args.out)?;
-    files.push(calibration::write_timings(&timings, &args.out)?);
+    let mut files = calibration::write_report(&report, staged.path())?;
+    files.push(calibration::write_timings(&timings, staged.path())?);
+    crate::provenance::stamp_json_file(
+        &staged.path().join("calibration.json"),
+        &provenance(
+            &args.log,
+            serde_json::json!({
+                "model": args.model,
+                "seed": args.seed,
+                "max_effects": args.max_effects,
+                "max_fit_steps": args.max_fit_steps,
+                "optimizer": args.optimizer,
+                "candidates": args.candidates,
+                "robot": args.input.robot,
+                "terrain": args.input.terrain,
+                "roles": args.input.roles,
+            }),
+        ),
+    )?;
+    staged.commit()?;
     print_report(&report)?;
     eprintln!("drive-sim: time per stage:");
     for line in timings.lines() {
@@ -313,4 +342,9 @@ fn print_report(r: &CalibrationReport) -> Result<(), std::io::Error> {
         writeln!(out, "  note: {n}")?;
     }
     Ok(())
+}
+
+/// Provenance of a replay or calibration output: the log's hash and the options.
+fn provenance(log: &std::path::Path, options: serde_json::Value) -> crate::provenance::Provenance {
+    crate::provenance::Provenance::new(vec![crate::provenance::InputFile::of_file("log", log)], options)
 }

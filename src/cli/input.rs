@@ -12,8 +12,10 @@ pub struct InputArgs {
     /// baseline, limits and step length.
     #[arg(long)]
     pub robot: Option<String>,
-    /// Bags: terrain label (a bag does not record it); default `unlabelled`.
-    #[arg(long)]
+    /// Terrain the log was recorded on, a name (see `drive-sim terrains`) or a terrain TOML:
+    /// replaces the label a log declares (required when that label is a terrain drive-sim does
+    /// not know); a bag does not record one (default `unlabelled`, models start from `asphalt`).
+    #[arg(long, value_name = "NAME|FILE")]
     pub terrain: Option<String>,
     /// Bags: topic roles, `warthog`, `husky` (the DRIVE node's presets) or a roles TOML;
     /// default: the preset whose topics are in the bag, else a guess from types and names.

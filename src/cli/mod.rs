@@ -15,7 +15,15 @@ use std::io::Write;
 
 /// Simulation-backed test harness for the DRIVE protocol.
 #[derive(Debug, Parser)]
-#[command(name = "drive-sim", version, about, long_about = None)]
+#[command(
+    name = "drive-sim",
+    version,
+    about,
+    long_about = None,
+    after_help = "Exit codes: 0 success; 1 the run failed (a diverged simulation, a failed write); \
+                  2 bad input (an option, file or name, reported before any long work); \
+                  130 interrupted (Ctrl-C / SIGTERM; `run` and `sweep` close what they wrote)."
+)]
 pub struct Cli {
     /// What to do; without one, runs the demonstration (`drive-sim demo`).
     #[command(subcommand)]
@@ -70,6 +78,17 @@ pub fn main() -> i32 {
         {
             0
         }
+        Err(e)
+            if e.chain().any(|c| {
+                matches!(
+                    c.downcast_ref::<crate::Error>(),
+                    Some(crate::Error::Interrupted { .. })
+                )
+            }) =>
+        {
+            eprintln!("drive-sim: {e:#}");
+            crate::interrupt::EXIT_CODE
+        }
         Err(e) => {
             eprintln!("drive-sim: error: {e:#}");
             // Exit code 2 for bad input (as clap does for bad arguments), 1 for a failed run.
@@ -87,9 +106,16 @@ pub fn main() -> i32 {
 
 fn dispatch(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        None => demo::demo(&demo::DemoArgs::default()),
-        Some(Command::Demo(a)) => demo::demo(&a),
+        None => {
+            crate::interrupt::install();
+            demo::demo(&demo::DemoArgs::default())
+        }
+        Some(Command::Demo(a)) => {
+            crate::interrupt::install();
+            demo::demo(&a)
+        }
         Some(Command::Run(a)) => {
+            crate::interrupt::install();
             eprintln!(
                 "drive-sim: running DRIVE: {} on {}, {} steps, seed {}, sampler {}",
                 a.robot, a.terrain, a.steps, a.seed, a.sampler
@@ -106,7 +132,10 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Analyze(a)) => analyze::analyze(&a),
         Some(Command::Inspect(a)) => input::inspect(&a),
         Some(Command::Samplers(a)) => samplers::samplers(&a),
-        Some(Command::Sweep(a)) => sweep::sweep(&a),
+        Some(Command::Sweep(a)) => {
+            crate::interrupt::install();
+            sweep::sweep(&a)
+        }
         Some(Command::SweepMerge(a)) => sweep::sweep_merge(&a),
     }
 }

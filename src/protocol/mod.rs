@@ -156,6 +156,13 @@ impl Runner<'_> {
         let mut m = self.plant.measure();
         m.cmd = cmd;
         let stamp_s = self.plant.time_s() - self.t0;
+        // A signal (Ctrl-C) stops the run between two frames: the log so far stays consistent.
+        if crate::interrupt::requested() {
+            return Err(Error::Interrupted {
+                step: self.summary.steps_completed,
+                time_s: stamp_s,
+            });
+        }
         self.sink.frame(&Frame { stamp_s, phase, m })?;
         let dt = self.dt();
         self.plant.advance(dt).map_err(|e| match e {
