@@ -54,6 +54,14 @@ fn run(name: &str, extra: Unmodelled, seed: u64) -> CalibrationReport {
         ..CalibrationOptions::default()
     };
     let r = calibrate(&log, &robot, &terrain, &KinematicFactory, &opts).unwrap();
+    for e in r
+        .discovery
+        .iter()
+        .flat_map(|d| &d.rounds)
+        .flat_map(|x| &x.equations)
+    {
+        eprintln!("{name}: discovered {}", e.text);
+    }
     if std::env::var_os("DISCOVERY_DEBUG").is_some() {
         eprintln!(
             "{name}: effects {:?}\nstart {:#?}\nrounds {:#?}",
@@ -102,6 +110,15 @@ fn assert_close(r: &CalibrationReport, key: &str, truth: f64) {
         )
     });
     let tol = (0.1 * truth.abs()).max(3.0 * p.se.unwrap_or(0.0));
+    // Shown with --nocapture: the README's table.
+    eprintln!(
+        "{}: {key} = {:.5} ± {:.5} (truth {truth}, {:+.1} %); added {:?}",
+        r.dataset,
+        p.value,
+        p.se.unwrap_or(f64::NAN),
+        100.0 * (p.value - truth) / truth,
+        added(r)
+    );
     assert!(
         (p.value - truth).abs() <= tol,
         "{key} = {} (se {:?}), truth {truth}",
@@ -114,6 +131,15 @@ fn assert_close(r: &CalibrationReport, key: &str, truth: f64) {
 fn assert_at_floor(r: &CalibrationReport, channel: &str) {
     let d = r.diagnosis_after.as_ref().unwrap();
     let c = d.channel(channel).unwrap();
+    let before = r
+        .diagnosis_before
+        .as_ref()
+        .and_then(|b| b.channel(channel))
+        .map_or(f64::NAN, |b| b.ratio);
+    eprintln!(
+        "{}: {channel} RMSE / floor {before:.2} -> {:.2} (test steps)",
+        r.dataset, c.ratio
+    );
     assert!(
         c.ratio <= 1.5,
         "{channel}: {:.2}× its floor after; {d:#?}",
@@ -193,8 +219,12 @@ fn body_lagging_its_wheels() {
     );
     let eqs = equations(&r);
     assert!(
-        eqs.iter()
-            .any(|(t, f)| t.starts_with("body_") && f.iter().any(|x| x == "ax" || x == "alpha")),
+        // A lag shows as a term in the model's acceleration, or in where the previous step
+        // left the robot (its command, the change since).
+        eqs.iter().any(|(t, f)| {
+            let lag = ["ax", "alpha", "dcmd_vx", "dcmd_wz", "prev_vx", "prev_wz"];
+            t.starts_with("body_") && f.iter().any(|x| lag.contains(&x.as_str()))
+        }),
         "{eqs:?}"
     );
     assert_close(&r, "body_time_constant_s", 0.3);

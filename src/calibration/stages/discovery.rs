@@ -596,6 +596,13 @@ fn read(target: TermTarget, eq: &Equation) -> (Vec<String>, Vec<String>) {
         || has(Feature::DeltaCmdWz)
     {
         reading.push("depends on the previous command: memory from one step to the next".into());
+        // In a step response, a residual that depends on where the previous step left the
+        // robot is a lag that has not caught up.
+        if wheel {
+            suggests.push("time_constant_scale");
+        } else {
+            suggests.push("body_lag");
+        }
     }
     if has(Feature::VxSq) || has(Feature::WzSq) || has(Feature::AbsVx) || has(Feature::AbsWz) {
         reading.push("nonlinear in speed (drag, a soft limit)".into());
@@ -606,5 +613,11 @@ fn read(target: TermTarget, eq: &Equation) -> (Vec<String>, Vec<String>) {
             target.stage().as_str()
         ));
     }
-    (reading, suggests.into_iter().map(String::from).collect())
+    let mut unique: Vec<&str> = Vec::new();
+    for x in suggests {
+        if !unique.contains(&x) {
+            unique.push(x);
+        }
+    }
+    (reading, unique.into_iter().map(String::from).collect())
 }
