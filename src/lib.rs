@@ -13,6 +13,7 @@ pub mod calibration;
 pub mod cli;
 pub mod config;
 pub mod effects;
+pub mod effects_table;
 pub mod error;
 pub mod experiments;
 pub mod geometry;

@@ -21,6 +21,11 @@ pub struct ReplayArgs {
     /// Model replayed: `simulator` (rapier) or `kinematic` (grey-box, fast).
     #[arg(long, default_value = "simulator")]
     pub model: String,
+    /// Also score the replay on the test steps of this `calibration.json`, with its noise
+    /// floor: replaying a twin (`--robot OUT/twin/robot.toml --terrain OUT/twin/terrain.toml`)
+    /// reproduces that calibration's test score.
+    #[arg(long, value_name = "CALIBRATION_JSON")]
+    pub score_like: Option<PathBuf>,
 }
 
 /// Options of `drive-sim calibrate`.
@@ -66,22 +71,42 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
         log.meta.name,
         args.model
     );
-    let cmp = calibration::replay_and_compare(&log, kind)?;
+    // `--robot` / `--terrain` (names or files, e.g. a twin) choose the model replayed.
+    let (robot, terrain, notes) =
+        calibration::models_for(&log, args.input.robot.as_deref(), args.input.terrain.as_deref())?;
+    for n in &notes {
+        eprintln!("drive-sim: {n}");
+    }
+    let score = match &args.score_like {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).map_err(|e| crate::Error::io(p, e))?;
+            let r: CalibrationReport = serde_json::from_str(&text)
+                .map_err(|e| crate::Error::config(p, "(calibration.json)", e.to_string()))?;
+            Some(calibration::ScoreSteps::of_report(&r))
+        }
+        None => None,
+    };
+    let params = calibration::twin::lift_effects(&robot, &terrain)?;
+    let cmp = calibration::replay_model_and_compare(&log, &params, kind, score.as_ref())?;
     std::fs::create_dir_all(&args.out).map_err(|e| crate::Error::io(&args.out, e))?;
     // The replay as a log of its own, readable by `analyze` and Foxglove.
     let mut meta = cmp.replayed.meta.clone();
     meta.name = format!("{}_replay", log.meta.name);
-    if let Origin::Measured { file } = &log.meta.origin {
-        meta.origin = Origin::Measured {
-            file: format!("replay of {file} on the {} model", args.model),
-        };
+    if let Origin::Replayed {
+        robot_file,
+        terrain_file,
+        ..
+    } = &mut meta.origin
+    {
+        robot_file.clone_from(&args.input.robot.clone().unwrap_or_else(|| robot.name.clone()));
+        terrain_file.clone_from(&args.input.terrain.clone().unwrap_or_else(|| terrain.name.clone()));
     }
     let frames: Vec<_> = cmp.replayed.samples.iter().map(|s| s.to_frame()).collect();
     let mcap = args.out.join(format!("{}.mcap", meta.name));
     write_mcap(&mcap, &meta, &frames)?;
     super::run::write_json(
         &args.out.join("replay.json"),
-        &serde_json::json!({"model": cmp.model, "idd": cmp.idd, "floor": cmp.floor}),
+        &serde_json::json!({"model": cmp.model, "idd": cmp.idd, "floor": cmp.floor, "test": cmp.test}),
     )?;
     let mut out = std::io::stdout().lock();
     writeln!(
@@ -97,6 +122,14 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
             f(&cmp.idd),
             f(&cmp.model),
             f(&cmp.floor)
+        )?;
+    }
+    if let Some(t) = &cmp.test {
+        writeln!(
+            out,
+            "score on the calibration's {} test steps (its noise floor): {:.4}",
+            score.as_ref().map_or(0, |s| s.steps.len()),
+            t.score
         )?;
     }
     eprintln!(
@@ -132,7 +165,8 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
     }
     eprintln!("drive-sim: reading {}", args.log.display());
     let log = super::input::open_log(&args.log, &args.input)?;
-    let (robot, terrain, notes) = calibration::models_for_log(&log)?;
+    let (robot, terrain, notes) =
+        calibration::models_for(&log, args.input.robot.as_deref(), args.input.terrain.as_deref())?;
     let mut opts = CalibrationOptions {
         seed: args.seed,
         max_effects: args.max_effects,
@@ -168,6 +202,17 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
     );
     let mut files = calibration::write_report(&report, &args.out)?;
     files.push(calibration::write_timings(&timings, &args.out)?);
+    // A simulator fit is a runnable twin; a kinematic fit's values are effective ones.
+    if kind == ModelKind::Simulator {
+        let twin = calibration::twin::twin_of_report(&report)?;
+        let paths = calibration::twin::write_twin(&twin, &args.out.join("twin"))?;
+        eprintln!(
+            "drive-sim: twin: drive-sim run --robot {} --terrain {}",
+            paths[0].display(),
+            paths[1].display()
+        );
+        files.extend(paths);
+    }
     print_report(&report)?;
     eprintln!("drive-sim: time per stage:");
     for line in timings.lines() {

@@ -9,10 +9,12 @@ use std::path::{Path, PathBuf};
 pub struct InputArgs {
     /// Bags: robot for the nominal values (`warthog`, `husky` or a robot TOML); default: the
     /// roles preset's robot. The DRIVE node's parameter YAML beside the bag overrides radius,
-    /// baseline, limits and step length.
+    /// baseline, limits and step length. `replay` and `calibrate`: also the model replayed or
+    /// calibrated from, used as written (e.g. a twin's `robot.toml`).
     #[arg(long)]
     pub robot: Option<String>,
-    /// Bags: terrain label (a bag does not record it); default `unlabelled`.
+    /// Bags: terrain label (a bag does not record it); default `unlabelled`. `replay` and
+    /// `calibrate`: also the terrain model (a name or a terrain TOML, e.g. a twin's).
     #[arg(long)]
     pub terrain: Option<String>,
     /// Bags: topic roles, `warthog`, `husky` (the DRIVE node's presets) or a roles TOML;

@@ -92,6 +92,22 @@ pub enum Origin {
         /// The file it was read from.
         file: String,
     },
+    /// The commands of another log replayed on a model, step for step (`drive-sim replay`):
+    /// each step pairs with the step of the same number in that log (what `compare` uses to
+    /// pair differences by step).
+    Replayed {
+        /// Name of the log whose commands were replayed.
+        of: String,
+        /// Plant replayed (`simulator`, `kinematic`).
+        model: String,
+        /// Robot model (name or file) replayed.
+        robot_file: String,
+        /// Terrain model (name or file) replayed.
+        terrain_file: String,
+        /// The model's effects, as `name=value` strings.
+        #[serde(default)]
+        effects: Vec<String>,
+    },
 }
 
 /// Metadata of a log.
