@@ -584,7 +584,25 @@ pub struct ScoreSteps {
     pub floor: NoiseFloor,
 }
 
+/// The fields of a `calibration.json` that [`ScoreSteps`] reads (the whole report does not
+/// read back: JSON has no infinity, so some of its numbers are written as null).
+#[derive(Deserialize)]
+struct ScoreStepsJson {
+    heldout_steps: Vec<u32>,
+    floor: NoiseFloor,
+}
+
 impl ScoreSteps {
+    /// The test steps and floor of a `calibration.json` (`file` names it in errors).
+    pub fn from_json(text: &str, file: &Path) -> Result<Self> {
+        let r: ScoreStepsJson = serde_json::from_str(text)
+            .map_err(|e| Error::config(file, "heldout_steps / floor", e.to_string()))?;
+        Ok(Self {
+            steps: r.heldout_steps,
+            floor: r.floor,
+        })
+    }
+
     /// The test steps and floor of a calibration report.
     pub fn of_report(r: &CalibrationReport) -> Self {
         Self {

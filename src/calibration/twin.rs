@@ -88,10 +88,12 @@ pub struct Provenance {
     /// `robot.powertrain.time_constant_s`, `effect.dead_time_s`), with the dataset(s) they
     /// were fitted on.
     pub fitted: Vec<(FittedParam, String)>,
+    /// The model the fit started from, for the declared value beside each fitted one.
+    pub before: Option<ModelParams>,
 }
 
 /// The comment of one fitted value: value, interval, dataset.
-fn comment_for(p: &FittedParam, dataset: &str) -> String {
+fn comment_for(p: &FittedParam, dataset: &str, declared: Option<f64>) -> String {
     let interval = match (p.se, p.ci95) {
         (Some(se), Some(ci)) if se.is_finite() => {
             format!("± {se:.3e} (95 % [{:.6}, {:.6}])", ci[0], ci[1])
@@ -103,19 +105,19 @@ fn comment_for(p: &FittedParam, dataset: &str) -> String {
         ),
         _ => "no interval (on/off parameter)".into(),
     };
-    let declared = p
-        .initial
-        .filter(|v| v.is_finite())
+    let declared = declared
         .map(|v| format!("; declared {v}"))
         .unwrap_or_else(|| "; off in the declared model".into());
     let ident = match p.identifiable {
         Some(false) => "; not identifiable",
         _ => "",
     };
-    format!(
-        "[fit] {dataset}: {:.6} {} {interval}{declared}{ident}",
-        p.value, p.unit
-    )
+    let unit = if p.unit == "-" || p.unit.is_empty() {
+        String::new()
+    } else {
+        format!(" {}", p.unit)
+    };
+    format!("[fit] {dataset}: {:.6}{unit} {interval}{declared}{ident}", p.value)
 }
 
 /// Looks up `section.key` in a serialized file.
@@ -187,6 +189,16 @@ pub fn twin_files(params: &ModelParams, prov: &Provenance) -> Result<TwinFiles> 
         .map_err(|e| Error::Analysis(format!("cannot write a twin robot: {e}")))?;
     let tv = toml::Value::try_from(&terrain)
         .map_err(|e| Error::Analysis(format!("cannot write a twin terrain: {e}")))?;
+    let before = match &prov.before {
+        Some(b) => {
+            let (r, t) = twin_models(b)?;
+            Some((
+                toml::Value::try_from(&r).map_err(|e| Error::Analysis(e.to_string()))?,
+                toml::Value::try_from(&t).map_err(|e| Error::Analysis(e.to_string()))?,
+            ))
+        }
+        None => None,
+    };
     let mut rc = BTreeMap::new();
     let mut tc = BTreeMap::new();
     for (p, dataset) in &prov.fitted {
@@ -208,9 +220,16 @@ pub fn twin_files(params: &ModelParams, prov: &Provenance) -> Result<TwinFiles> 
         let Some(held) = value_at(v, &path) else {
             continue;
         };
+        let declared = before.as_ref().and_then(|(br, bt)| {
+            if std::ptr::eq(v, &rv) {
+                value_at(br, &path)
+            } else {
+                value_at(bt, &path)
+            }
+        });
         let same = held == p.value || (held - p.value).abs() <= 1e-12 * p.value.abs().max(1.0);
         let c = if same {
-            comment_for(p, dataset)
+            comment_for(p, dataset, declared)
         } else {
             format!(
                 "[fit] {dataset}: refit in a later stage (no interval for this value; the earlier fit gave {:.6})",
@@ -288,6 +307,7 @@ pub fn twin_of_report(report: &CalibrationReport) -> Result<TwinFiles> {
             .into_iter()
             .map(|p| (p, report.dataset.clone()))
             .collect(),
+        before: Some(report.model_before.clone()),
     };
     twin_files(&report.model_after, &prov)
 }
@@ -348,6 +368,7 @@ mod tests {
         let prov = Provenance {
             header: vec!["test".into()],
             fitted: vec![(fitted, "gravel_run".into())],
+            before: None,
         };
         let files = twin_files(&m, &prov).unwrap();
         assert!(files.terrain_toml.contains("peak_lateral = 0.9123456789012345  # [fit] gravel_run"), "{}", files.terrain_toml);

@@ -80,9 +80,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
     let score = match &args.score_like {
         Some(p) => {
             let text = std::fs::read_to_string(p).map_err(|e| crate::Error::io(p, e))?;
-            let r: CalibrationReport = serde_json::from_str(&text)
-                .map_err(|e| crate::Error::config(p, "(calibration.json)", e.to_string()))?;
-            Some(calibration::ScoreSteps::of_report(&r))
+            Some(calibration::ScoreSteps::from_json(&text, p)?)
         }
         None => None,
     };
