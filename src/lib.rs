@@ -11,6 +11,7 @@
 pub mod analysis;
 pub mod calibration;
 pub mod cli;
+pub mod compare;
 pub mod config;
 pub mod effects;
 pub mod effects_table;

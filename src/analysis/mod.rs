@@ -7,6 +7,7 @@
 //! transfer functions ([`smoother`]), the risk scenarios ([`risk`]) and the box-plot statistics
 //! ([`stats`]). Every result type is serde-serializable; NaN values serialize as `null`.
 
+pub mod bootstrap;
 pub mod crosscheck;
 pub mod rho;
 pub mod risk;

@@ -225,6 +225,25 @@ impl DriveLog {
         }
     }
 
+    /// The log restricted to the steps `keep` accepts (their samples and interruptions; the
+    /// duration shrinks in proportion to the productive time kept, so time efficiency stays
+    /// comparable), named `<name>_<label>`.
+    pub fn with_steps(&self, label: &str, keep: impl Fn(u32) -> bool) -> DriveLog {
+        let before = self.steps().len().max(1) as f64;
+        let samples: Vec<Sample> = self.samples.iter().filter(|s| keep(s.step)).cloned().collect();
+        let mut out = DriveLog {
+            meta: LogMeta {
+                name: format!("{}_{label}", self.meta.name),
+                ..self.meta.clone()
+            },
+            samples,
+            interruptions: self.interruptions.iter().filter(|i| keep(i.step)).cloned().collect(),
+            duration_s: self.duration_s,
+        };
+        out.duration_s = self.duration_s * out.steps().len() as f64 / before;
+        out
+    }
+
     /// Indices of the completed steps, in order.
     pub fn steps(&self) -> Vec<u32> {
         let mut s: Vec<u32> = self.samples.iter().map(|s| s.step).collect();
