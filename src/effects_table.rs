@@ -96,7 +96,10 @@ mod tests {
     fn out_of_bounds_names_the_range() {
         let mut e = Effects::default();
         let msg = set_checked(&mut e, "turning_resistance_scale", 500.0).unwrap_err();
-        assert!(msg.contains("turning_resistance_scale") && msg.contains("100"), "{msg}");
+        assert!(
+            msg.contains("turning_resistance_scale") && msg.contains("100"),
+            "{msg}"
+        );
     }
 
     #[test]

@@ -11,7 +11,7 @@ use std::path::Path;
 const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured");
 
 fn log(name: &str) -> DriveLog {
-    read_measured_csv(&Path::new(DIR).join(format!("{name}.csv"))).unwrap()
+    read_measured_csv(Path::new(DIR).join(format!("{name}.csv"))).unwrap()
 }
 
 fn input(l: &DriveLog) -> Input<'_> {
@@ -26,7 +26,10 @@ fn a_log_against_itself_and_its_halves_shows_no_difference() {
     let c = &r.sims[0];
     assert_eq!(c.pairing, Pairing::TwoSample);
     assert!(c.verdict.reproduces, "{:#?}", c.verdict);
-    assert!(c.metrics.iter().all(|m| m.difference == 0.0 && m.difference_ci95.unwrap().contains(0.0)));
+    assert!(c
+        .metrics
+        .iter()
+        .all(|m| m.difference == 0.0 && m.difference_ci95.unwrap().contains(0.0)));
     assert!(c.transfer.iter().all(|t| t.rms == 0.0 && t.points > 0));
     assert!(r.warnings.iter().any(|w| w.name == "time_not_recorded"));
 
@@ -46,7 +49,11 @@ fn another_terrain_differs() {
     let r = compare(input(&asphalt), &[input(&ice)], &CompareOptions::default()).unwrap();
     let c = &r.sims[0];
     assert!(!c.verdict.reproduces);
-    assert!(c.verdict.significant.iter().any(|m| m == "median_rho"), "{:#?}", c.verdict);
+    assert!(
+        c.verdict.significant.iter().any(|m| m == "median_rho"),
+        "{:#?}",
+        c.verdict
+    );
     assert!(!c.verdict.tf_beyond_yardstick.is_empty(), "{:#?}", c.transfer);
 }
 
@@ -56,7 +63,10 @@ fn another_robot_is_refused_as_bad_input() {
     let h = log("husky_2023");
     let e = compare(input(&w), &[input(&h)], &CompareOptions::default()).unwrap_err();
     assert!(e.is_bad_input(), "{e}");
-    assert!(e.to_string().contains("husky") && e.to_string().contains("warthog"), "{e}");
+    assert!(
+        e.to_string().contains("husky") && e.to_string().contains("warthog"),
+        "{e}"
+    );
 }
 
 /// Median of three values.
@@ -72,7 +82,14 @@ fn intervals_of_a_three_step_fixture_match_a_hand_computation() {
     let (a, b) = (&steps[..3], &steps[3..6]);
     let real = full.with_steps("a", |s| a.contains(&s));
     let sim = full.with_steps("b", |s| b.contains(&s));
-    let rho = |l: &DriveLog| -> Vec<f64> { analysis_of(l).unwrap().steps.iter().map(|s| s.steady_rho.rho).collect() };
+    let rho = |l: &DriveLog| -> Vec<f64> {
+        analysis_of(l)
+            .unwrap()
+            .steps
+            .iter()
+            .map(|s| s.steady_rho.rho)
+            .collect()
+    };
     let (rr, rs) = (rho(&real), rho(&sim));
     assert_eq!((rr.len(), rs.len()), (3, 3));
     // Every resample of three steps (27) in each run, every pair of them (729): the exact
@@ -100,9 +117,17 @@ fn intervals_of_a_three_step_fixture_match_a_hand_computation() {
     let m = &r.sims[0].metrics[0];
     assert_eq!(m.metric, "median_rho");
     let ci = m.difference_ci95.unwrap();
-    assert!((ci.lower - lo).abs() < 1e-12 && (ci.upper - hi).abs() < 1e-12, "{ci:?} vs [{lo}, {hi}]");
+    assert!(
+        (ci.lower - lo).abs() < 1e-12 && (ci.upper - hi).abs() < 1e-12,
+        "{ci:?} vs [{lo}, {hi}]"
+    );
     assert!((m.p - p).abs() < 1e-12, "{} vs {p}", m.p);
     assert!((m.difference - (med3([rs[0], rs[1], rs[2]]) - med3([rr[0], rr[1], rr[2]]))).abs() < 1e-12);
     // Too few steps for a reliable interval: said by name, for both runs.
-    assert_eq!(r.warnings.iter().filter(|w| w.name == "too_few_steps").count(), 2, "{:#?}", r.warnings);
+    assert_eq!(
+        r.warnings.iter().filter(|w| w.name == "too_few_steps").count(),
+        2,
+        "{:#?}",
+        r.warnings
+    );
 }

@@ -34,22 +34,47 @@ fn calibrated_twin_round_trips_runs_and_reproduces_its_score() {
     let d = dir.path();
     ok(
         &[
-            "run", "--robot", "warthog", "--terrain", "asphalt", "--steps", "24", "--seed", "5",
-            "--inject", "dead_time_s=0.3", "--out", "logs", "--quiet",
+            "run",
+            "--robot",
+            "warthog",
+            "--terrain",
+            "asphalt",
+            "--steps",
+            "24",
+            "--seed",
+            "5",
+            "--inject",
+            "dead_time_s=0.3",
+            "--out",
+            "logs",
+            "--quiet",
         ],
         d,
     );
     ok(
         &[
-            "calibrate", "logs/warthog_asphalt_s5.mcap", "--model", "simulator", "--candidates",
-            "dead_time_s", "--max-effects", "1", "--max-fit-steps", "10", "--out", "cal",
+            "calibrate",
+            "logs/warthog_asphalt_s5.mcap",
+            "--model",
+            "simulator",
+            "--candidates",
+            "dead_time_s",
+            "--max-effects",
+            "1",
+            "--max-fit-steps",
+            "10",
+            "--out",
+            "cal",
         ],
         d,
     );
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("cal/calibration.json")).unwrap()).unwrap();
     let robot_toml = std::fs::read_to_string(d.join("cal/twin/robot.toml")).unwrap();
-    assert!(robot_toml.contains("dead_time_s = ") && robot_toml.contains("[fit] warthog_asphalt_s5"), "{robot_toml}");
+    assert!(
+        robot_toml.contains("dead_time_s = ") && robot_toml.contains("[fit] warthog_asphalt_s5"),
+        "{robot_toml}"
+    );
 
     // Load: the twin's effects and terrain are the fitted ones, value for value.
     let (robot, _) = Robot::resolve(d.join("cal/twin/robot.toml").to_str().unwrap()).unwrap();
@@ -64,14 +89,26 @@ fn calibrated_twin_round_trips_runs_and_reproduces_its_score() {
     assert_eq!(model.terrain, fitted_terrain);
     assert_eq!(
         model.robot.powertrain.time_constant_s,
-        json["model_after"]["robot"]["powertrain"]["time_constant_s"].as_f64().unwrap()
+        json["model_after"]["robot"]["powertrain"]["time_constant_s"]
+            .as_f64()
+            .unwrap()
     );
 
     // Run: DRIVE on the twin.
     ok(
         &[
-            "run", "--robot", "cal/twin/robot.toml", "--terrain", "cal/twin/terrain.toml", "--steps",
-            "3", "--out", "twin_run", "--quiet", "--name", "twin",
+            "run",
+            "--robot",
+            "cal/twin/robot.toml",
+            "--terrain",
+            "cal/twin/terrain.toml",
+            "--steps",
+            "3",
+            "--out",
+            "twin_run",
+            "--quiet",
+            "--name",
+            "twin",
         ],
         d,
     );
@@ -82,8 +119,16 @@ fn calibrated_twin_round_trips_runs_and_reproduces_its_score() {
     // Replay the log's commands on the twin: calibrate's test score, on the same steps.
     let out = ok(
         &[
-            "replay", "logs/warthog_asphalt_s5.mcap", "--robot", "cal/twin/robot.toml", "--terrain",
-            "cal/twin/terrain.toml", "--score-like", "cal/calibration.json", "--out", "rep",
+            "replay",
+            "logs/warthog_asphalt_s5.mcap",
+            "--robot",
+            "cal/twin/robot.toml",
+            "--terrain",
+            "cal/twin/terrain.toml",
+            "--score-like",
+            "cal/calibration.json",
+            "--out",
+            "rep",
         ],
         d,
     );
@@ -104,11 +149,22 @@ fn bad_twin_effects_are_refused_with_a_suggestion() {
     let d = dir.path();
     let base = drive_sim::robot::BUILTIN_ROBOTS[1].1;
     for (name, table, want) in [
-        ("typo.toml", "[effects]\nwheel_speed_saturaton_rad_s = 12.6\n", "did you mean `wheel_speed_saturation_rad_s`"),
-        ("range.toml", "[effects]\nturning_resistance_scale = 500.0\n", "turning_resistance_scale"),
+        (
+            "typo.toml",
+            "[effects]\nwheel_speed_saturaton_rad_s = 12.6\n",
+            "did you mean `wheel_speed_saturation_rad_s`",
+        ),
+        (
+            "range.toml",
+            "[effects]\nturning_resistance_scale = 500.0\n",
+            "turning_resistance_scale",
+        ),
     ] {
         std::fs::write(d.join(name), format!("{base}\n{table}")).unwrap();
-        let out = drive_sim(&["run", "--robot", name, "--steps", "1", "--out", "o", "--quiet"], d);
+        let out = drive_sim(
+            &["run", "--robot", name, "--steps", "1", "--out", "o", "--quiet"],
+            d,
+        );
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{err}");
         assert!(err.contains(want) && err.contains(name), "{err}");

@@ -94,8 +94,7 @@ impl Bootstrap {
                 })
                 .collect();
         }
-        let mut rng =
-            ChaCha8Rng::seed_from_u64(self.seed ^ stream.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let mut rng = ChaCha8Rng::seed_from_u64(self.seed ^ stream.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         (0..self.resamples)
             .map(|_| (0..n).map(|_| rng.random_range(0..n)).collect())
             .collect()

@@ -278,7 +278,11 @@ pub fn models_for_log(log: &DriveLog) -> Result<(Robot, Terrain, Vec<String>)> {
 /// twin's) when given, used as written, else the log's own ([`models_for_log`]). The notes
 /// say what was chosen; a robot of another name than the log's is refused (its nominal values
 /// would not be the ones the commands were computed with).
-pub fn models_for(log: &DriveLog, robot: Option<&str>, terrain: Option<&str>) -> Result<(Robot, Terrain, Vec<String>)> {
+pub fn models_for(
+    log: &DriveLog,
+    robot: Option<&str>,
+    terrain: Option<&str>,
+) -> Result<(Robot, Terrain, Vec<String>)> {
     let (mut r, mut t, mut notes) = models_for_log(log)?;
     if let Some(name) = robot {
         let (given, file) = Robot::resolve(name)?;
@@ -645,7 +649,10 @@ pub fn replay_model_and_compare(
                 ));
             }
             let set = StepSet::new(&slices, &s.steps, log.meta.rate_hz)?;
-            Some(ErrorSummary::pool(&set.errors(factory.as_ref(), params)?, &s.floor))
+            Some(ErrorSummary::pool(
+                &set.errors(factory.as_ref(), params)?,
+                &s.floor,
+            ))
         }
         None => None,
     };

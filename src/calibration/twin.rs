@@ -37,8 +37,8 @@ pub fn split_effects(effects: &Effects) -> Result<(Effects, Effects)> {
     let mut robot = Effects::default();
     let mut terrain = Effects::default();
     for (k, v) in effects.declared() {
-        let on_terrain = crate::effects::param_owner(k)
-            .is_some_and(|(i, _)| terrain_side(crate::effects::REGISTRY[i]));
+        let on_terrain =
+            crate::effects::param_owner(k).is_some_and(|(i, _)| terrain_side(crate::effects::REGISTRY[i]));
         if on_terrain {
             terrain.set(k, v)?;
         } else {
@@ -50,11 +50,7 @@ pub fn split_effects(effects: &Effects) -> Result<(Effects, Effects)> {
 
 /// The robot and terrain files of a model: its effects moved into their `[effects]` tables.
 pub fn twin_models(params: &ModelParams) -> Result<(Robot, Terrain)> {
-    let all = crate::effects_table::combine(
-        &params.robot.effects,
-        &params.terrain.effects,
-        &params.effects,
-    )?;
+    let all = crate::effects_table::combine(&params.robot.effects, &params.terrain.effects, &params.effects)?;
     let (re, te) = split_effects(&all)?;
     let mut robot = params.robot.clone();
     let mut terrain = params.terrain.clone();
@@ -117,7 +113,10 @@ fn comment_for(p: &FittedParam, dataset: &str, declared: Option<f64>) -> String 
     } else {
         format!(" {}", p.unit)
     };
-    format!("[fit] {dataset}: {:.6}{unit} {interval}{declared}{ident}", p.value)
+    format!(
+        "[fit] {dataset}: {:.6}{unit} {interval}{declared}{ident}",
+        p.value
+    )
 }
 
 /// Looks up `section.key` in a serialized file.
@@ -136,8 +135,8 @@ pub fn commented_toml<T: Serialize>(
     header: &[String],
     comments: &BTreeMap<String, String>,
 ) -> Result<String> {
-    let text = toml::to_string(value)
-        .map_err(|e| Error::Analysis(format!("cannot write a twin file: {e}")))?;
+    let text =
+        toml::to_string(value).map_err(|e| Error::Analysis(format!("cannot write a twin file: {e}")))?;
     let mut out = String::new();
     for h in header {
         out.push_str("# ");
@@ -316,7 +315,10 @@ pub fn twin_of_report(report: &CalibrationReport) -> Result<TwinFiles> {
 pub fn write_twin(twin: &TwinFiles, dir: &Path) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let mut paths = Vec::new();
-    for (name, text) in [("robot.toml", &twin.robot_toml), ("terrain.toml", &twin.terrain_toml)] {
+    for (name, text) in [
+        ("robot.toml", &twin.robot_toml),
+        ("terrain.toml", &twin.terrain_toml),
+    ] {
         let p = dir.join(name);
         std::fs::write(&p, text).map_err(|e| Error::io(&p, e))?;
         paths.push(p);
@@ -371,7 +373,13 @@ mod tests {
             before: None,
         };
         let files = twin_files(&m, &prov).unwrap();
-        assert!(files.terrain_toml.contains("peak_lateral = 0.9123456789012345  # [fit] gravel_run"), "{}", files.terrain_toml);
+        assert!(
+            files
+                .terrain_toml
+                .contains("peak_lateral = 0.9123456789012345  # [fit] gravel_run"),
+            "{}",
+            files.terrain_toml
+        );
         let r: Robot = crate::config::parse_toml(&files.robot_toml, "robot.toml".as_ref()).unwrap();
         let t: Terrain = crate::config::parse_toml(&files.terrain_toml, "terrain.toml".as_ref()).unwrap();
         let back = lift_effects(&r, &t).unwrap();

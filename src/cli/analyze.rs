@@ -114,7 +114,9 @@ fn print_analysis_table(analyses: &[crate::analysis::Analysis]) -> anyhow::Resul
         // The same medians' bootstrap-by-step intervals (the definition `compare` uses).
         let ci = &a.median_ci95;
         let f = |i: &Option<crate::analysis::bootstrap::Interval>| {
-            i.map_or("(none)".to_string(), |i| format!("[{:.3}, {:.3}]", i.lower, i.upper))
+            i.map_or("(none)".to_string(), |i| {
+                format!("[{:.3}, {:.3}]", i.lower, i.upper)
+            })
         };
         let ac = &ci.along_command;
         writeln!(

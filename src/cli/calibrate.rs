@@ -58,6 +58,10 @@ pub struct CalibrateArgs {
     /// Only these candidate effects (comma-separated registry names).
     #[arg(long, value_delimiter = ',')]
     pub candidates: Option<Vec<String>>,
+    /// Calibrate on the odd or even steps only (the twin is then judged on the other half with
+    /// `compare --real-steps`), or on all of them.
+    #[arg(long, value_enum, default_value = "all")]
+    pub use_steps: crate::log::UseSteps,
 }
 
 /// Replays a log on the declared model and reports how far it is, beside the IDD and the floor.
@@ -162,7 +166,9 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
         anyhow::bail!("--out {}: is a file, not a directory", args.out.display());
     }
     eprintln!("drive-sim: reading {}", args.log.display());
-    let log = super::input::open_log(&args.log, &args.input)?;
+    let log = args
+        .use_steps
+        .select(&super::input::open_log(&args.log, &args.input)?);
     let (robot, terrain, notes) =
         calibration::models_for(&log, args.input.robot.as_deref(), args.input.terrain.as_deref())?;
     let mut opts = CalibrationOptions {
@@ -190,12 +196,13 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
         })?;
     report.status.notes.splice(0..0, notes);
     report.reproduce = format!(
-        "drive-sim calibrate {} --model {} --seed {} --max-effects {} --optimizer {} --out {}",
+        "drive-sim calibrate {} --model {} --seed {} --max-effects {} --optimizer {} --use-steps {} --out {}",
         args.log.display(),
         args.model,
         args.seed,
         args.max_effects,
         args.optimizer,
+        args.use_steps.as_str(),
         args.out.display()
     );
     let mut files = calibration::write_report(&report, &args.out)?;

@@ -1,7 +1,9 @@
 //! `drive-sim compare REAL SIM... --out DIR`: does the simulation reproduce the real run?
 
 use crate::analysis::bootstrap::Bootstrap;
-use crate::compare::{compare as run_compare, write::verdict_text, write::write_comparison, CompareOptions, Input};
+use crate::compare::{
+    compare as run_compare, write::verdict_text, write::write_comparison, CompareOptions, Input,
+};
 use std::path::PathBuf;
 
 /// Options of `drive-sim compare`.
@@ -25,6 +27,10 @@ pub struct CompareArgs {
     /// Family-wise significance level (Holm).
     #[arg(long, default_value_t = 0.05)]
     pub alpha: f64,
+    /// Compare only the real log's odd or even steps (e.g. those a twin was not calibrated on,
+    /// `calibrate --use-steps`), or all of them.
+    #[arg(long, value_enum, default_value = "all")]
+    pub real_steps: crate::log::UseSteps,
     /// How to read a bag.
     #[command(flatten)]
     pub input: super::input::InputArgs,
@@ -33,13 +39,20 @@ pub struct CompareArgs {
 /// Reads the logs, compares them, writes the report and prints the verdict table.
 pub fn compare(args: &CompareArgs) -> anyhow::Result<()> {
     if args.resamples < 100 {
-        return Err(crate::Error::config("--resamples", "resamples", format!("must be at least 100, got {}", args.resamples)).into());
+        return Err(crate::Error::config(
+            "--resamples",
+            "resamples",
+            format!("must be at least 100, got {}", args.resamples),
+        )
+        .into());
     }
     if args.out.is_file() {
         anyhow::bail!("--out {}: is a file, not a directory", args.out.display());
     }
     eprintln!("drive-sim: reading {}", args.real.display());
-    let real = super::input::open_log(&args.real, &args.input)?;
+    let real = args
+        .real_steps
+        .select(&super::input::open_log(&args.real, &args.input)?);
     let mut sims = Vec::new();
     for p in &args.sims {
         eprintln!("drive-sim: reading {}", p.display());
@@ -70,8 +83,16 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<()> {
         &inputs,
         &opts,
     )?;
-    let files = write_comparison(&report, &real.meta.nominal.command_space().polygon_body(), &args.out)?;
+    let files = write_comparison(
+        &report,
+        &real.meta.nominal.command_space().polygon_body(),
+        &args.out,
+    )?;
     print!("{}", verdict_text(&report));
-    eprintln!("drive-sim: wrote {} files into {}", files.len(), args.out.display());
+    eprintln!(
+        "drive-sim: wrote {} files into {}",
+        files.len(),
+        args.out.display()
+    );
     Ok(())
 }

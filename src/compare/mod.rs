@@ -315,7 +315,9 @@ fn two_sample_diffs(real: &[f64], sim: &[f64], budget: usize) -> Vec<f64> {
         return sim.iter().flat_map(|s| real.iter().map(move |r| s - r)).collect();
     }
     let n = real.len().max(sim.len());
-    (0..n).map(|i| sim[i % sim.len()] - real[i % real.len()]).collect()
+    (0..n)
+        .map(|i| sim[i % sim.len()] - real[i % real.len()])
+        .collect()
 }
 
 /// The analysis `compare` runs on each log: default parameters without the smoother (the
@@ -372,19 +374,25 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
     for s in sims {
         if s.log.meta.robot != real.log.meta.robot {
             return Err(Error::log(
-                s.file.map_or_else(|| s.log.meta.name.clone().into(), |f| f.to_path_buf()),
+                s.file
+                    .map_or_else(|| s.log.meta.name.clone().into(), |f| f.to_path_buf()),
                 "metadata: robot",
                 format!(
                     "robot `{}` is not the real log's `{}` ({}): a comparison needs one robot",
                     s.log.meta.robot,
                     real.log.meta.robot,
-                    real.file.map_or_else(|| real.log.meta.name.clone(), |f| f.display().to_string())
+                    real.file
+                        .map_or_else(|| real.log.meta.name.clone(), |f| f.display().to_string())
                 ),
             ));
         }
     }
     if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
-        return Err(Error::config("compare", "alpha", format!("must be in (0, 1), got {}", opts.alpha)));
+        return Err(Error::config(
+            "compare",
+            "alpha",
+            format!("must be in (0, 1), got {}", opts.alpha),
+        ));
     }
     let real_a = analysis_of(real.log)?;
     let real_rows = rows(&real_a);
@@ -490,7 +498,13 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
             m.significant = p.is_finite() && p < opts.alpha;
         }
         let sim_fields = tf_grid.fields(&all_sim);
-        let (transfer, maps) = tf_grid.compare(&real_fields, &sim_fields, &halves, real_rows.len(), sim_rows.len());
+        let (transfer, maps) = tf_grid.compare(
+            &real_fields,
+            &sim_fields,
+            &halves,
+            real_rows.len(),
+            sim_rows.len(),
+        );
         if transfer.iter().all(|t| t.points == 0) {
             warnings.push(Warning {
                 name: "tf_no_overlap".into(),
@@ -513,7 +527,11 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
             None
         };
         let verdict = Verdict {
-            significant: metrics.iter().filter(|m| m.significant).map(|m| m.metric.clone()).collect(),
+            significant: metrics
+                .iter()
+                .filter(|m| m.significant)
+                .map(|m| m.metric.clone())
+                .collect(),
             areas_beyond_tolerance: metrics
                 .iter()
                 .filter(|m| m.within_tolerance == Some(false))

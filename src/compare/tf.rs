@@ -75,7 +75,9 @@ impl TfSetup {
     /// The smoothed slip fields of a set of steps.
     pub(crate) fn fields(&self, rows: &[&StepRow]) -> Smoothed {
         let pts: Vec<(f64, f64)> = rows.iter().map(|r| r.cmd_body).collect();
-        let cols: Vec<Vec<f64>> = (1..6).map(|k| rows.iter().map(|r| r.values[k]).collect()).collect();
+        let cols: Vec<Vec<f64>> = (1..6)
+            .map(|k| rows.iter().map(|r| r.values[k]).collect())
+            .collect();
         let refs: Vec<&[f64]> = cols.iter().map(|c| c.as_slice()).collect();
         smooth(&self.grid, &self.cov, &self.fast, &pts, &refs).1
     }

@@ -4,7 +4,9 @@
 use super::{ComparisonReport, MetricDiff, SimComparison};
 use crate::analysis::bootstrap::Interval;
 use crate::error::{Error, Result};
-use crate::report::{heat_maps, AxisLabel, ColourMap, ColourScale, Comparison, FigureFiles, Grid2, HeatPanel, HtmlReport};
+use crate::report::{
+    heat_maps, AxisLabel, ColourMap, ColourScale, Comparison, FigureFiles, Grid2, HeatPanel, HtmlReport,
+};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -161,7 +163,13 @@ fn verdict_table(r: &ComparisonReport, c: &SimComparison) -> Comparison {
     }
 }
 
-fn map_figure(dir: &Path, idx: usize, r: &ComparisonReport, c: &SimComparison, real_u: &[(f64, f64)]) -> Result<FigureFiles> {
+fn map_figure(
+    dir: &Path,
+    idx: usize,
+    r: &ComparisonReport,
+    c: &SimComparison,
+    real_u: &[(f64, f64)],
+) -> Result<FigureFiles> {
     let panels: Vec<HeatPanel> = c
         .maps
         .channels
@@ -211,7 +219,12 @@ pub fn write_comparison(r: &ComparisonReport, real_u: &[(f64, f64)], dir: &Path)
     let mut figures = Vec::new();
     for (i, c) in r.sims.iter().enumerate() {
         // A map with no compared point has nothing to draw.
-        if c.maps.values.iter().take(3).all(|v| v.iter().all(|x| !x.is_finite())) {
+        if c.maps
+            .values
+            .iter()
+            .take(3)
+            .all(|v| v.iter().all(|x| !x.is_finite()))
+        {
             continue;
         }
         let f = map_figure(dir, i, r, c, real_u)?;

@@ -140,6 +140,39 @@ impl LogMeta {
     }
 }
 
+/// Which steps of a log to use: a twin calibrated on one half of a run is judged on the other.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum UseSteps {
+    /// Every step.
+    #[default]
+    All,
+    /// Steps with an odd number.
+    Odd,
+    /// Steps with an even number.
+    Even,
+}
+
+impl UseSteps {
+    /// Name on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::All => "all",
+            Self::Odd => "odd",
+            Self::Even => "even",
+        }
+    }
+
+    /// The log restricted to these steps (itself for `All`), named `<name>_odd` / `_even`.
+    pub fn select(self, log: &DriveLog) -> DriveLog {
+        match self {
+            Self::All => log.clone(),
+            Self::Odd => log.with_steps("odd", |s| s % 2 == 1),
+            Self::Even => log.with_steps("even", |s| s % 2 == 0),
+        }
+    }
+}
+
 /// A DRIVE log: metadata, the samples of completed steps (in order), and the interruptions.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DriveLog {
@@ -237,7 +270,12 @@ impl DriveLog {
                 ..self.meta.clone()
             },
             samples,
-            interruptions: self.interruptions.iter().filter(|i| keep(i.step)).cloned().collect(),
+            interruptions: self
+                .interruptions
+                .iter()
+                .filter(|i| keep(i.step))
+                .cloned()
+                .collect(),
             duration_s: self.duration_s,
         };
         out.duration_s = self.duration_s * out.steps().len() as f64 / before;

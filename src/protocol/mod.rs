@@ -42,6 +42,26 @@ pub struct ProtocolConfig {
     pub max_attempts: u32,
     /// Longest a re-orientation may take before the run is declared stuck, s.
     pub max_reorient_s: f64,
+    /// The operator turns the robot back at up to this yaw rate (and never faster than half
+    /// the robot's yaw-rate limit), rad/s. A person with a joystick turns a Warthog at about
+    /// 2 rad/s; the first simulated operator turned at 1 rad/s and spent a quarter of the
+    /// protocol time turning.
+    #[serde(default = "default_reorient_yaw_rate")]
+    pub reorient_yaw_rate_rad_s: f64,
+    /// The operator drives the robot back towards the centre at up to this speed (and never
+    /// faster than half the robot's speed limit), m/s. The first simulated operator drove at a
+    /// walking pace (0.3 of the limit, at most 0.6 m/s) and spent 20-50 % of the protocol time
+    /// doing so.
+    #[serde(default = "default_reorient_speed")]
+    pub reorient_speed_m_s: f64,
+}
+
+fn default_reorient_yaw_rate() -> f64 {
+    2.0
+}
+
+fn default_reorient_speed() -> f64 {
+    2.0
 }
 
 impl Default for ProtocolConfig {
@@ -56,6 +76,8 @@ impl Default for ProtocolConfig {
             border_margin_m: 0.5,
             max_attempts: 4,
             max_reorient_s: 60.0,
+            reorient_yaw_rate_rad_s: default_reorient_yaw_rate(),
+            reorient_speed_m_s: default_reorient_speed(),
         }
     }
 }
@@ -347,7 +369,7 @@ impl Runner<'_> {
     /// side the command drives towards, the paper's rule).
     fn reorient(&mut self, step: u32, cmd: WheelSpeeds) -> Result<()> {
         let phase = Phase::Reorient { step };
-        let max_wz = (0.5 * self.space.max_ang_rad_s).min(1.0);
+        let max_wz = (0.5 * self.space.max_ang_rad_s).min(self.cfg.reorient_yaw_rate_rad_s);
         let mut t = self.plant.time_s();
         // Time since `t` (and `t` moved on), for the summary's breakdown.
         let lap = |plant: &dyn Plant, t: &mut f64| {
@@ -376,7 +398,7 @@ impl Runner<'_> {
         Ok(())
     }
 
-    /// Drives towards the centre of the safe area at a walking pace until `cmd` fits from the
+    /// Drives towards the centre of the safe area at the operator's pace until `cmd` fits from the
     /// robot's position (checked every 0.5 s) or it is within 1 m of the centre. It drives
     /// straight, forward or backward, whichever faces the centre, steering only gently, and
     /// turns in place first only if the centre is nearly abeam: a skid-steer on soft ground may
@@ -410,7 +432,7 @@ impl Runner<'_> {
             let vx = if err.abs() > 1.2 {
                 0.0
             } else {
-                dir * 0.3 * self.space.max_lin_m_s.min(2.0)
+                dir * (0.5 * self.space.max_lin_m_s).min(self.cfg.reorient_speed_m_s)
             };
             let wz = (1.5 * err).clamp(-max_wz, max_wz);
             let c = idd.wheels_from_body(BodyVelocity::new(vx, 0.0, wz));

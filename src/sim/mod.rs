@@ -347,8 +347,7 @@ impl Simulator {
         };
         // A robot's and a terrain's own effects (their `[effects]` tables) run under the
         // configuration's, which override them.
-        let effects =
-            crate::effects_table::combine(&robot.effects, &terrain.effects, &cfg.effects)?;
+        let effects = crate::effects_table::combine(&robot.effects, &terrain.effects, &cfg.effects)?;
         let mods = effects.modifiers();
         let radius_m = w.radius_m * mods.wheel_radius_scale;
         let mut sim = Self {
