@@ -423,7 +423,10 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
     let real_stats = resampled(&real_rows, &real_draws, &space);
     let tf_grid = tf::TfSetup::new(real.log, opts);
     let real_fields = tf_grid.fields(&real_rows.iter().collect::<Vec<_>>());
-    let (odd, even): (Vec<&StepRow>, Vec<&StepRow>) = real_rows.iter().partition(|r| r.step % 2 == 1);
+    // Halves by alternating position (not step number: a log may already hold only the odd
+    // or the even steps, `--real-steps`).
+    let odd: Vec<&StepRow> = real_rows.iter().skip(1).step_by(2).collect();
+    let even: Vec<&StepRow> = real_rows.iter().step_by(2).collect();
     let halves = (tf_grid.fields(&odd), tf_grid.fields(&even));
 
     let mut out = Vec::new();

@@ -2,8 +2,8 @@
 //! yardstick the RMS difference is judged against.
 //!
 //! Why a yardstick: a kernel-smoothed map of ~150 noisy steps differs from the same robot's
-//! next run by its sampling error alone. Splitting the real run into odd and even steps gives
-//! two independent half-size estimates; their RMS difference estimates that error. With a
+//! next run by its sampling error alone. Splitting the real run into alternate steps gives
+//! two independent half-size estimates (alternate steps); their RMS difference estimates that error. With a
 //! per-grid-point variance σ²/n for a map of n steps, the halves differ by
 //! RMS² ≈ σ²(2/n_r + 2/n_r) = 4σ²/n_r, and two full runs of n_r and n_s steps by
 //! σ²(1/n_r + 1/n_s). The yardstick is therefore the split-half RMS times
