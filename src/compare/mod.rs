@@ -17,7 +17,7 @@
 //! bootstrap: it is judged against a yardstick, the same RMS between the two halves (odd and
 //! even steps) of the real run, scaled to full size ([`tf::yardstick_scale`]).
 //!
-//! The library computes ([`compare`] → [`ComparisonReport`]); [`write`] writes
+//! The library computes ([`compare`] → [`ComparisonReport`]); [`mod@write`] writes
 //! `comparison.json`, the figures and the report.
 
 pub mod tf;
