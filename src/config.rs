@@ -22,7 +22,7 @@ pub fn parse_toml<T: DeserializeOwned + Validate>(text: &str, file: &Path) -> Re
         } else {
             path
         };
-        Error::config(file, field, e.into_inner().message().trim().to_string())
+        Error::config(file, field, with_suggestion(e.into_inner().message().trim()))
     })?;
     value
         .validate()
@@ -134,5 +134,63 @@ pub fn non_negative(field: &str, v: f64) -> std::result::Result<(), (String, Str
             field.to_string(),
             format!("must be a finite number >= 0, got {v}"),
         ))
+    }
+}
+
+/// Checks that a value is finite and within `[lo, hi]` (in `unit`); the message gives the
+/// allowed range with its unit.
+pub fn in_range(
+    field: &str,
+    v: f64,
+    lo: f64,
+    hi: f64,
+    unit: &str,
+) -> std::result::Result<(), (String, String)> {
+    if v.is_finite() && v >= lo && v <= hi {
+        Ok(())
+    } else {
+        Err((
+            field.to_string(),
+            format!("must be in [{lo}, {hi}] {unit}, got {v}"),
+        ))
+    }
+}
+
+/// The candidate closest to `word` (Jaro-Winkler similarity at least 0.7), for "did you
+/// mean" hints on mistyped keys and names.
+pub fn did_you_mean<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+    candidates
+        .into_iter()
+        .map(|c| (strsim::jaro_winkler(word, c), c))
+        .filter(|(score, _)| *score >= 0.7)
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, c)| c)
+}
+
+/// Serde's "unknown field `x`, expected one of `a`, `b`" with a "did you mean `a`?" added.
+fn with_suggestion(message: &str) -> String {
+    let Some(rest) = message.strip_prefix("unknown field `") else {
+        return message.to_string();
+    };
+    let Some((word, expected)) = rest.split_once('`') else {
+        return message.to_string();
+    };
+    let candidates: Vec<&str> = expected.split('`').skip(1).step_by(2).collect();
+    match did_you_mean(word, candidates) {
+        Some(c) => format!("{message}; did you mean `{c}`?"),
+        None => message.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unknown_fields_get_a_suggestion() {
+        let m = with_suggestion("unknown field `terains`, expected one of `name`, `robots`, `terrains`");
+        assert!(m.ends_with("did you mean `terrains`?"), "{m}");
+        let m = with_suggestion("unknown field `zzz`, expected `name`");
+        assert!(!m.contains("did you mean"), "{m}");
     }
 }

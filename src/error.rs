@@ -45,6 +45,14 @@ pub enum Error {
         /// What diverged.
         message: String,
     },
+    /// The user stopped the command (SIGINT / SIGTERM); what was written is kept and named.
+    #[error("interrupted at step {step}, t = {time_s:.3} s")]
+    Interrupted {
+        /// Steps completed when the signal came.
+        step: u32,
+        /// Simulated time, s.
+        time_s: f64,
+    },
     /// An analysis that cannot be done on the data given (e.g. no complete step).
     #[error("analysis: {0}")]
     Analysis(String),
@@ -86,7 +94,9 @@ impl Error {
         match self {
             Error::Config { .. } | Error::Unknown { .. } | Error::Log { .. } => true,
             Error::Io { source, .. } => source.kind() == std::io::ErrorKind::NotFound,
-            Error::Diverged { .. } | Error::Analysis(_) | Error::Report(_) => false,
+            Error::Diverged { .. } | Error::Interrupted { .. } | Error::Analysis(_) | Error::Report(_) => {
+                false
+            }
         }
     }
     /// Builds an [`Error::Io`] error.

@@ -209,6 +209,71 @@ impl Validate for Robot {
         positive("limits.max_lin_acc_m_s2", l.max_lin_acc_m_s2)?;
         positive("safe_area.length_m", self.safe_area.length_m)?;
         positive("safe_area.width_m", self.safe_area.width_m)?;
+        self.validate_ranges()
+    }
+}
+
+impl Robot {
+    /// Physical ranges (with units) of a ground robot the simulator can run: a value outside is
+    /// a typo (a unit slip, a missing decimal point) that would otherwise surface as a run that
+    /// takes minutes or diverges.
+    fn validate_ranges(&self) -> std::result::Result<(), (String, String)> {
+        let (b, w, s, p, l) = (
+            &self.body,
+            &self.wheels,
+            &self.suspension,
+            &self.powertrain,
+            &self.limits,
+        );
+        for (field, v, lo, hi, unit) in [
+            ("body.mass_kg", b.mass_kg, 1.0, 20_000.0, "kg"),
+            ("body.length_m", b.length_m, 0.1, 20.0, "m"),
+            ("body.width_m", b.width_m, 0.1, 10.0, "m"),
+            ("body.height_m", b.height_m, 0.05, 10.0, "m"),
+            ("body.com_height_m", b.com_height_m, 0.01, 5.0, "m"),
+            ("wheels.radius_m", w.radius_m, 0.02, 2.0, "m"),
+            ("wheels.baseline_m", w.baseline_m, 0.05, 10.0, "m"),
+            ("wheels.wheelbase_m", w.wheelbase_m, 0.0, 20.0, "m"),
+            ("wheels.width_m", w.width_m, 0.005, 2.0, "m"),
+            ("wheels.inertia_kg_m2", w.inertia_kg_m2, 1e-5, 1_000.0, "kg·m²"),
+            ("suspension.stiffness_n_m", s.stiffness_n_m, 100.0, 1e10, "N/m"),
+            ("suspension.damping_n_s_m", s.damping_n_s_m, 0.0, 1e7, "N·s/m"),
+            ("suspension.travel_m", s.travel_m, 0.001, 2.0, "m"),
+            (
+                "powertrain.max_wheel_rad_s",
+                p.max_wheel_rad_s,
+                0.1,
+                200.0,
+                "rad/s",
+            ),
+            ("powertrain.torque_limit_nm", p.torque_limit_nm, 0.1, 1e6, "N·m"),
+            (
+                "powertrain.wheel_accel_limit_rad_s2",
+                p.wheel_accel_limit_rad_s2,
+                0.01,
+                1e4,
+                "rad/s²",
+            ),
+            ("powertrain.time_constant_s", p.time_constant_s, 1e-3, 10.0, "s"),
+            ("limits.max_lin_m_s", l.max_lin_m_s, 0.01, 30.0, "m/s"),
+            ("limits.max_ang_rad_s", l.max_ang_rad_s, 0.01, 20.0, "rad/s"),
+            ("limits.max_lin_acc_m_s2", l.max_lin_acc_m_s2, 0.01, 50.0, "m/s²"),
+            ("safe_area.length_m", self.safe_area.length_m, 1.0, 10_000.0, "m"),
+            ("safe_area.width_m", self.safe_area.width_m, 1.0, 10_000.0, "m"),
+        ] {
+            crate::config::in_range(field, v, lo, hi, unit)?;
+        }
+        // The wheel rim speed bounds the body speed the protocol can command.
+        let rim_m_s = p.max_wheel_rad_s * w.radius_m;
+        if rim_m_s > 30.0 {
+            return Err((
+                "powertrain.max_wheel_rad_s".into(),
+                format!(
+                    "{} rad/s on {} m wheels is a rim speed of {rim_m_s:.1} m/s; must be at most 30 m/s",
+                    p.max_wheel_rad_s, w.radius_m
+                ),
+            ));
+        }
         Ok(())
     }
 }

@@ -154,6 +154,56 @@ impl Validate for Terrain {
             "roughness.correlation_length_m",
             self.roughness.correlation_length_m,
         )?;
+        self.validate_ranges()
+    }
+}
+
+impl Terrain {
+    /// Physical ranges (with units) of the terrain quantities: a value outside is a unit slip
+    /// or a typo, refused before any simulation.
+    fn validate_ranges(&self) -> std::result::Result<(), (String, String)> {
+        let (f, r, g) = (&self.friction, &self.resistance, &self.roughness);
+        for (field, v, lo, hi, unit) in [
+            (
+                "friction.peak_slip_ratio",
+                f.peak_slip_ratio,
+                1e-3,
+                1.0,
+                "(ratio)",
+            ),
+            (
+                "friction.peak_slip_angle_rad",
+                f.peak_slip_angle_rad,
+                1e-3,
+                1.5,
+                "rad",
+            ),
+            ("resistance.sinkage_m", r.sinkage_m, 0.0, 1.0, "m"),
+            (
+                "resistance.bulldozing_pressure_pa",
+                r.bulldozing_pressure_pa,
+                0.0,
+                1e7,
+                "Pa",
+            ),
+            (
+                "resistance.churning_drag_s_m",
+                r.churning_drag_s_m,
+                0.0,
+                100.0,
+                "s/m",
+            ),
+            ("roughness.height_std_m", g.height_std_m, 0.0, 1.0, "m"),
+            (
+                "roughness.correlation_length_m",
+                g.correlation_length_m,
+                1e-3,
+                1_000.0,
+                "m",
+            ),
+        ] {
+            crate::config::in_range(field, v, lo, hi, unit)?;
+        }
         Ok(())
     }
 }

@@ -7,7 +7,7 @@
 //! and without the effect. Sized for CI: 30 steps, small optimizer budgets.
 
 use drive_sim::calibration::surrogate::{KinematicNoise, KinematicPlant};
-use drive_sim::calibration::{calibrate, CalibrationOptions, CalibrationReport, KinematicFactory};
+use drive_sim::calibration::{calibrate_timed, CalibrationOptions, CalibrationReport, KinematicFactory};
 use drive_sim::effects::Effects;
 use drive_sim::log::DriveLog;
 use drive_sim::protocol::sampler::UniformWheel;
@@ -71,7 +71,9 @@ fn run_steps(effects: &[(&str, f64)], seed: u64, steps: u32) -> CalibrationRepor
     let (log, robot) = synthetic_log(effects, seed, steps);
     assert_eq!(log.steps().len(), steps as usize);
     let (terrain, _) = Terrain::resolve("asphalt").unwrap();
-    let r = calibrate(&log, &robot, &terrain, &KinematicFactory, &options()).unwrap();
+    let (r, timings) =
+        calibrate_timed(&log, &robot, &terrain, &KinematicFactory, &options(), &|_| {}).unwrap();
+    eprintln!("injected {effects:?}: time per stage {:?}", timings.lines());
     // Shown with --nocapture: the figures quoted in the calibration report to the lead.
     eprintln!(
         "injected {effects:?}: ranked {:?}, effects {:?}, held-out score IDD {:.2} before {:.2} after {:.2}",

@@ -209,7 +209,8 @@ fn diverging_simulation_leaves_no_complete_log() {
         .replacen("damping_n_s_m = 4000.0", "damping_n_s_m = 0.0", 1);
     let path = dir.path().join("stiff.toml");
     std::fs::write(&path, robot).unwrap();
-    // A complete earlier log at the same path must survive the failed run.
+    // A complete earlier log at the same path must survive the failed run (even with
+    // `--force`, which allows replacing it only by a complete new one).
     std::fs::create_dir_all(dir.path().join("o")).unwrap();
     let earlier = dir.path().join("o/warthog_asphalt_s0.mcap");
     std::fs::write(&earlier, b"earlier log").unwrap();
@@ -223,6 +224,7 @@ fn diverging_simulation_leaves_no_complete_log() {
             "--out",
             "o",
             "--quiet",
+            "--force",
         ],
         dir.path(),
     );

@@ -186,10 +186,12 @@ fn sweep_reports_bad_inputs() {
         String::from_utf8_lossy(&o.stdout),
         String::from_utf8_lossy(&o.stderr)
     );
+    // Refused before any run starts (bad input: exit code 2).
     assert!(
-        text.contains("options.noise") && text.contains("2 runs failed"),
+        text.contains("options.noise") && o.status.code() == Some(2),
         "{text}"
     );
+    assert!(!tmp.path().join("n").exists(), "{text}");
 
     let o = drive_sim(&["sweep-merge", tmp.path().join("nothing").to_str().unwrap()]);
     assert!(!o.status.success());

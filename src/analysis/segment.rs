@@ -41,6 +41,53 @@ fn sample_is_finite(s: &Sample) -> bool {
         .all(|v| v.is_finite())
 }
 
+/// A gap in the samples of a step: two consecutive samples further apart in time than 2.5
+/// sample periods (a dropped stretch of recording), or going back in time.
+fn time_gap(block: &[Sample], meta: &crate::log::LogMeta) -> Option<String> {
+    let period = 1.0 / meta.rate_hz;
+    block.windows(2).find_map(|p| {
+        let dt = p[1].t_in_step_s - p[0].t_in_step_s;
+        (!(dt > 0.0 && dt <= 2.5 * period)).then(|| {
+            format!(
+                "gap in the recording: {dt:.3} s between window {} sample {} and window {} sample {} \
+                 (the sample period is {period:.3} s)",
+                p[0].window, p[0].k, p[1].window, p[1].k
+            )
+        })
+    })
+}
+
+/// A pose outlier (a localisation jump): a pose far from the midpoint of its two neighbours in
+/// the same window. The second difference is small on any drivable path, also on measured logs
+/// whose localisation holds a pose for a few samples and then catches up (up to 1.5 m on the
+/// Warthog datasets); the threshold, 12 top-speed sample periods and at least 3 m, leaves those
+/// alone and catches a jump of meters.
+fn pose_jump(block: &[Sample], meta: &crate::log::LogMeta) -> Option<String> {
+    let period = 1.0 / meta.rate_hz;
+    let limit_m = (12.0 * meta.nominal.max_lin_m_s * period).max(3.0);
+    // The largest second difference names the sample: a spike of d also moves its two
+    // neighbours' second differences by d/2.
+    let (d, at) = block
+        .windows(3)
+        .filter(|t| t[0].window == t[1].window && t[1].window == t[2].window)
+        .map(|t| {
+            let (a, b, c) = (t[0].m.pose, t[1].m.pose, t[2].m.pose);
+            let d = ((b.x_m - (a.x_m + c.x_m) / 2.0).powi(2)
+                + (b.y_m - (a.y_m + c.y_m) / 2.0).powi(2)
+                + (b.z_m - (a.z_m + c.z_m) / 2.0).powi(2))
+            .sqrt();
+            (d, &t[1])
+        })
+        .max_by(|x, y| x.0.total_cmp(&y.0))?;
+    (d > limit_m).then(|| {
+        format!(
+            "pose outlier (localisation jump): the pose at window {} sample {} is {d:.2} m off \
+             the path of its neighbours (more than {limit_m:.1} m)",
+            at.window, at.k
+        )
+    })
+}
+
 /// Splits `log.samples` into complete steps; the others become [`Exclusion`]s.
 pub fn segment(log: &DriveLog, min_samples_per_window: usize) -> (Vec<StepSegment<'_>>, Vec<Exclusion>) {
     let wps = log.meta.windows_per_step as usize;
@@ -104,6 +151,9 @@ pub fn segment(log: &DriveLog, min_samples_per_window: usize) -> (Vec<StepSegmen
                     bad.window, bad.k
                 ));
             }
+        }
+        if problem.is_none() {
+            problem = time_gap(block, &log.meta).or_else(|| pose_jump(block, &log.meta));
         }
         match problem {
             Some(reason) => exclusions.push(Exclusion { step, reason }),

@@ -7,7 +7,7 @@ use super::metrics::{
 };
 use super::model::{ModelParams, PlantFactory};
 use super::replay::replay_map;
-use super::steps::{step_start, StepSlice, StepStart};
+use super::steps::{step_start_in, StepSlice, StepStart};
 use crate::error::{Error, Result};
 use crate::kinematics::WheelSpeeds;
 use rand::seq::SliceRandom;
@@ -48,7 +48,7 @@ impl<'a> StepSet<'a> {
             .collect::<Result<_>>()?;
         let starts = steps
             .iter()
-            .map(|s| step_start(s.samples))
+            .map(|s| step_start_in(all, *s))
             .collect::<Result<_>>()?;
         Ok(Self {
             steps,
@@ -92,6 +92,23 @@ impl<'a> StepSet<'a> {
             params,
             self.rate_hz,
             |i, sim| step_residuals(&step_features(self.steps[i].step, &sim)?, &self.features[i]),
+        )
+    }
+
+    /// Replays every step on the model and returns the model's own features (what the
+    /// estimators extract from the replay), in step order.
+    pub fn replay_features(
+        &self,
+        factory: &dyn PlantFactory,
+        params: &ModelParams,
+    ) -> Result<Vec<StepFeatures>> {
+        replay_map(
+            &self.steps,
+            &self.starts,
+            factory,
+            params,
+            self.rate_hz,
+            |i, sim| step_features(self.steps[i].step, &sim),
         )
     }
 

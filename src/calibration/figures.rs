@@ -4,8 +4,9 @@ use super::residual::{ResidualAnalysis, ResidualMap};
 use super::CalibrationReport;
 use crate::error::Result;
 use crate::report::{
-    box_plots, heat_maps, line_bands, AxisLabel, BandPoint, BandSeries, BoxGroup, BoxPanel, ColourMap,
-    ColourScale, FigureFiles, Grid2, HeatPanel, HtmlReport, KeyFigure, LineAxes,
+    bar_chart, box_plots, heat_maps, line_bands, AxisLabel, BandPoint, BandSeries, BarChart, BarSeries,
+    BoxGroup, BoxPanel, ColourMap, ColourScale, FigureFiles, Grid2, HeatPanel, HtmlReport, KeyFigure,
+    LineAxes,
 };
 use std::path::{Path, PathBuf};
 
@@ -50,6 +51,48 @@ fn time_series(label: &str, a: &ResidualAnalysis, c: usize) -> BandSeries {
 /// after effects), residual over time in step, and per-step held-out scores.
 pub fn write_figures(report: &CalibrationReport, dir: &Path) -> Result<Vec<(String, FigureFiles)>> {
     let mut out = Vec::new();
+    // What the model lacks first: residual / floor per channel, declared and calibrated.
+    if let (Some(b), Some(a)) = (&report.diagnosis_before, &report.diagnosis_after) {
+        let chart = BarChart {
+            categories: b.channels.iter().map(|c| c.channel.clone()).collect(),
+            series: vec![
+                BarSeries {
+                    label: "declared model".into(),
+                    values: b.channels.iter().map(|c| Some(c.ratio)).collect(),
+                },
+                BarSeries {
+                    label: "calibrated model".into(),
+                    values: b
+                        .channels
+                        .iter()
+                        .map(|c| a.channel(&c.channel).map(|x| x.ratio))
+                        .collect(),
+                },
+            ],
+            value: AxisLabel::new("RMSE / noise floor", ""),
+            log: true,
+            references: vec![
+                (super::diagnosis::STEADY_FLAG, "steady flag (2×)".into()),
+                (
+                    super::diagnosis::TRANSIENT_FLAG,
+                    "transient / pose flag (3×)".into(),
+                ),
+            ],
+        };
+        let files = bar_chart(
+            dir,
+            "residual_vs_floor",
+            &format!(
+                "{}: residual / noise floor per channel, test steps",
+                report.dataset
+            ),
+            &chart,
+        )?;
+        out.push((
+            "What the model lacks: RMSE / noise floor per channel on the test steps, declared and calibrated model (1 = at the floor; flagged above 2 steady, 3 transient and pose).".into(),
+            files,
+        ));
+    }
     let poly = report.model_before.robot.command_space().polygon_body();
     let units = ["m/s", "m/s", "rad/s"];
     let quantity = [
@@ -160,6 +203,13 @@ pub fn write_html(
             .collect::<Vec<_>>()
             .join(", ")
     };
+    let lacks = super::diagnosis::lacks_summary(report);
+    if !lacks.is_empty() {
+        let section = h.section("What the model lacks");
+        for line in lacks {
+            section.paragraph(line);
+        }
+    }
     h.section("Summary")
         .paragraph(format!(
             "Model `{}` calibrated on {} training steps, every figure below on {} held-out steps \

@@ -25,6 +25,7 @@
 //! analyses: test.
 
 pub mod data;
+pub mod diagnosis;
 pub mod figures;
 pub mod fit;
 pub mod metrics;
@@ -94,6 +95,10 @@ pub struct CalibrationOptions {
     /// (0: all).
     #[serde(default = "default_rerank_top")]
     pub rerank_top: usize,
+    /// After selection, look for what the catalogue lacks: diagnose the residual, discover
+    /// equations in it and try them as model terms ([`stages::discovery`]).
+    #[serde(default = "default_discover")]
+    pub discover: bool,
     /// Grid resolution of the residual maps (m/s and rad/s).
     pub grid_step: f64,
     /// Kernel variance of the residual maps; the paper's for the robot when `None`
@@ -104,6 +109,10 @@ pub struct CalibrationOptions {
 fn default_validation_fraction() -> f64 {
     0.2
 }
+fn default_discover() -> bool {
+    true
+}
+
 fn default_screen_keep() -> usize {
     3
 }
@@ -128,6 +137,7 @@ impl Default for CalibrationOptions {
             screen_keep: default_screen_keep(),
             pair_top: default_pair_top(),
             rerank_top: default_rerank_top(),
+            discover: default_discover(),
             grid_step: 0.1,
             kernel_var: None,
         }
@@ -235,6 +245,15 @@ pub struct CalibrationReport {
     /// Parameters that ended on a bound: likely stand-ins for an effect the model lacks.
     #[serde(default)]
     pub stand_ins: Vec<String>,
+    /// What discovery did after selection (rounds, equations, what was added and why).
+    #[serde(default)]
+    pub discovery: Option<stages::discovery::DiscoveryReport>,
+    /// Residual diagnosis of the declared model on the test steps (RMSE / floor per channel).
+    #[serde(default)]
+    pub diagnosis_before: Option<diagnosis::Diagnosis>,
+    /// Residual diagnosis of the calibrated model on the test steps.
+    #[serde(default)]
+    pub diagnosis_after: Option<diagnosis::Diagnosis>,
     /// Effects in the final model with their fitted values (`effect.<name>`) and intervals.
     pub effects: Vec<FittedParam>,
     /// Registered effects this model cannot run (contact effects for the kinematic model).
@@ -261,16 +280,12 @@ pub fn models_for_log(log: &DriveLog) -> Result<(Robot, Terrain, Vec<String>)> {
     robot.wheels.baseline_m = n.baseline_m;
     robot.powertrain.max_wheel_rad_s = n.max_wheel_rad_s;
     let mut notes = Vec::new();
-    let terrain = match Terrain::resolve(&log.meta.terrain) {
-        Ok((t, _)) => t,
-        Err(_) => {
-            notes.push(format!(
-                "terrain `{}` has no terrain file: started from `asphalt`",
-                log.meta.terrain
-            ));
-            Terrain::resolve("asphalt")?.0
-        }
+    let file = match &log.meta.origin {
+        crate::log::Origin::Measured { file } => std::path::PathBuf::from(file),
+        _ => std::path::PathBuf::from(&log.meta.name),
     };
+    let (terrain, warning) = crate::log::terrain_of_log(&log.meta, &file)?;
+    notes.extend(warning);
     Ok((robot, terrain, notes))
 }
 
@@ -463,6 +478,7 @@ pub fn calibrate_timed(
     } else {
         (None, pool, base_specs.clone())
     };
+    let refit_for_discovery = refit.clone();
     let selection = timings.time("selection", || {
         selection::run(
             &ctx,
@@ -479,6 +495,29 @@ pub fn calibrate_timed(
             },
         )
     })?;
+    let mut selection = selection;
+    let discovery = if opts.discover {
+        let out = timings.time("discovery", || {
+            stages::discovery::run(
+                &ctx,
+                stages::discovery::DiscoveryInput {
+                    current: selection.current.clone(),
+                    current_validation: selection.current_validation.clone(),
+                    selected: selection.selected.clone(),
+                    refit: refit_for_discovery.clone(),
+                },
+            )
+        })?;
+        if out.added {
+            selection.current = out.current;
+            selection.current_validation = out.current_validation;
+            selection.selected = out.selected;
+            selection.refit_current = false;
+        }
+        Some(out.report)
+    } else {
+        None
+    };
     let final_fit = timings.time("final fit", || {
         final_fit::run(
             &ctx,
@@ -492,7 +531,7 @@ pub fn calibrate_timed(
             },
         )
     })?;
-    let report = timings.time("report", || {
+    let mut report = timings.time("report", || {
         report::run(
             &ctx,
             report::ReportInput {
@@ -505,6 +544,18 @@ pub fn calibrate_timed(
             },
         )
     })?;
+    timings.time("diagnosis", || -> Result<()> {
+        let idd = robot.idd();
+        for (model, slot) in [
+            (&report.model_before, &mut report.diagnosis_before),
+            (&report.model_after, &mut report.diagnosis_after),
+        ] {
+            let r = ctx.test.residuals(factory, model)?;
+            *slot = Some(diagnosis::diagnose(&r, &ctx.test.features, &ctx.floor, &idd));
+        }
+        Ok(())
+    })?;
+    report.discovery = discovery;
     Ok((report, timings))
 }
 

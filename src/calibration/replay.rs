@@ -8,7 +8,8 @@
 //! not depend on the thread count.
 
 use super::model::{ModelParams, PlantFactory};
-use super::steps::{step_slices, step_start, StepSlice, StepStart};
+use super::steps::{step_slices, step_start_in, StepSlice, StepStart};
+use crate::effects::StepContext;
 use crate::error::{Error, Result};
 use crate::log::{DriveLog, Frame, LogMeta, Origin, Sample};
 use crate::sim::Plant;
@@ -59,6 +60,10 @@ pub fn replay_step(
 ) -> Result<Vec<Sample>> {
     let wheels = plant.wheels_from_encoders(start.wheels);
     plant.reset(start.pose, start.velocity, wheels);
+    plant.begin_step(StepContext {
+        step: step.step,
+        previous_cmd: start.previous_cmd,
+    });
     STEPS_REPLAYED.fetch_add(1, Ordering::Relaxed);
     let mut out = Vec::with_capacity(step.samples.len());
     for (i, s) in step.samples.iter().enumerate() {
@@ -123,7 +128,7 @@ pub fn replay_steps(
 ) -> Result<Vec<Vec<Sample>>> {
     let starts = steps
         .iter()
-        .map(|s| step_start(s.samples))
+        .map(|s| step_start_in(steps, *s))
         .collect::<Result<Vec<_>>>()?;
     replay_map(steps, &starts, factory, params, rate_hz, |_, s| Ok(s))
 }

@@ -46,6 +46,9 @@ pub struct StepStart {
     pub velocity: BodyVelocity,
     /// Encoder wheel speeds of the first sample.
     pub wheels: WheelSpeeds,
+    /// The previous step's command (its last sample's), or the wheels at the start when
+    /// the previous step is not in the log.
+    pub previous_cmd: WheelSpeeds,
 }
 
 /// Estimates the state at the start of a step (see [`StepStart`]).
@@ -77,5 +80,20 @@ pub fn step_start(samples: &[Sample]) -> Result<StepStart> {
         pose: first.m.pose,
         velocity,
         wheels: first.m.enc,
+        previous_cmd: first.m.enc,
     })
+}
+
+/// The start of `steps[i]` with the previous step's command taken from `all` (the log's
+/// steps in order) when the previous step index is there.
+pub fn step_start_in(all: &[StepSlice<'_>], step: StepSlice<'_>) -> Result<StepStart> {
+    let mut start = step_start(step.samples)?;
+    if let Some(prev) = step.step.checked_sub(1) {
+        if let Some(p) = all.iter().find(|s| s.step == prev) {
+            if let Some(last) = p.samples.last() {
+                start.previous_cmd = last.m.cmd;
+            }
+        }
+    }
+    Ok(start)
 }

@@ -4,7 +4,7 @@
 //! machinery (replay, metrics, optimizer, effect selection) can be tested end to end on it,
 //! and it is the fast model `calibrate` can fall back to.
 
-use crate::effects::{Effects, PlantModifiers};
+use crate::effects::{Effects, PlantModifiers, StepContext, TermInput};
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use crate::log::{GroundTruth, Measurement, Pose};
@@ -51,6 +51,14 @@ pub struct KinematicPlant {
     poses: VecDeque<(f64, Pose)>,
     time_s: f64,
     velocity: BodyVelocity,
+    /// The body velocity before offsets (behind the wheels' when the body lags).
+    body: BodyVelocity,
+    /// The step being run.
+    ctx: StepContext,
+    /// Plant time at which it started, s.
+    step_t0_s: f64,
+    /// What the effects read at the last substep.
+    input: TermInput,
 }
 
 impl KinematicPlant {
@@ -82,6 +90,10 @@ impl KinematicPlant {
             poses: VecDeque::new(),
             time_s: 0.0,
             velocity: BodyVelocity::default(),
+            body: BodyVelocity::default(),
+            ctx: StepContext::default(),
+            step_t0_s: 0.0,
+            input: TermInput::default(),
         };
         p.reset(Pose::default(), BodyVelocity::default(), WheelSpeeds::default());
         Ok(p)
@@ -157,10 +169,27 @@ impl Plant for KinematicPlant {
         let tau = self.time_constant_s * self.mods.time_constant_scale;
         let a = if tau > 0.0 { 1.0 - (-h / tau).exp() } else { 1.0 };
         let idd = self.true_idd();
+        let body_tau = self.mods.body_time_constant_s;
+        let b = if body_tau > 0.0 {
+            1.0 - (-h / body_tau).exp()
+        } else {
+            1.0
+        };
+        let on_body = self.effects.acts_on_body();
+        let latest = self.cmds.back().map(|c| c.1).unwrap_or_default();
+        let mut x = TermInput {
+            cmd: latest,
+            cmd_body: self.idd.body_from_wheels(latest),
+            previous_cmd_body: self.idd.body_from_wheels(self.ctx.previous_cmd),
+            step: self.ctx.step,
+            ..TermInput::default()
+        };
         for _ in 0..n {
+            x.t_in_step_s = self.time_s - self.step_t0_s;
+            x.body = self.body;
             let target = self
                 .effects
-                .wheel_targets(self.delayed_cmd(self.time_s), &self.idd);
+                .wheel_targets_in(self.delayed_cmd(self.time_s), &self.idd, &x);
             let before = self.wheels;
             self.wheels.left_rad_s += a * (target.left_rad_s - self.wheels.left_rad_s);
             self.wheels.right_rad_s += a * (target.right_rad_s - self.wheels.right_rad_s);
@@ -169,14 +198,54 @@ impl Plant for KinematicPlant {
                 (before.left_rad_s + self.wheels.left_rad_s) / 2.0,
                 (before.right_rad_s + self.wheels.right_rad_s) / 2.0,
             );
-            integrate_unicycle(&mut self.pose, idd.body_from_wheels(mid), h);
+            let v_mid = if on_body {
+                let from_wheels = idd.body_from_wheels(mid);
+                let body_before = self.body;
+                self.body = BodyVelocity::new(
+                    self.body.vx_m_s + b * (from_wheels.vx_m_s - self.body.vx_m_s),
+                    0.0,
+                    self.body.wz_rad_s + b * (from_wheels.wz_rad_s - self.body.wz_rad_s),
+                );
+                x.accel = [
+                    (self.body.vx_m_s - body_before.vx_m_s) / h,
+                    (self.body.wz_rad_s - body_before.wz_rad_s) / h,
+                ];
+                x.body = self.body;
+                let o = self.effects.body_offset(&x);
+                BodyVelocity::new(
+                    self.body.vx_m_s + o.vx_m_s,
+                    o.vy_m_s,
+                    self.body.wz_rad_s + o.wz_rad_s,
+                )
+            } else {
+                let v = idd.body_from_wheels(mid);
+                x.accel = [
+                    (v.vx_m_s - self.body.vx_m_s) / h,
+                    (v.wz_rad_s - self.body.wz_rad_s) / h,
+                ];
+                self.body = idd.body_from_wheels(self.wheels);
+                v
+            };
+            // A lateral velocity (a body offset) moves the pose sideways: integrate the
+            // planar motion in the frame at the mid heading.
+            if v_mid.vy_m_s != 0.0 {
+                let (s, c) = (self.pose.yaw_rad + 0.5 * v_mid.wz_rad_s * h).sin_cos();
+                self.pose.x_m -= s * v_mid.vy_m_s * h;
+                self.pose.y_m += c * v_mid.vy_m_s * h;
+            }
+            integrate_unicycle(&mut self.pose, v_mid, h);
             self.time_s += h;
-            self.velocity = idd.body_from_wheels(self.wheels);
+            self.velocity = if on_body {
+                v_mid
+            } else {
+                idd.body_from_wheels(self.wheels)
+            };
             // Only a pose latency reads past poses.
             if self.mods.pose_latency_s > 0.0 {
                 self.poses.push_back((self.time_s, self.pose));
             }
         }
+        self.input = x;
         // Keep only what the dead time and latency can still reach.
         let horizon = self.mods.dead_time_s.max(self.mods.pose_latency_s) + 2.0 * dt_s + 0.1;
         while self.cmds.len() > 1 && self.cmds[1].0 < self.time_s - horizon {
@@ -192,7 +261,7 @@ impl Plant for KinematicPlant {
         let e = self.effects.clone();
         let v = self.velocity;
         let mut enc = e.encoders(self.wheels);
-        let mut wz = e.imu_yaw_rate(v.wz_rad_s);
+        let mut wz = e.imu_yaw_rate_in(v.wz_rad_s, &self.input);
         let mut pose = if self.mods.pose_latency_s > 0.0 {
             self.pose_at(self.time_s - self.mods.pose_latency_s)
         } else {
@@ -238,16 +307,28 @@ impl Plant for KinematicPlant {
         self.effects.wheels_from_encoders(encoders)
     }
 
+    fn begin_step(&mut self, ctx: StepContext) {
+        self.ctx = ctx;
+        self.step_t0_s = self.time_s;
+    }
+
     fn reset(&mut self, pose: Pose, velocity: BodyVelocity, wheels: WheelSpeeds) {
-        // Kinematic: the wheels define the body velocity; `velocity` has no independent state.
-        let _ = velocity;
+        // Kinematic: the wheels define the body velocity, unless the body lags them; then the
+        // measured velocity is its state.
         self.pose = pose;
         self.wheels = wheels;
         self.velocity = self.true_idd().body_from_wheels(wheels);
+        self.body = if self.mods.body_time_constant_s > 0.0 {
+            BodyVelocity::new(velocity.vx_m_s, 0.0, velocity.wz_rad_s)
+        } else {
+            self.velocity
+        };
+        self.input = TermInput::default();
         self.cmds.clear();
         // The command history that holds the wheels where they are.
         self.cmds.push_back((f64::NEG_INFINITY, wheels));
         self.time_s = 0.0;
+        self.step_t0_s = 0.0;
         self.poses.clear();
         self.poses.push_back((self.time_s, pose));
     }

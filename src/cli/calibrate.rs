@@ -90,7 +90,8 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
     };
     let params = calibration::twin::lift_effects(&robot, &terrain)?;
     let cmp = calibration::replay_model_and_compare(&log, &params, kind, score.as_ref())?;
-    std::fs::create_dir_all(&args.out).map_err(|e| crate::Error::io(&args.out, e))?;
+    let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
+    let dir = staged.path();
     // The replay as a log of its own, readable by `analyze` and Foxglove.
     let mut meta = cmp.replayed.meta.clone();
     meta.name = format!("{}_replay", log.meta.name);
@@ -105,11 +106,24 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
     }
     let frames: Vec<_> = cmp.replayed.samples.iter().map(|s| s.to_frame()).collect();
     let mcap = args.out.join(format!("{}.mcap", meta.name));
-    write_mcap(&mcap, &meta, &frames)?;
+    write_mcap(dir.join(format!("{}.mcap", meta.name)), &meta, &frames)?;
     super::run::write_json(
-        &args.out.join("replay.json"),
-        &serde_json::json!({"model": cmp.model, "idd": cmp.idd, "floor": cmp.floor, "test": cmp.test}),
+        &dir.join("replay.json"),
+        &serde_json::json!({
+            "model": cmp.model,
+            "idd": cmp.idd,
+            "floor": cmp.floor,
+            "test": cmp.test,
+            "provenance": provenance(&args.log, serde_json::json!({
+                "model": args.model,
+                "robot": args.input.robot,
+                "terrain": args.input.terrain,
+                "roles": args.input.roles,
+                "score_like": args.score_like,
+            })),
+        }),
     )?;
+    staged.commit()?;
     let mut out = std::io::stdout().lock();
     writeln!(
         out,
@@ -162,9 +176,8 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
     // Bad input is refused before any long work.
     let kind = ModelKind::parse(&args.model)?;
     let optimizer = calibration::Optimizer::parse(&args.optimizer)?;
-    if args.out.is_file() {
-        anyhow::bail!("--out {}: is a file, not a directory", args.out.display());
-    }
+    // The output folder is checked (and staged) before the long work; it appears whole.
+    let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
     eprintln!("drive-sim: reading {}", args.log.display());
     let log = args
         .use_steps
@@ -205,18 +218,39 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
         args.use_steps.as_str(),
         args.out.display()
     );
-    let mut files = calibration::write_report(&report, &args.out)?;
-    files.push(calibration::write_timings(&timings, &args.out)?);
+    let mut files = calibration::write_report(&report, staged.path())?;
+    files.push(calibration::write_timings(&timings, staged.path())?);
+    crate::provenance::stamp_json_file(
+        &staged.path().join("calibration.json"),
+        &provenance(
+            &args.log,
+            serde_json::json!({
+                "model": args.model,
+                "seed": args.seed,
+                "max_effects": args.max_effects,
+                "max_fit_steps": args.max_fit_steps,
+                "optimizer": args.optimizer,
+                "candidates": args.candidates,
+                "use_steps": args.use_steps.as_str(),
+                "robot": args.input.robot,
+                "terrain": args.input.terrain,
+                "roles": args.input.roles,
+            }),
+        ),
+    )?;
     // A simulator fit is a runnable twin; a kinematic fit's values are effective ones.
     if kind == ModelKind::Simulator {
         let twin = calibration::twin::twin_of_report(&report)?;
-        let paths = calibration::twin::write_twin(&twin, &args.out.join("twin"))?;
+        let paths = calibration::twin::write_twin(&twin, &staged.path().join("twin"))?;
+        files.extend(paths);
+    }
+    staged.commit()?;
+    if kind == ModelKind::Simulator {
         eprintln!(
             "drive-sim: twin: drive-sim run --robot {} --terrain {}",
-            paths[0].display(),
-            paths[1].display()
+            args.out.join("twin/robot.toml").display(),
+            args.out.join("twin/terrain.toml").display()
         );
-        files.extend(paths);
     }
     print_report(&report)?;
     eprintln!("drive-sim: time per stage:");
@@ -253,6 +287,13 @@ fn with_interval(p: &calibration::FittedParam) -> String {
 
 fn print_report(r: &CalibrationReport) -> Result<(), std::io::Error> {
     let mut out = std::io::stdout().lock();
+    let lacks = calibration::diagnosis::lacks_summary(r);
+    if !lacks.is_empty() {
+        writeln!(out, "what the model lacks:")?;
+        for line in lacks {
+            writeln!(out, "  {line}")?;
+        }
+    }
     writeln!(
         out,
         "{} ({} model): scores on {} test steps (fits on {} training steps, choices on {} validation steps)",
@@ -356,4 +397,9 @@ fn print_report(r: &CalibrationReport) -> Result<(), std::io::Error> {
         writeln!(out, "  note: {n}")?;
     }
     Ok(())
+}
+
+/// Provenance of a replay or calibration output: the log's hash and the options.
+fn provenance(log: &std::path::Path, options: serde_json::Value) -> crate::provenance::Provenance {
+    crate::provenance::Provenance::new(vec![crate::provenance::InputFile::of_file("log", log)], options)
 }

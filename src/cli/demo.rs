@@ -63,6 +63,10 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<()> {
                 partial.display()
             )
         }
+        DemoEvent::Run(RunEvent::Interrupted { log }) => {
+            bar.abandon();
+            eprintln!("drive-sim demo: interrupted; closed {}", log.display())
+        }
         DemoEvent::RunDone(r) => {
             bar.finish_and_clear();
             eprintln!("  {}", describe(r))

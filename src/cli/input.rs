@@ -13,9 +13,11 @@ pub struct InputArgs {
     /// calibrated from, used as written (e.g. a twin's `robot.toml`).
     #[arg(long)]
     pub robot: Option<String>,
-    /// Bags: terrain label (a bag does not record it); default `unlabelled`. `replay` and
-    /// `calibrate`: also the terrain model (a name or a terrain TOML, e.g. a twin's).
-    #[arg(long)]
+    /// Terrain the log was recorded on, a name (see `drive-sim terrains`) or a terrain TOML:
+    /// replaces the label a log declares (required when that label is a terrain drive-sim does
+    /// not know); a bag does not record one (default `unlabelled`, models start from `asphalt`).
+    /// `replay` and `calibrate`: also the terrain model, used as written (e.g. a twin's).
+    #[arg(long, value_name = "NAME|FILE")]
     pub terrain: Option<String>,
     /// Bags: topic roles, `warthog`, `husky` (the DRIVE node's presets) or a roles TOML;
     /// default: the preset whose topics are in the bag, else a guess from types and names.

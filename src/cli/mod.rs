@@ -16,7 +16,15 @@ use std::io::Write;
 
 /// Simulation-backed test harness for the DRIVE protocol.
 #[derive(Debug, Parser)]
-#[command(name = "drive-sim", version, about, long_about = None)]
+#[command(
+    name = "drive-sim",
+    version,
+    about,
+    long_about = None,
+    after_help = "Exit codes: 0 success; 1 the run failed (a diverged simulation, a failed write); \
+                  2 bad input (an option, file or name, reported before any long work); \
+                  130 interrupted (Ctrl-C / SIGTERM; `run` and `sweep` close what they wrote)."
+)]
 pub struct Cli {
     /// What to do; without one, runs the demonstration (`drive-sim demo`).
     #[command(subcommand)]
@@ -75,6 +83,17 @@ pub fn main() -> i32 {
         {
             0
         }
+        Err(e)
+            if e.chain().any(|c| {
+                matches!(
+                    c.downcast_ref::<crate::Error>(),
+                    Some(crate::Error::Interrupted { .. })
+                )
+            }) =>
+        {
+            eprintln!("drive-sim: {e:#}");
+            crate::interrupt::EXIT_CODE
+        }
         Err(e) => {
             eprintln!("drive-sim: error: {e:#}");
             // Exit code 2 for bad input (as clap does for bad arguments), 1 for a failed run.
@@ -92,9 +111,16 @@ pub fn main() -> i32 {
 
 fn dispatch(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        None => demo::demo(&demo::DemoArgs::default()),
-        Some(Command::Demo(a)) => demo::demo(&a),
+        None => {
+            crate::interrupt::install();
+            demo::demo(&demo::DemoArgs::default())
+        }
+        Some(Command::Demo(a)) => {
+            crate::interrupt::install();
+            demo::demo(&a)
+        }
         Some(Command::Run(a)) => {
+            crate::interrupt::install();
             eprintln!(
                 "drive-sim: running DRIVE: {} on {}, {} steps, seed {}, sampler {}",
                 a.robot, a.terrain, a.steps, a.seed, a.sampler
@@ -112,7 +138,10 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Analyze(a)) => analyze::analyze(&a),
         Some(Command::Inspect(a)) => input::inspect(&a),
         Some(Command::Samplers(a)) => samplers::samplers(&a),
-        Some(Command::Sweep(a)) => sweep::sweep(&a),
+        Some(Command::Sweep(a)) => {
+            crate::interrupt::install();
+            sweep::sweep(&a)
+        }
         Some(Command::SweepMerge(a)) => sweep::sweep_merge(&a),
     }
 }
@@ -120,8 +149,24 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
 fn list_effects() -> anyhow::Result<()> {
     use crate::effects::{ParamKind, SearchBox, REGISTRY};
     let mut out = std::io::stdout().lock();
-    for e in REGISTRY {
+    for e in REGISTRY.iter() {
         writeln!(out, "{} ({}): {}", e.name(), e.stage().as_str(), e.doc())?;
+        if e.generic() {
+            // One coefficient per library feature: listed by pattern, not one by one.
+            let first = e.params().first().map_or("", |p| p.key);
+            let stem = first.split("__").next().unwrap_or(first);
+            writeln!(
+                out,
+                "    --inject {stem}__FEATURE=VALUE  coefficient of a feature ({} features: {}), neutral 0",
+                e.params().len(),
+                e.params()
+                    .iter()
+                    .map(|p| p.key.split("__").nth(1).unwrap_or(""))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )?;
+            continue;
+        }
         for p in e.params() {
             let range = match p.kind {
                 ParamKind::Flag => "0 or 1".to_string(),

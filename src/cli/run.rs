@@ -40,9 +40,13 @@ pub struct RunArgs {
     /// Output directory.
     #[arg(long, default_value = "out/run")]
     pub out: PathBuf,
-    /// Log name (file stem); default `<robot>_<terrain>_s<seed>`.
+    /// Log name (file stem, no path separator); default `<robot>_<terrain>_s<seed>`.
     #[arg(long)]
     pub name: Option<String>,
+    /// Overwrite a log of the same name made with other options (refused otherwise; a rerun
+    /// with the same options always replaces it).
+    #[arg(long)]
+    pub force: bool,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -70,6 +74,7 @@ pub fn run(args: &RunArgs) -> Result<RunReport> {
         injected: args.inject.clone(),
         out: args.out.clone(),
         name: args.name.clone(),
+        force: args.force,
     };
     let bar = if args.quiet {
         ProgressBar::hidden()
@@ -84,6 +89,13 @@ pub fn run(args: &RunArgs) -> Result<RunReport> {
     bar.set_prefix(format!("{} on {}", args.robot, args.terrain));
     let report = record_run(&req, &mut |event| match event {
         RunEvent::StepDone(n) => bar.set_position(n as u64),
+        RunEvent::Interrupted { log } => {
+            bar.abandon();
+            eprintln!(
+                "drive-sim: interrupted; the steps simulated so far are closed in {} (a valid, incomplete log)",
+                log.display()
+            );
+        }
         RunEvent::Failed { partial } => {
             bar.abandon();
             eprintln!(

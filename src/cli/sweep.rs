@@ -9,6 +9,7 @@ use crate::sweep::{merge, run_sweep_with_progress, MergeArgs, RunOutcome, SweepA
 pub fn sweep(args: &SweepArgs) -> anyhow::Result<()> {
     let matrix = SweepMatrix::load(&args.matrix)?;
     matrix.check_names(&args.matrix)?;
+    crate::experiments::sweep::validate_matrix(&matrix, &args.matrix)?;
     let choice = args.shard_choice(&|name| std::env::var(name).ok())?;
     let opts = args.options(choice.shard);
     let total = matrix.shard(opts.shard).len();
@@ -39,6 +40,17 @@ pub fn sweep(args: &SweepArgs) -> anyhow::Result<()> {
         report.skipped(),
         report.failed()
     );
+    if crate::interrupt::requested() {
+        eprintln!(
+            "drive-sim sweep: interrupted; {} runs complete are kept; rerun the same command to resume where it stopped",
+            report.done() + report.skipped()
+        );
+        return Err(crate::Error::Interrupted {
+            step: (report.done() + report.skipped()) as u32,
+            time_s: 0.0,
+        }
+        .into());
+    }
     if report.failed() > 0 {
         anyhow::bail!(
             "{} runs failed; rerun the same command to retry them",

@@ -13,6 +13,8 @@
 //! `--inject NAME=VALUE` builds, what a simulator runs with and what calibration fits. It
 //! serializes as a map from parameter name to value, the form logs and reports already use.
 
+mod body_lag;
+mod centripetal_slip;
 mod command_speed_limit;
 mod command_yaw_rate_limit;
 mod controller_kinematics;
@@ -22,9 +24,13 @@ mod encoder_scale;
 mod imu_yaw_rate_bias;
 mod imu_yaw_rate_scale;
 mod imu_yaw_rate_sign_flip;
+mod lateral_drift;
 mod motor_gain;
+mod motor_gain_drift;
 mod pose_latency;
+mod reverse_baseline_scale;
 mod suspension_torsion;
+pub mod term;
 mod time_constant_scale;
 mod turning_resistance;
 mod wheel_radius_scale;
@@ -35,6 +41,8 @@ use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::collections::BTreeMap;
 use std::fmt;
+use std::sync::LazyLock;
+pub use term::{Feature, StepContext, TermInput, TermTarget};
 
 /// Where an effect acts on the way from a command to the sensors.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -222,6 +230,8 @@ pub struct PlantModifiers {
     pub relaxation_length_m: f64,
     /// Age of the pose when it is read, s.
     pub pose_latency_s: f64,
+    /// Time constant of the body velocity behind the wheels', s (0: none).
+    pub body_time_constant_s: f64,
 }
 
 impl Default for PlantModifiers {
@@ -233,6 +243,7 @@ impl Default for PlantModifiers {
             lateral_friction_scale: 1.0,
             relaxation_length_m: 0.0,
             pose_latency_s: 0.0,
+            body_time_constant_s: 0.0,
         }
     }
 }
@@ -253,6 +264,11 @@ pub trait Effect: Send + Sync {
     fn kinematic(&self) -> bool {
         self.stage() != Stage::Contact
     }
+    /// A generic term ([`term`]) rather than a named effect of the catalogue: calibration
+    /// tries it only where equation discovery proposes it.
+    fn generic(&self) -> bool {
+        false
+    }
     /// Transforms the command in the nominal body space, before the controller's kinematics
     /// (clamps of a velocity controller). Only called when [`Effect::uses_body_space`].
     fn body_command(&self, _p: &[f64], v: BodyVelocity) -> BodyVelocity {
@@ -269,6 +285,23 @@ pub trait Effect: Send + Sync {
     /// Transforms the wheel-speed targets (in registry order).
     fn wheel_targets(&self, _p: &[f64], w: WheelSpeeds) -> WheelSpeeds {
         w
+    }
+    /// Transforms the wheel-speed targets knowing the step and the model's state (in registry
+    /// order; the default calls [`Effect::wheel_targets`], so an effect implements one of the
+    /// two).
+    fn wheel_targets_in(&self, p: &[f64], w: WheelSpeeds, _x: &TermInput) -> WheelSpeeds {
+        self.wheel_targets(p, w)
+    }
+    /// A velocity added to the body's (body frame) that the wheels do not see: a sideways
+    /// slide, a turn the wheels do not explain. Plants integrate it into the pose, and the IMU
+    /// sees its yaw rate.
+    fn body_offset(&self, _p: &[f64], _x: &TermInput) -> BodyVelocity {
+        BodyVelocity::default()
+    }
+    /// The IMU yaw-rate reading knowing the step and the model's state (defaults to
+    /// [`Effect::imu_yaw_rate`]).
+    fn imu_yaw_rate_in(&self, p: &[f64], wz: f64, _x: &TermInput) -> f64 {
+        self.imu_yaw_rate(p, wz)
     }
     /// The encoder readings for the true wheel spins.
     fn encoders(&self, _p: &[f64], w: WheelSpeeds) -> WheelSpeeds {
@@ -296,24 +329,44 @@ impl fmt::Debug for dyn Effect {
 /// the wheel loop, the body, the contact, the sensors). Order matters where two effects of a
 /// stage compose: the curvature-preserving limit acts before the motor gains, the gains before
 /// the per-motor saturation.
-pub static REGISTRY: &[&dyn Effect] = &[
-    &dead_time::DeadTime,
-    &command_speed_limit::CommandSpeedLimit,
-    &command_yaw_rate_limit::CommandYawRateLimit,
-    &controller_kinematics::ControllerKinematics,
-    &controller_wheel_limit::ControllerWheelLimit,
-    &motor_gain::MotorGain,
-    &wheel_speed_saturation::WheelSpeedSaturation,
-    &time_constant_scale::TimeConstantScale,
-    &wheel_radius_scale::WheelRadiusScale,
-    &turning_resistance::TurningResistance,
-    &suspension_torsion::SuspensionTorsion,
-    &imu_yaw_rate_sign_flip::ImuYawRateSignFlip,
-    &imu_yaw_rate_scale::ImuYawRateScale,
-    &imu_yaw_rate_bias::ImuYawRateBias,
-    &pose_latency::PoseLatency,
-    &encoder_scale::EncoderScale,
-];
+pub static REGISTRY: LazyLock<Vec<&'static dyn Effect>> = LazyLock::new(|| {
+    let mut r: Vec<&'static dyn Effect> = vec![
+        &dead_time::DeadTime,
+        &command_speed_limit::CommandSpeedLimit,
+        &command_yaw_rate_limit::CommandYawRateLimit,
+        &controller_kinematics::ControllerKinematics,
+        &controller_wheel_limit::ControllerWheelLimit,
+        &motor_gain::MotorGain,
+        &motor_gain_drift::MotorGainDrift,
+        &wheel_speed_saturation::WheelSpeedSaturation,
+        &time_constant_scale::TimeConstantScale,
+    ];
+    // Discovered wheel terms act on the targets the motors receive, after the catalogue's
+    // wheel effects.
+    let terms: &'static [term::Term; 6] = &term::TERMS;
+    r.extend(terms[..2].iter().map(|t| t as &'static dyn Effect));
+    r.extend([
+        &wheel_radius_scale::WheelRadiusScale as &'static dyn Effect,
+        &body_lag::BodyLag,
+        &reverse_baseline_scale::ReverseBaselineScale,
+        &lateral_drift::LateralDrift,
+        &centripetal_slip::CentripetalSlip,
+    ]);
+    r.extend(terms[2..5].iter().map(|t| t as &'static dyn Effect));
+    r.extend([
+        &turning_resistance::TurningResistance as &'static dyn Effect,
+        &suspension_torsion::SuspensionTorsion,
+        &imu_yaw_rate_sign_flip::ImuYawRateSignFlip,
+        &imu_yaw_rate_scale::ImuYawRateScale,
+        &imu_yaw_rate_bias::ImuYawRateBias,
+    ]);
+    r.push(&terms[5]);
+    r.extend([
+        &pose_latency::PoseLatency as &'static dyn Effect,
+        &encoder_scale::EncoderScale,
+    ]);
+    r
+});
 
 /// The effect registered under `name`.
 pub fn effect(name: &str) -> Option<&'static dyn Effect> {
@@ -490,6 +543,16 @@ impl Effects {
     /// kinematics, then the wheel-stage effects in registry order. With nothing switched on,
     /// `cmd` comes back unchanged (bit for bit).
     pub fn wheel_targets(&self, cmd: WheelSpeeds, nominal: &IdealDiffDrive) -> WheelSpeeds {
+        let x = TermInput {
+            cmd,
+            cmd_body: nominal.body_from_wheels(cmd),
+            ..TermInput::default()
+        };
+        self.wheel_targets_in(cmd, nominal, &x)
+    }
+
+    /// The command after the controller's body-space clamps and kinematics.
+    fn controller_targets(&self, cmd: WheelSpeeds, nominal: &IdealDiffDrive) -> WheelSpeeds {
         let mut w = cmd;
         if self.active.iter().any(|a| a.effect().uses_body_space()) {
             let mut v = nominal.body_from_wheels(cmd);
@@ -501,10 +564,36 @@ impl Effects {
             }
             w = controller.wheels_from_body(v);
         }
+        w
+    }
+
+    /// The wheel-speed targets as [`Effects::wheel_targets`], with the effects that read the
+    /// step or the model's state ([`Effect::wheel_targets_in`]) given `x`.
+    pub fn wheel_targets_in(&self, cmd: WheelSpeeds, nominal: &IdealDiffDrive, x: &TermInput) -> WheelSpeeds {
+        let mut w = self.controller_targets(cmd, nominal);
         for a in &self.active {
-            w = a.effect().wheel_targets(&a.values, w);
+            w = a.effect().wheel_targets_in(&a.values, w, x);
         }
         w
+    }
+
+    /// The sum of the body-velocity offsets ([`Effect::body_offset`]) at `x`.
+    pub fn body_offset(&self, x: &TermInput) -> BodyVelocity {
+        self.active.iter().fold(BodyVelocity::default(), |acc, a| {
+            let o = a.effect().body_offset(&a.values, x);
+            BodyVelocity::new(
+                acc.vx_m_s + o.vx_m_s,
+                acc.vy_m_s + o.vy_m_s,
+                acc.wz_rad_s + o.wz_rad_s,
+            )
+        })
+    }
+
+    /// Whether any effect switched on acts at the body stage (offsets or a lag): plants skip
+    /// the body-stage bookkeeping otherwise.
+    pub fn acts_on_body(&self) -> bool {
+        self.active()
+            .any(|e| e.stage() == Stage::Body && e.name() != "wheel_radius_scale")
     }
 
     /// The IMU yaw-rate reading for the true yaw rate `wz_rad_s`.
@@ -512,6 +601,14 @@ impl Effects {
         self.active
             .iter()
             .fold(wz_rad_s, |wz, a| a.effect().imu_yaw_rate(&a.values, wz))
+    }
+
+    /// The IMU yaw-rate reading for the true yaw rate `wz_rad_s`, with the effects that read
+    /// the model's state given `x`.
+    pub fn imu_yaw_rate_in(&self, wz_rad_s: f64, x: &TermInput) -> f64 {
+        self.active
+            .iter()
+            .fold(wz_rad_s, |wz, a| a.effect().imu_yaw_rate_in(&a.values, wz, x))
     }
 
     /// The encoder readings for the true wheel spins.

@@ -11,7 +11,7 @@ fn registry_names_and_keys_are_unique_and_documented() {
     keys.sort_unstable();
     keys.dedup();
     assert_eq!(keys.len(), n, "parameter names must be unique");
-    for e in REGISTRY {
+    for e in REGISTRY.iter() {
         assert!(!e.doc().is_empty() && !e.params().is_empty(), "{}", e.name());
         for p in e.params() {
             // The neutral value is valid and switches the effect off.
@@ -26,8 +26,10 @@ fn registry_names_and_keys_are_unique_and_documented() {
             assert!(lo < hi && p.check(hi).is_ok(), "{}", p.key);
         }
     }
-    assert_eq!(REGISTRY.len(), 16);
-    assert_eq!(n, 18);
+    // 16 effects of session 3, 5 structural ones that discovery points to, 6 generic terms.
+    assert_eq!(REGISTRY.iter().filter(|e| !e.generic()).count(), 21);
+    assert_eq!(REGISTRY.len(), 27);
+    assert_eq!(n, 23 + 2 * 25 + 4 * 22);
 }
 
 #[test]
@@ -38,6 +40,7 @@ fn default_declares_nothing_and_every_name_round_trips() {
         let v = match n {
             "imu_yaw_rate_sign_flip" => 1.0,
             "dead_time_s" | "pose_latency_s" | "suspension_torsion_m" => 0.3,
+            "motor_gain_drift_per_step" => 0.01,
             _ => 0.7,
         };
         e.set(n, v).unwrap();
@@ -140,4 +143,64 @@ fn sensors_by_hand() {
         e.first_contact_effect().map(|x| x.name()),
         Some("turning_resistance_scale")
     );
+}
+
+#[test]
+fn structural_effects_and_terms_by_hand() {
+    let nominal = IdealDiffDrive {
+        wheel_radius_m: 0.5,
+        baseline_m: 1.0,
+    };
+    let cmd = WheelSpeeds::new(-2.0, -1.0);
+    let x = TermInput {
+        cmd,
+        cmd_body: nominal.body_from_wheels(cmd),
+        body: BodyVelocity::new(-0.5, 0.0, 0.4),
+        step: 10,
+        ..TermInput::default()
+    };
+    let mut e = Effects::default();
+    // Gain 1 - 0.01 * 10 at step 10.
+    e.set("motor_gain_drift_per_step", -0.01).unwrap();
+    let w = e.wheel_targets_in(cmd, &nominal, &x);
+    assert!((w.left_rad_s + 1.8).abs() < 1e-12 && (w.right_rad_s + 0.9).abs() < 1e-12);
+    // Body offsets add: drift 0.1, centripetal 0.2 s * (-0.5 * 0.4), reverse baseline 2:
+    // wz / 2 - wz = -0.2.
+    e.set("lateral_drift_m_s", 0.1).unwrap();
+    e.set("centripetal_slip_s", 0.2).unwrap();
+    e.set("reverse_baseline_scale", 2.0).unwrap();
+    let o = e.body_offset(&x);
+    assert!(
+        (o.vy_m_s - (0.1 - 0.04)).abs() < 1e-12 && (o.wz_rad_s + 0.2).abs() < 1e-12,
+        "{o:?}"
+    );
+    assert!(e.acts_on_body());
+    // Forward, the reverse baseline does nothing.
+    let fwd = TermInput {
+        cmd_body: BodyVelocity::new(0.5, 0.0, 0.0),
+        ..x
+    };
+    assert_eq!(e.body_offset(&fwd).wz_rad_s, 0.0);
+    // A generic term: Δvy = 0.3 vx·wz - 0.05, by its keys.
+    let mut t = Effects::default();
+    t.set(&TermTarget::BodyVy.key(Feature::VxWz), 0.3).unwrap();
+    t.set(&TermTarget::BodyVy.key(Feature::One), -0.05).unwrap();
+    assert!((t.body_offset(&x).vy_m_s - (0.3 * -0.2 - 0.05)).abs() < 1e-12);
+    assert_eq!(t.declared().len(), 2);
+    // A wheel term reads its own side's command: Δω = 0.1 k ω_cmd on the left only.
+    let mut w = Effects::default();
+    w.set("term_wheel_left__step_cmd_wheel", 0.001).unwrap();
+    let out = w.wheel_targets_in(cmd, &nominal, &x);
+    assert!((out.left_rad_s - (-2.0 - 0.02)).abs() < 1e-12 && out.right_rad_s == -1.0);
+    // An IMU term sees the reading, not the wheels.
+    let mut i = Effects::default();
+    i.set("term_imu_wz__1", 0.02).unwrap();
+    assert!((i.imu_yaw_rate_in(0.4, &x) - 0.42).abs() < 1e-12);
+    // Terms are generic: the catalogue does not list them.
+    assert!(REGISTRY
+        .iter()
+        .filter(|e| e.generic())
+        .all(|e| e.name().starts_with("term_")));
+    assert!(param_owner("term_wheel_left__step_cmd_wheel").is_some());
+    assert!(param_owner("term_body_vy__cmd_wheel").is_none());
 }

@@ -40,25 +40,34 @@ pub fn paper_kernel_variance(robot: &str) -> f64 {
     crate::analysis::smoother::KernelCovariance::paper_variance(robot)
 }
 
+/// The transfer-function grid resolutions accepted, m/s and rad/s: 0.01 gives grids of about
+/// 10⁶ cells on the Warthog's command space (the paper uses 0.1).
+pub const RESOLUTION_RANGE: (f64, f64) = (0.01, 2.0);
+
 fn bad_option(field: &str, message: String) -> Error {
     Error::config("<command line>", field, message)
 }
 
 /// The analysis parameters of `opts` for a log of `robot`.
 pub fn analysis_params(opts: &AnalyzeOptions, robot: &str) -> Result<AnalysisParams> {
-    if !(opts.resolution > 0.0 && opts.resolution.is_finite()) {
+    let (lo, hi) = RESOLUTION_RANGE;
+    if !(opts.resolution.is_finite() && (lo..=hi).contains(&opts.resolution)) {
         return Err(bad_option(
             "--resolution",
-            format!("must be > 0, got {}", opts.resolution),
+            format!(
+                "must be in [{lo}, {hi}] m/s (vx) and rad/s (wz), got {} (a finer grid has \
+                 millions of cells per axis pair and does not fit in memory)",
+                opts.resolution
+            ),
         ));
     }
     let variance = opts
         .kernel_variance
         .unwrap_or_else(|| paper_kernel_variance(robot));
-    if !(variance > 0.0 && variance.is_finite()) {
+    if !(variance > 0.0 && variance <= 100.0 && variance.is_finite()) {
         return Err(bad_option(
             "--kernel-variance",
-            format!("must be > 0, got {variance}"),
+            format!("must be in (0, 100] (m/s)² and (rad/s)², got {variance}"),
         ));
     }
     Ok(AnalysisParams {
@@ -94,8 +103,9 @@ pub fn analyse_log(opts: &AnalyzeOptions, log: &DriveLog) -> Result<(LogSummary,
 /// Reads, analyses and reports the logs of `opts`, one log at a time: each is dropped once
 /// analysed, so that peak memory is that of the largest log, not of all of them.
 pub fn analyze_logs(opts: &AnalyzeOptions, progress: &mut dyn FnMut(AnalyzeEvent)) -> Result<AnalyzedLogs> {
-    // Parameters first: a bad option fails before any log is read.
+    // Parameters and the output folder first: bad input fails before any log is read.
     analysis_params(opts, "")?;
+    let staged = crate::output::StagedDir::begin(&opts.out, "--out")?;
     let mut done = Vec::new();
     for path in &opts.logs {
         progress(AnalyzeEvent::Reading(path));
@@ -103,11 +113,41 @@ pub fn analyze_logs(opts: &AnalyzeOptions, progress: &mut dyn FnMut(AnalyzeEvent
         for n in &opened.notes {
             progress(AnalyzeEvent::Note(n));
         }
+        for w in &opened.warnings {
+            progress(AnalyzeEvent::Note(&format!("warning: {w}")));
+        }
         let log = opened.log;
         progress(AnalyzeEvent::Analysing(&log));
-        done.push(analyse_log(opts, &log)?);
+        let (summary, a) = analyse_log(opts, &log)?;
+        for e in &a.exclusions {
+            progress(AnalyzeEvent::Note(&format!(
+                "warning: {}: step {} excluded: {}",
+                log.meta.name, e.step, e.reason
+            )));
+        }
+        done.push((summary, a));
     }
-    report(done, &opts.out)
+    // The folder appears whole, or (on any error above) not at all.
+    let mut out = report(done, staged.path())?;
+    let inputs = opts
+        .logs
+        .iter()
+        .map(|p| crate::provenance::InputFile::of_file("log", p))
+        .collect();
+    let options = serde_json::json!({
+        "resolution": opts.resolution,
+        "kernel_variance": opts.kernel_variance,
+        "robot": opts.input.robot,
+        "terrain": opts.input.terrain,
+        "roles": opts.input.roles,
+    });
+    crate::provenance::stamp_json_file(
+        &out.files.summary,
+        &crate::provenance::Provenance::new(inputs, options),
+    )?;
+    out.files.relocate(&|p| staged.final_path(p));
+    staged.commit()?;
+    Ok(out)
 }
 
 /// Writes the report of analysed logs into `out`.

@@ -77,6 +77,8 @@ pub fn scenario_request(opts: &DemoOptions, robot: &str, terrain: &str) -> RunRe
             ..SimConfig::default()
         },
         injected: vec![],
+        // The demo's logs are its own products: a rerun with other options replaces them.
+        force: true,
         out: opts.out.join("logs"),
         name: None,
     }

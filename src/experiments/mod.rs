@@ -15,13 +15,11 @@ pub mod sweep;
 
 pub use simulate::{simulate, simulate_with, unknown_sampler, SimulatedRun};
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use serde::Serialize;
 use std::path::Path;
 
-/// Writes pretty JSON, naming the file on failure.
+/// Writes pretty JSON atomically (see [`crate::output`]), naming the file on failure.
 pub fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
-    let text = serde_json::to_string_pretty(value)
-        .map_err(|e| Error::Analysis(format!("{}: {e}", path.display())))?;
-    std::fs::write(path, text).map_err(|e| Error::io(path, e))
+    crate::output::write_json_atomic(path, value)
 }

@@ -8,9 +8,10 @@ use crate::log::mcap::{McapSummary, McapWriter};
 use crate::log::{DriveLog, Frame, LogMeta, Nominal, Origin};
 use crate::protocol::sampler::make_sampler_for;
 use crate::protocol::{run_drive, FrameSink, ProtocolConfig, RunSummary};
-use crate::robot::Robot;
+use crate::provenance::{InputFile, Provenance};
+use crate::robot::{Robot, BUILTIN_ROBOTS};
 use crate::sim::{SimConfig, Simulator};
-use crate::terrain::Terrain;
+use crate::terrain::{Terrain, BUILTIN_TERRAINS};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -35,6 +36,42 @@ pub struct RunRequest {
     pub out: PathBuf,
     /// Log name (file stem); default `<robot>_<terrain>_s<seed>`.
     pub name: Option<String>,
+    /// Overwrite a log of the same name made with other options (otherwise refused).
+    pub force: bool,
+}
+
+/// Most steps a run may ask for: 100 000 steps are about 7 simulated days of DRIVE.
+pub const MAX_STEPS: u32 = 100_000;
+/// Physics rates accepted, Hz: below, the 20 Hz logging is not resolved; above, a run takes
+/// hours for no change in the result (see `SimConfig::physics_hz`).
+pub const PHYSICS_HZ_RANGE: (f64, f64) = (20.0, 5_000.0);
+
+impl RunRequest {
+    /// The validation pass of a run's numbers and names, before anything is loaded or
+    /// simulated: steps, physics rate, log name.
+    pub fn validate(&self) -> Result<()> {
+        let cl = "<command line>";
+        if self.steps == 0 || self.steps > MAX_STEPS {
+            return Err(Error::config(
+                cl,
+                "--steps",
+                format!("must be in 1..={MAX_STEPS} steps, got {}", self.steps),
+            ));
+        }
+        let (lo, hi) = PHYSICS_HZ_RANGE;
+        let hz = self.sim.physics_hz;
+        if !(hz.is_finite() && (lo..=hi).contains(&hz)) {
+            return Err(Error::config(
+                cl,
+                "--physics-hz",
+                format!("must be in [{lo}, {hi}] Hz, got {hz}"),
+            ));
+        }
+        if let Some(n) = &self.name {
+            crate::output::check_file_name("--name", n)?;
+        }
+        Ok(())
+    }
 }
 
 /// What a run wrote and measured, also saved as `<name>.run.json`.
@@ -62,6 +99,8 @@ pub struct RunReport {
     pub wall_s: f64,
     /// Simulated seconds per wall-clock second.
     pub real_time_factor: f64,
+    /// Version, schema version, file hashes and the options that made the log.
+    pub provenance: Provenance,
 }
 
 /// What [`record_run`] tells its caller while it runs.
@@ -73,6 +112,12 @@ pub enum RunEvent<'a> {
     Failed {
         /// The partial log.
         partial: &'a Path,
+    },
+    /// The run was interrupted (SIGINT / SIGTERM); what was simulated is closed, readable, in
+    /// this log.
+    Interrupted {
+        /// The `NAME.interrupted.mcap` log.
+        log: &'a Path,
     },
 }
 
@@ -118,22 +163,34 @@ fn record(
     keep_frames: bool,
     progress: &mut dyn FnMut(RunEvent),
 ) -> Result<(RunReport, Option<DriveLog>)> {
+    // The validation pass first: nothing is loaded, created or simulated on bad input.
+    req.validate()?;
     let (robot, robot_file) = Robot::resolve(&req.robot)?;
     let (terrain, terrain_file) = Terrain::resolve(&req.terrain)?;
-    if req.steps == 0 {
-        return Err(Error::config("--steps", "steps", "must be at least 1"));
-    }
     let seed = req.sim.seed;
     let protocol = ProtocolConfig::for_run(&robot, &terrain, req.steps);
     let mut sampler = make_sampler_for(&req.sampler, seed, &protocol)
         .ok_or_else(|| super::unknown_sampler(&req.sampler))?;
     let mut sim = Simulator::new(&robot, &terrain, req.sim.clone())?;
 
-    std::fs::create_dir_all(&req.out).map_err(|e| Error::io(&req.out, e))?;
     let name = req
         .name
         .clone()
         .unwrap_or_else(|| format!("{}_{}_s{}", robot.name, terrain.name, seed));
+    crate::output::check_file_name("--name", &name)?;
+    crate::output::ensure_dir(&req.out, "--out")?;
+    let provenance = Provenance::new(
+        vec![
+            InputFile::of_model("robot", &robot_file, BUILTIN_ROBOTS),
+            InputFile::of_model("terrain", &terrain_file, BUILTIN_TERRAINS),
+        ],
+        run_options(req, &robot_file, &terrain_file),
+    );
+    let mcap_path = req.out.join(format!("{name}.mcap"));
+    let json_path = req.out.join(format!("{name}.run.json"));
+    if !req.force {
+        refuse_other_options(&mcap_path, &json_path, &provenance.options)?;
+    }
     let meta = LogMeta {
         name: name.clone(),
         robot: robot.name.clone(),
@@ -151,15 +208,26 @@ fn record(
             injected: req.injected.clone(),
         },
     };
-    let mcap_path = req.out.join(format!("{name}.mcap"));
     let mut sink = Sink {
-        writer: McapWriter::create(&mcap_path, &meta)?,
+        writer: McapWriter::create_with_provenance(
+            &mcap_path,
+            &meta,
+            Some(&Provenance {
+                command: Vec::new(),
+                ..provenance.clone()
+            }),
+        )?,
         kept: keep_frames.then(Vec::new),
         progress,
     };
     let t0 = Instant::now();
     let summary = match run_drive(&mut sim, &robot, sampler.as_mut(), &protocol, &mut sink) {
         Ok(s) => s,
+        Err(e @ Error::Interrupted { .. }) => {
+            let closed = sink.writer.finish_interrupted()?;
+            (sink.progress)(RunEvent::Interrupted { log: &closed.path });
+            return Err(e);
+        }
         Err(e) => {
             let partial = sink.writer.partial_path().to_path_buf();
             (sink.progress)(RunEvent::Failed { partial: &partial });
@@ -186,8 +254,9 @@ fn record(
         real_time_factor: summary.total_time_s / wall_s.max(1e-9),
         summary,
         wall_s,
+        provenance,
     };
-    write_json(&req.out.join(format!("{name}.run.json")), &report)?;
+    write_json(&json_path, &report)?;
     Ok((report, log))
 }
 
@@ -206,4 +275,99 @@ pub fn describe(r: &RunReport) -> String {
         r.mcap.display(),
         r.mcap_bytes as f64 / 1e6
     )
+}
+
+/// The options that determine a run's log, by the command-line option that sets each (the
+/// names an overwrite refusal reports).
+fn run_options(req: &RunRequest, robot_file: &Path, terrain_file: &Path) -> serde_json::Value {
+    serde_json::json!({
+        "--robot": robot_file.display().to_string(),
+        "--terrain": terrain_file.display().to_string(),
+        "--steps": req.steps,
+        "--seed": req.sim.seed,
+        "--sampler": req.sampler,
+        "--physics-hz": req.sim.physics_hz,
+        "--noise": noise_label(&serde_json::to_value(req.sim.noise).unwrap_or_default()),
+        "--inject": req.sim.effects,
+    })
+}
+
+/// `"off"` or `"typical"` for the sensor noise the command line names, else the values.
+fn noise_label(noise: &serde_json::Value) -> serde_json::Value {
+    use crate::sim::SensorNoise;
+    let named = [
+        ("off", SensorNoise::default()),
+        ("typical", SensorNoise::typical()),
+    ];
+    for (name, n) in named {
+        if serde_json::to_value(n).ok().as_ref() == Some(noise) {
+            return serde_json::Value::from(name);
+        }
+    }
+    noise.clone()
+}
+
+/// The same options as recorded by an earlier run's `run.json` (also by versions that wrote
+/// no provenance: read from the fields they did write).
+fn recorded_options(run_json: &serde_json::Value) -> Option<serde_json::Value> {
+    if let Some(o) = run_json.pointer("/provenance/options") {
+        return Some(o.clone());
+    }
+    let sim = run_json.get("sim")?;
+    Some(serde_json::json!({
+        "--robot": run_json.get("robot_file")?,
+        "--terrain": run_json.get("terrain_file")?,
+        "--steps": run_json.pointer("/protocol/steps")?,
+        "--seed": sim.get("seed")?,
+        "--sampler": run_json.get("sampler")?,
+        "--physics-hz": sim.get("physics_hz")?,
+        "--noise": noise_label(sim.get("noise")?),
+        "--inject": sim.get("effects")?,
+    }))
+}
+
+/// Refuses to replace the log at `mcap` when it was made with options other than `options`
+/// (a rerun with the same options gives the same bytes and may replace it).
+fn refuse_other_options(mcap: &Path, run_json: &Path, options: &serde_json::Value) -> Result<()> {
+    if !mcap.exists() {
+        return Ok(());
+    }
+    let old = std::fs::read_to_string(run_json)
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|v| recorded_options(&v));
+    let differing: Vec<String> = match (&old, options.as_object()) {
+        (Some(serde_json::Value::Object(old)), Some(new)) => new
+            .iter()
+            .filter(|(k, v)| old.get(k.as_str()) != Some(v))
+            .map(|(k, v)| {
+                let was = old
+                    .get(k.as_str())
+                    .map_or("(not recorded)".to_string(), |o| o.to_string());
+                format!("{k} {v} (log: {was})")
+            })
+            .collect(),
+        _ => {
+            return Err(Error::config(
+                mcap,
+                "--name",
+                format!(
+                    "a log of this name exists and {} does not say which options made it; \
+                     choose another --name or pass --force to overwrite it",
+                    run_json.display()
+                ),
+            ))
+        }
+    };
+    if differing.is_empty() {
+        return Ok(());
+    }
+    Err(Error::config(
+        mcap,
+        "--name",
+        format!(
+            "a log of this name was made with other options: {}; choose another --name or pass --force to overwrite it",
+            differing.join(", ")
+        ),
+    ))
 }

@@ -201,18 +201,29 @@ fn one_run(
 pub fn compare(args: &SamplersOptions) -> Result<SamplersReport> {
     let (robot, _) = Robot::resolve(&args.robot)?;
     let (terrain, _) = Terrain::resolve(&args.terrain)?;
-    if args.steps == 0 || args.seeds == 0 {
+    let max_steps = super::run::MAX_STEPS;
+    if args.steps == 0 || args.steps > max_steps {
         return Err(Error::config(
             "<command line>",
-            "--steps/--seeds",
-            "must be at least 1",
+            "--steps",
+            format!("must be in 1..={max_steps} steps, got {}", args.steps),
         ));
     }
-    if args.grid_vx < 2 || args.grid_wz < 2 {
+    if args.seeds == 0 || args.seeds > 1_000 {
+        return Err(Error::config(
+            "<command line>",
+            "--seeds",
+            format!("must be in 1..=1000 seeds, got {}", args.seeds),
+        ));
+    }
+    if !(2..=201).contains(&args.grid_vx) || !(2..=201).contains(&args.grid_wz) {
         return Err(Error::config(
             "<command line>",
             "--grid-vx/--grid-wz",
-            "need at least 2 points per axis",
+            format!(
+                "need 2..=201 points per axis (each point is a simulated run), got {} x {}",
+                args.grid_vx, args.grid_wz
+            ),
         ));
     }
     let names: Vec<String> = if args.only.is_empty() {

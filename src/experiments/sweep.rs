@@ -15,10 +15,11 @@ use crate::error::{Error, Result};
 use crate::log::mcap::McapWriter;
 use crate::protocol::sampler::make_sampler_for;
 use crate::protocol::FrameSink;
-use crate::robot::Robot;
+use crate::provenance::{InputFile, Provenance};
+use crate::robot::{Robot, BUILTIN_ROBOTS};
 use crate::sim::{SensorNoise, SimConfig};
-use crate::sweep::RunSpec;
-use crate::terrain::Terrain;
+use crate::sweep::{RunSpec, SweepMatrix};
+use crate::terrain::{Terrain, BUILTIN_TERRAINS};
 use serde_json::{json, Value};
 use std::path::Path;
 
@@ -28,6 +29,50 @@ fn option_err(spec: &RunSpec, field: &str, msg: &str) -> Error {
         format!("options.{field}"),
         msg.to_string(),
     )
+}
+
+/// The keys of a matrix's `[options]` table that a drive-sim sweep run reads; any other key
+/// is a typo, refused by [`validate_matrix`] with a "did you mean".
+pub const SWEEP_OPTIONS: &[&str] = &["noise", "physics_hz"];
+
+/// The validation pass of a matrix for drive-sim's sweep runs, before any run starts: the
+/// steps bound, the `[options]` keys (unknown ones with a "did you mean") and their values.
+pub fn validate_matrix(matrix: &SweepMatrix, file: &Path) -> Result<()> {
+    let max = super::run::MAX_STEPS;
+    if matrix.steps > max {
+        return Err(Error::config(
+            file,
+            "steps",
+            format!("must be in 1..={max} steps, got {}", matrix.steps),
+        ));
+    }
+    for key in matrix.options.keys() {
+        if !SWEEP_OPTIONS.contains(&key.as_str()) {
+            let hint = crate::config::did_you_mean(key, SWEEP_OPTIONS.iter().copied())
+                .map(|c| format!("did you mean `{c}`? "))
+                .unwrap_or_default();
+            return Err(Error::config(
+                file,
+                format!("options.{key}"),
+                format!(
+                    "unknown option `{key}`; {hint}known options: {}",
+                    SWEEP_OPTIONS.join(", ")
+                ),
+            ));
+        }
+    }
+    if let Some(spec) = matrix.expand().first() {
+        let sim = sim_config(spec)?;
+        let (lo, hi) = super::run::PHYSICS_HZ_RANGE;
+        if !(sim.physics_hz.is_finite() && (lo..=hi).contains(&sim.physics_hz)) {
+            return Err(Error::config(
+                file,
+                "options.physics_hz",
+                format!("must be in [{lo}, {hi}] Hz, got {}", sim.physics_hz),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The simulator settings of a run from the matrix's options.
@@ -68,8 +113,8 @@ pub fn sweep_run(spec: &RunSpec, dir: &Path) -> Result<Value> {
 /// [`sweep_run`], also keeping the run's MCAP log as `<dir>/<id>.mcap` when `keep_log`
 /// (streamed as the run goes; the figures then name it under `log`).
 pub fn sweep_run_with(spec: &RunSpec, dir: &Path, keep_log: bool) -> Result<Value> {
-    let (robot, _) = Robot::resolve(&spec.robot)?;
-    let (terrain, _) = Terrain::resolve(&spec.terrain)?;
+    let (robot, robot_file) = Robot::resolve(&spec.robot)?;
+    let (terrain, terrain_file) = Terrain::resolve(&spec.terrain)?;
     let mut sampler = make_sampler_for(&spec.sampler, spec.seed, &spec.protocol)
         .ok_or_else(|| unknown_sampler(&spec.sampler))?;
     let sim = sim_config(spec)?;
@@ -87,14 +132,25 @@ pub fn sweep_run_with(spec: &RunSpec, dir: &Path, keep_log: bool) -> Result<Valu
     } else {
         None
     };
-    let run = simulate_into(
+    let run = match simulate_into(
         &robot,
         &terrain,
         sampler.as_mut(),
         &spec.protocol,
         sim,
         writer.as_mut().map(|w| w as &mut dyn FrameSink),
-    )?;
+    ) {
+        Ok(r) => r,
+        // An interrupted run's log is closed readable; the run stays incomplete (no marker)
+        // and is redone when the sweep resumes.
+        Err(e @ Error::Interrupted { .. }) => {
+            if let Some(w) = writer {
+                w.finish_interrupted()?;
+            }
+            return Err(e);
+        }
+        Err(e) => return Err(e),
+    };
     if let Some(w) = writer {
         w.finish()?;
     }
@@ -124,6 +180,18 @@ pub fn sweep_run_with(spec: &RunSpec, dir: &Path, keep_log: bool) -> Result<Valu
     if keep_log {
         figures["log"] = json!(log_name);
     }
+    // Beside run.json rather than in it: run.json's figures are merged into the sweep's
+    // table, where a per-process command line would make the shards differ.
+    write_json(
+        &dir.join("provenance.json"),
+        &Provenance::new(
+            vec![
+                InputFile::of_model("robot", &robot_file, BUILTIN_ROBOTS),
+                InputFile::of_model("terrain", &terrain_file, BUILTIN_TERRAINS),
+            ],
+            serde_json::to_value(spec).unwrap_or(Value::Null),
+        ),
+    )?;
     write_json(&dir.join("run.json"), &figures)?;
     Ok(figures)
 }

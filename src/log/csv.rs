@@ -118,6 +118,21 @@ fn read_meta(csv_path: &Path) -> Result<(MeasuredJson, PathBuf)> {
             }
         }
     }
+    // The one validation pass of log metadata (ranges with units, consistent sampling).
+    let probe = LogMeta {
+        name: String::new(),
+        robot: meta.robot.clone(),
+        terrain: meta.terrain.clone(),
+        rate_hz: meta.rate_hz,
+        window_s: meta.window_s,
+        windows_per_step: meta.windows_per_step,
+        samples_per_window: meta.samples_per_window,
+        nominal: meta.nominal.clone(),
+        origin: Origin::Measured { file: String::new() },
+    };
+    if let Err((field, msg)) = probe.validate() {
+        return bad(&field, &msg);
+    }
     Ok((meta, json_path))
 }
 

@@ -67,10 +67,22 @@ pub fn open(path: &std::path::Path, opts: &OpenOptions) -> crate::Result<Opened>
         notes: b.notes,
         warnings: b.warnings,
     };
-    if path.is_dir() {
-        return bag::read_bag(path, opts).map(from_bag);
-    }
-    match ext.as_deref() {
+    let opened = if path.is_dir() {
+        bag::read_bag(path, opts).map(from_bag)
+    } else {
+        open_file(path, ext.as_deref(), opts, plain, from_bag)
+    }?;
+    settle_terrain(opened, path, opts)
+}
+
+fn open_file(
+    path: &std::path::Path,
+    ext: Option<&str>,
+    opts: &OpenOptions,
+    plain: impl Fn(DriveLog) -> Opened,
+    from_bag: impl Fn(bag::BagLog) -> Opened,
+) -> crate::Result<Opened> {
+    match ext {
         Some("csv") => csv::read_measured_csv(path).map(plain),
         Some("mcap") if !path.exists() => Err(crate::Error::io(
             path,
@@ -84,4 +96,79 @@ pub fn open(path: &std::path::Path, opts: &OpenOptions) -> crate::Result<Opened>
             "expected a measured .csv, a drive-sim .mcap, or a rosbag2 bag (directory, .db3 or .mcap)",
         )),
     }
+}
+
+/// The terrain label of a log that does not say which terrain it was recorded on.
+pub const UNLABELLED: &str = "unlabelled";
+
+/// The terrain models start from for an [`UNLABELLED`] log (a stated default, with a warning).
+pub const DEFAULT_TERRAIN: &str = "asphalt";
+
+/// The terrain model of a log's terrain label: the terrain of that name (or file); for
+/// [`UNLABELLED`], [`DEFAULT_TERRAIN`] with a warning (returned); for a label no terrain file
+/// provides, an error naming the label and `file`, pointing to `--terrain`. The origin of a
+/// simulated log also names the terrain file it was run on, tried when the label is not in
+/// the catalog.
+pub fn terrain_of_log(
+    meta: &LogMeta,
+    file: &std::path::Path,
+) -> crate::Result<(crate::terrain::Terrain, Option<String>)> {
+    use crate::terrain::Terrain;
+    let label = meta.terrain.as_str();
+    if label == UNLABELLED {
+        let (t, _) = Terrain::resolve(DEFAULT_TERRAIN)?;
+        return Ok((
+            t,
+            Some(format!(
+                "terrain `{UNLABELLED}`: the log does not say which terrain it was recorded on; \
+                 models start from the default `{DEFAULT_TERRAIN}` (pass `--terrain NAME|FILE` to say which)"
+            )),
+        ));
+    }
+    match Terrain::resolve(label) {
+        Ok((t, _)) => Ok((t, None)),
+        Err(e @ crate::Error::Config { .. }) => Err(e),
+        Err(unknown) => {
+            if let Origin::Simulated { terrain_file, .. } = &meta.origin {
+                if let Ok((t, _)) = Terrain::resolve(terrain_file) {
+                    return Ok((t, None));
+                }
+            }
+            let known = match unknown {
+                crate::Error::Unknown { available, .. } => format!(" (known: {available})"),
+                _ => String::new(),
+            };
+            Err(crate::Error::log(
+                file,
+                "metadata `terrain`",
+                format!(
+                    "unknown terrain `{label}`{known}; pass `--terrain NAME|FILE` to say which \
+                     terrain model this log was recorded on"
+                ),
+            ))
+        }
+    }
+}
+
+/// Applies `--terrain` to an opened log (its label becomes the name or file given), or checks
+/// the label the log declares (see [`terrain_of_log`]).
+fn settle_terrain(mut o: Opened, path: &std::path::Path, opts: &OpenOptions) -> crate::Result<Opened> {
+    match &opts.terrain {
+        Some(t) => {
+            let (terrain, _) = crate::terrain::Terrain::resolve(t)?;
+            if o.log.meta.terrain != *t && o.log.meta.terrain != terrain.name {
+                o.notes.push(format!(
+                    "terrain: `{t}` as --terrain says (the log declares `{}`)",
+                    o.log.meta.terrain
+                ));
+            }
+            o.log.meta.terrain = t.clone();
+        }
+        None => {
+            if let (_, Some(w)) = terrain_of_log(&o.log.meta, path)? {
+                o.warnings.push(w);
+            }
+        }
+    }
+    Ok(o)
 }

@@ -134,6 +134,69 @@ pub struct LogMeta {
 }
 
 impl LogMeta {
+    /// The validation pass of a log's metadata, whatever the format it came from: physical
+    /// ranges with units, and the sampling it declares being consistent. Returns the field and
+    /// the reason. Checked by every reader before the samples are used, so that a typo (a rate
+    /// of `1e12` Hz) is an error naming the field, not an allocation of terabytes.
+    pub fn validate(&self) -> std::result::Result<(), (String, String)> {
+        let range = |field: &str, v: f64, lo: f64, hi: f64, unit: &str| {
+            if v.is_finite() && v >= lo && v <= hi {
+                Ok(())
+            } else {
+                Err((
+                    field.to_string(),
+                    format!("must be in [{lo}, {hi}] {unit}, got {v}"),
+                ))
+            }
+        };
+        range("rate_hz", self.rate_hz, 1.0, 1_000.0, "Hz")?;
+        range("window_s", self.window_s, 0.05, 60.0, "s")?;
+        range(
+            "windows_per_step",
+            self.windows_per_step as f64,
+            2.0,
+            20.0,
+            "windows",
+        )?;
+        range(
+            "samples_per_window",
+            self.samples_per_window as f64,
+            1.0,
+            10_000.0,
+            "samples",
+        )?;
+        let expected = self.rate_hz * self.window_s;
+        if (self.samples_per_window as f64 - expected).abs() > 1.0 {
+            return Err((
+                "samples_per_window".into(),
+                format!(
+                    "{} does not match rate_hz x window_s = {} x {} = {expected}",
+                    self.samples_per_window, self.rate_hz, self.window_s
+                ),
+            ));
+        }
+        let n = &self.nominal;
+        for (field, v, lo, hi, unit) in [
+            ("nominal.wheel_radius_m", n.wheel_radius_m, 0.02, 2.0, "m"),
+            ("nominal.baseline_m", n.baseline_m, 0.05, 10.0, "m"),
+            ("nominal.max_wheel_rad_s", n.max_wheel_rad_s, 0.1, 200.0, "rad/s"),
+            ("nominal.max_lin_m_s", n.max_lin_m_s, 0.01, 30.0, "m/s"),
+            ("nominal.max_ang_rad_s", n.max_ang_rad_s, 0.01, 20.0, "rad/s"),
+            ("nominal.mass_kg", n.mass_kg, 1.0, 20_000.0, "kg"),
+            ("nominal.width_m", n.width_m, 0.1, 10.0, "m"),
+            ("nominal.length_m", n.length_m, 0.1, 20.0, "m"),
+        ] {
+            range(field, v, lo, hi, unit)?;
+        }
+        if let Some(h) = n.height_m {
+            range("nominal.height_m", h, 0.05, 10.0, "m")?;
+        }
+        if let Some(a) = n.max_lin_acc_m_s2 {
+            range("nominal.max_lin_acc_m_s2", a, 0.01, 50.0, "m/s²")?;
+        }
+        Ok(())
+    }
+
     /// Duration of one step, s.
     pub fn step_s(&self) -> f64 {
         self.window_s * self.windows_per_step as f64

@@ -200,6 +200,13 @@ impl Runner<'_> {
         let mut m = self.plant.measure();
         m.cmd = cmd;
         let stamp_s = self.plant.time_s() - self.t0;
+        // A signal (Ctrl-C) stops the run between two frames: the log so far stays consistent.
+        if crate::interrupt::requested() {
+            return Err(Error::Interrupted {
+                step: self.summary.steps_completed,
+                time_s: stamp_s,
+            });
+        }
         self.sink.frame(&Frame { stamp_s, phase, m })?;
         let dt = self.dt();
         self.plant.advance(dt).map_err(|e| match e {
@@ -234,6 +241,10 @@ impl Runner<'_> {
             let mut cmd = self.draw(sampler, step, previous, &history);
             loop {
                 let t_attempt = self.plant.time_s();
+                self.plant.begin_step(crate::effects::StepContext {
+                    step,
+                    previous_cmd: previous,
+                });
                 match self.attempt(step, attempt, cmd)? {
                     AttemptEnd::Completed(outcome) => {
                         history.push(outcome);

@@ -28,6 +28,19 @@ pub struct AnalysisReportFiles {
     pub figures: Vec<FigureFiles>,
 }
 
+impl AnalysisReportFiles {
+    /// Maps every path through `f` (from a staging folder to the final one).
+    pub fn relocate(&mut self, f: &dyn Fn(&std::path::Path) -> PathBuf) {
+        self.summary = f(&self.summary);
+        self.transfer_functions = f(&self.transfer_functions);
+        self.html = f(&self.html);
+        for fig in &mut self.figures {
+            fig.svg = f(&fig.svg);
+            fig.png = f(&fig.png);
+        }
+    }
+}
+
 /// Label of an analysed log on figures: the dataset name, which says robot and terrain.
 fn label(a: &Analysis) -> String {
     a.dataset.clone()

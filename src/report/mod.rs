@@ -25,6 +25,7 @@
 //! self-contained `report.html`.
 
 pub mod analysis_report;
+mod bars;
 mod boxplot;
 mod command_space;
 pub mod contour;
@@ -38,6 +39,7 @@ mod risk;
 pub mod stats;
 mod style;
 
+pub use bars::{bar_chart, BarChart, BarSeries};
 pub use boxplot::{box_plots, BoxPanel};
 pub use command_space::{command_space_figure, CommandScenario};
 pub use contour::{contour_levels, contour_polylines, contour_segments, ContourSegment, Grid2};

@@ -34,7 +34,7 @@ pub mod tyre;
 pub use crate::effects::Effects;
 pub use plant::{IdealPlant, Plant};
 
-use crate::effects::PlantModifiers;
+use crate::effects::{PlantModifiers, StepContext, TermInput};
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use crate::measurement::{GroundTruth, ImuReading, Measurement, Pose};
@@ -226,6 +226,21 @@ pub struct Simulator {
     /// Principal moments of inertia of the chassis (body axes), kg·m².
     inertia_kg_m2: [f64; 3],
     stepping: Stepping,
+    /// The step being run (for effects that read it).
+    ctx: StepContext,
+    /// Plant time at which it started, s.
+    step_t0_s: f64,
+    /// What the effects read at the last physics step.
+    input: TermInput,
+    /// Whether any effect acts at the body stage (offsets, lag): see [`Simulator::body_stage`].
+    on_body: bool,
+    /// The body velocity the body stage starts from: the physics' own, lagged when the body
+    /// lags.
+    body_state: BodyVelocity,
+    /// What the body stage adds to the physics' velocity (integrated into the pose).
+    body_extra: BodyVelocity,
+    /// Yaw acceleration of the chassis over the last physics step, rad/s².
+    yaw_accel_rad_s2: f64,
 }
 
 impl std::fmt::Debug for Simulator {
@@ -349,6 +364,7 @@ impl Simulator {
         // configuration's, which override them.
         let effects = crate::effects_table::combine(&robot.effects, &terrain.effects, &cfg.effects)?;
         let mods = effects.modifiers();
+        let effects_on_body = effects.acts_on_body();
         let radius_m = w.radius_m * mods.wheel_radius_scale;
         let mut sim = Self {
             bodies,
@@ -402,6 +418,13 @@ impl Simulator {
             pose_history: VecDeque::new(),
             inertia_kg_m2: inertia,
             stepping: Stepping::default(),
+            ctx: StepContext::default(),
+            step_t0_s: 0.0,
+            input: TermInput::default(),
+            on_body: effects_on_body,
+            body_state: BodyVelocity::default(),
+            body_extra: BodyVelocity::default(),
+            yaw_accel_rad_s2: 0.0,
         };
         sim.reset(Pose::default(), BodyVelocity::default(), WheelSpeeds::default());
         Ok(sim)
@@ -444,9 +467,14 @@ impl Simulator {
         // Time restarts: a reset plant replays a step exactly as a new one would, so replays
         // can reuse one world for many steps.
         self.time_s = 0.0;
+        self.step_t0_s = 0.0;
         self.airborne_s = 0.0;
         self.accel_world = [0.0; 3];
         self.pose_history.clear();
+        self.input = TermInput::default();
+        self.body_state = velocity;
+        self.body_extra = BodyVelocity::default();
+        self.yaw_accel_rad_s2 = 0.0;
     }
 
     /// The effects this simulator runs with.
@@ -490,12 +518,88 @@ impl Simulator {
                 break;
             }
         }
-        let t = self.effects.wheel_targets(self.applied, &self.nominal);
+        let x = self.term_input();
+        let t = self.effects.wheel_targets_in(self.applied, &self.nominal, &x);
+        self.input = x;
         let target = [t.left_rad_s, t.right_rad_s];
         let dmax = self.accel_limit_rad_s2 * dt;
         for (r, t) in self.ramp.iter_mut().zip(target) {
             *r += (t - *r).clamp(-dmax, dmax);
         }
+    }
+
+    /// What the effects may read now (the physics' velocity, or the body stage's when it runs).
+    fn term_input(&self) -> TermInput {
+        let v = if self.on_body {
+            self.body_state
+        } else {
+            self.physics_velocity()
+        };
+        let rot = self.bodies[self.body].position().rotation;
+        let heading = rot * Vector::X;
+        let ax = self.accel_world[0] * heading.x as f64 + self.accel_world[1] * heading.y as f64;
+        TermInput {
+            cmd: self.cmd,
+            cmd_body: self.nominal.body_from_wheels(self.cmd),
+            previous_cmd_body: self.nominal.body_from_wheels(self.ctx.previous_cmd),
+            body: v,
+            accel: [ax, self.yaw_accel_rad_s2],
+            t_in_step_s: self.time_s - self.step_t0_s,
+            step: self.ctx.step,
+        }
+    }
+
+    /// The body stage (effects that act on the body velocity and not on the wheels: a body
+    /// lag, a lateral drift, discovered body terms). The tyre forces know nothing of it: what
+    /// it adds to the physics' velocity is integrated into the chassis pose as a displacement
+    /// at the end of each physics step, so the pose, the velocity and the IMU's yaw rate see
+    /// it and the contact does not.
+    fn body_stage(&mut self, dt: f64) {
+        let v_phys = self.physics_velocity();
+        let tau = self.mods.body_time_constant_s;
+        self.body_state = if tau > 0.0 {
+            let b = 1.0 - (-dt / tau).exp();
+            BodyVelocity::new(
+                self.body_state.vx_m_s + b * (v_phys.vx_m_s - self.body_state.vx_m_s),
+                v_phys.vy_m_s,
+                self.body_state.wz_rad_s + b * (v_phys.wz_rad_s - self.body_state.wz_rad_s),
+            )
+        } else {
+            v_phys
+        };
+        let mut x = self.term_input();
+        x.body = self.body_state;
+        let o = self.effects.body_offset(&x);
+        self.input = x;
+        let extra = BodyVelocity::new(
+            self.body_state.vx_m_s - v_phys.vx_m_s + o.vx_m_s,
+            o.vy_m_s,
+            self.body_state.wz_rad_s - v_phys.wz_rad_s + o.wz_rad_s,
+        );
+        self.body_extra = extra;
+        let rb = &mut self.bodies[self.body];
+        let rot = rb.position().rotation;
+        let heading = rot * Vector::X;
+        let (hx, hy) = (heading.x as f64, heading.y as f64);
+        let n = hx.hypot(hy).max(1e-9);
+        let (c, s) = (hx / n, hy / n);
+        let t = rb.translation();
+        let dx = (c * extra.vx_m_s - s * extra.vy_m_s) * dt;
+        let dy = (s * extra.vx_m_s + c * extra.vy_m_s) * dt;
+        rb.set_translation(Vector::new(t.x + dx as f32, t.y + dy as f32, t.z), true);
+        if extra.wz_rad_s != 0.0 {
+            let turn = Rotation::from_rotation_z((extra.wz_rad_s * dt) as f32);
+            rb.set_rotation(turn * rot, true);
+        }
+    }
+
+    /// The chassis velocity of the physics (body frame), without the body stage.
+    fn physics_velocity(&self) -> BodyVelocity {
+        let rb = &self.bodies[self.body];
+        let inv = rb.position().rotation.inverse();
+        let v = inv * rb.linvel();
+        let w = inv * rb.angvel();
+        BodyVelocity::new(v.x as f64, v.y as f64, w.z as f64)
     }
 
     /// One physics step of `dt` seconds.
@@ -702,6 +806,10 @@ impl Simulator {
         for k in 0..3 {
             self.accel_world[k] = (v_after[k] - v_before[k]) / dt;
         }
+        self.yaw_accel_rad_s2 = (self.bodies[self.body].angvel().z as f64 - w64[2]) / dt;
+        if self.on_body {
+            self.body_stage(dt);
+        }
         self.check(u)?;
         let pose = self.true_pose();
         self.pose_history.push_back((self.time_s, pose));
@@ -864,7 +972,7 @@ impl Plant for Simulator {
         let f_world = Vector::new(a[0] as f32, a[1] as f32, (a[2] + GRAVITY_M_S2) as f32);
         let f_body = inv * f_world;
         let mut imu = ImuReading {
-            wz_rad_s: e.imu_yaw_rate(w_body.z as f64),
+            wz_rad_s: e.imu_yaw_rate_in(w_body.z as f64 + self.body_extra.wz_rad_s, &self.input),
             ax_m_s2: f_body.x as f64,
             ay_m_s2: f_body.y as f64,
             az_m_s2: f_body.z as f64,
@@ -902,11 +1010,14 @@ impl Plant for Simulator {
     }
 
     fn true_velocity(&self) -> BodyVelocity {
-        let rb = &self.bodies[self.body];
-        let inv = rb.position().rotation.inverse();
-        let v = inv * rb.linvel();
-        let w = inv * rb.angvel();
-        BodyVelocity::new(v.x as f64, v.y as f64, w.z as f64)
+        let v = self.physics_velocity();
+        let e = self.body_extra;
+        BodyVelocity::new(v.vx_m_s + e.vx_m_s, v.vy_m_s + e.vy_m_s, v.wz_rad_s + e.wz_rad_s)
+    }
+
+    fn begin_step(&mut self, ctx: StepContext) {
+        self.ctx = ctx;
+        self.step_t0_s = self.time_s;
     }
 
     fn time_s(&self) -> f64 {

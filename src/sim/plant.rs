@@ -1,6 +1,7 @@
 //! The interface between the DRIVE protocol and whatever moves: the rapier simulator, or the
 //! ideal differential-drive plant used as a reference and in protocol tests.
 
+use crate::effects::StepContext;
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use crate::measurement::{GroundTruth, ImuReading, Measurement, Pose};
@@ -27,6 +28,12 @@ pub trait Plant {
     /// fault inverts it): a replay starts from measured readings, not from the truth.
     fn wheels_from_encoders(&self, encoders: WheelSpeeds) -> WheelSpeeds {
         encoders
+    }
+    /// A new step starts (called by the protocol runner before each attempt, by the replay
+    /// after each reset): effects that read the step index or the previous command (a gain
+    /// drifting over the run, discovered terms) see it from here on.
+    fn begin_step(&mut self, ctx: StepContext) {
+        let _ = ctx;
     }
 }
 

@@ -184,6 +184,13 @@ where
             return Ok(RunOutcome::Skipped(rec));
         }
     }
+    // After SIGINT / SIGTERM no new run starts; the next invocation resumes from here.
+    if crate::interrupt::requested() {
+        return Ok(RunOutcome::Failed {
+            id: spec.id.clone(),
+            message: "not started: interrupted".into(),
+        });
+    }
     // Partial output, or a marker for different parameters: start the run afresh.
     if dir.exists() {
         std::fs::remove_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
@@ -222,9 +229,5 @@ where
 /// Writes JSON to `path` through a temporary file and a rename, so a reader never sees half a
 /// file (a killed sweep leaves either no marker or a whole one).
 fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> Result<()> {
-    let text = serde_json::to_string_pretty(value)
-        .map_err(|e| Error::Analysis(format!("{}: cannot serialize: {e}", path.display())))?;
-    let tmp = path.with_extension("json.tmp");
-    std::fs::write(&tmp, text).map_err(|e| Error::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+    crate::output::write_json_atomic(path, value)
 }

@@ -30,9 +30,32 @@ pub struct TestRobotSpec {
     pub seed: u64,
 }
 
+/// Effects of the generator that the project's catalogue did not have when discovery was
+/// written: each is this file's own equation, not the project's effect code.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Unmodelled {
+    /// Constant lateral velocity while the wheels turn, m/s (a side slope).
+    pub lateral_drift_m_s: f64,
+    /// vy = k · v · w (centripetal slip), s.
+    pub centripetal_s: f64,
+    /// Wheel gain 1 + d · step (battery sag when negative), per step.
+    pub gain_drift_per_step: f64,
+    /// The body velocity lags the wheels' with this time constant, s (0: none).
+    pub body_lag_s: f64,
+    /// Track width when the command drives backwards, m (`None`: the same as forward).
+    pub reverse_track_m: Option<f64>,
+    /// Not an effect: noise on the pose's yaw, rad (a lidar pose has some; without it the
+    /// transient yaw-rate floor is the estimator's round-off and any lag mismatch flags).
+    pub pose_yaw_noise_rad: f64,
+}
+
 /// The generator as a [`Plant`] the protocol runner can drive.
 pub struct TestRobot {
     spec: TestRobotSpec,
+    extra: Unmodelled,
+    step: u32,
+    body_v: f64,
+    body_w: f64,
     rng: ChaCha8Rng,
     cmd: WheelSpeeds,
     wheels: [f64; 2],
@@ -45,8 +68,17 @@ pub struct TestRobot {
 impl TestRobot {
     /// At rest at the origin.
     pub fn new(spec: TestRobotSpec) -> Self {
+        Self::with(spec, Unmodelled::default())
+    }
+
+    /// At rest at the origin, with effects outside the catalogue.
+    pub fn with(spec: TestRobotSpec, extra: Unmodelled) -> Self {
         Self {
             spec,
+            extra,
+            step: 0,
+            body_v: 0.0,
+            body_w: 0.0,
             rng: ChaCha8Rng::seed_from_u64(spec.seed),
             cmd: WheelSpeeds::default(),
             wheels: [0.0; 2],
@@ -57,11 +89,34 @@ impl TestRobot {
         }
     }
 
-    fn body(&self) -> (f64, f64) {
+    /// The body velocity the wheels command (before the body lag).
+    fn wheel_body_velocity(&self) -> (f64, f64) {
         let s = &self.spec;
+        let reverse = self.cmd.left_rad_s + self.cmd.right_rad_s < 0.0;
+        let track = match self.extra.reverse_track_m {
+            Some(t) if reverse => t,
+            _ => s.track_m,
+        };
         let v = s.radius_m * (self.wheels[0] + self.wheels[1]) / 2.0;
-        let w = s.radius_m * (self.wheels[1] - self.wheels[0]) / s.track_m;
+        let w = s.radius_m * (self.wheels[1] - self.wheels[0]) / track;
         (v, w)
+    }
+
+    fn body(&self) -> (f64, f64) {
+        if self.extra.body_lag_s > 0.0 {
+            (self.body_v, self.body_w)
+        } else {
+            self.wheel_body_velocity()
+        }
+    }
+
+    fn lateral(&self) -> f64 {
+        let (v, w) = self.body();
+        // The slope's drift acts while the wheels turn (at rest the tyres hold the robot):
+        // full above 0.5 rad/s of mean wheel spin.
+        let spin = 0.5 * (self.wheels[0].abs() + self.wheels[1].abs());
+        let moving = (spin / 0.5).min(1.0);
+        moving * self.extra.lateral_drift_m_s + self.extra.centripetal_s * v * w
     }
 
     fn noise(&mut self, sd: f64) -> f64 {
@@ -80,18 +135,25 @@ impl Plant for TestRobot {
     fn advance(&mut self, dt_s: f64) -> drive_sim::Result<()> {
         let n = (dt_s / 1e-3).round().max(1.0) as usize;
         let h = dt_s / n as f64;
+        let drift = 1.0 + self.extra.gain_drift_per_step * self.step as f64;
         let target = [
-            self.spec.gain[0] * self.cmd.left_rad_s,
-            self.spec.gain[1] * self.cmd.right_rad_s,
+            drift * self.spec.gain[0] * self.cmd.left_rad_s,
+            drift * self.spec.gain[1] * self.cmd.right_rad_s,
         ];
         for _ in 0..n {
             for (w, t) in self.wheels.iter_mut().zip(target) {
                 *w += h / self.spec.lag_s * (t - *w);
             }
+            if self.extra.body_lag_s > 0.0 {
+                let (v, w) = self.wheel_body_velocity();
+                self.body_v += h / self.extra.body_lag_s * (v - self.body_v);
+                self.body_w += h / self.extra.body_lag_s * (w - self.body_w);
+            }
             let (v, w) = self.body();
-            self.x += h * v * self.yaw.cos();
-            self.y += h * v * self.yaw.sin();
-            self.yaw += h * w;
+            let vy = self.lateral();
+            self.x += h * (v * self.yaw.cos() - vy * self.yaw.sin());
+            self.y += h * (v * self.yaw.sin() + vy * self.yaw.cos());
+            self.yaw = drive_sim::sim::plant::wrap_angle(self.yaw + h * w);
             self.t += h;
         }
         Ok(())
@@ -108,7 +170,7 @@ impl Plant for TestRobot {
         let pose = Pose {
             x_m: self.x + self.noise(pn),
             y_m: self.y + self.noise(pn),
-            yaw_rad: self.yaw,
+            yaw_rad: self.yaw + self.noise(self.extra.pose_yaw_noise_rad),
             ..Pose::default()
         };
         let enc = WheelSpeeds::new(self.wheels[0] + self.noise(en), self.wheels[1] + self.noise(en));
@@ -126,7 +188,7 @@ impl Plant for TestRobot {
             reference: None,
             truth: Some(GroundTruth {
                 pose: truth_pose,
-                velocity: BodyVelocity::new(v, 0.0, w),
+                velocity: BodyVelocity::new(v, self.lateral(), w),
                 wheels: WheelSpeeds::new(self.wheels[0], self.wheels[1]),
             }),
         }
@@ -141,7 +203,7 @@ impl Plant for TestRobot {
     }
     fn true_velocity(&self) -> BodyVelocity {
         let (v, w) = self.body();
-        BodyVelocity::new(v, 0.0, w)
+        BodyVelocity::new(v, self.lateral(), w)
     }
     fn time_s(&self) -> f64 {
         self.t
@@ -152,7 +214,14 @@ impl Plant for TestRobot {
         self.yaw = pose.yaw_rad;
         self.wheels = [wheels.left_rad_s, wheels.right_rad_s];
         self.cmd = wheels;
+        let (v, w) = self.wheel_body_velocity();
+        self.body_v = v;
+        self.body_w = w;
         self.t = 0.0;
+    }
+    fn begin_step(&mut self, ctx: drive_sim::effects::StepContext) {
+        // The protocol runner says which step starts: the generator's battery sags with it.
+        self.step = ctx.step;
     }
 }
 
@@ -163,6 +232,16 @@ pub fn drive_log(
     spec: TestRobotSpec,
     steps: u32,
 ) -> (drive_sim::log::DriveLog, drive_sim::robot::Robot) {
+    drive_log_with(name, spec, Unmodelled::default(), steps)
+}
+
+/// [`drive_log`] with effects outside the catalogue.
+pub fn drive_log_with(
+    name: &str,
+    spec: TestRobotSpec,
+    extra: Unmodelled,
+    steps: u32,
+) -> (drive_sim::log::DriveLog, drive_sim::robot::Robot) {
     use drive_sim::protocol::sampler::UniformWheel;
     use drive_sim::protocol::{run_drive, ProtocolConfig};
     let (robot, _) = drive_sim::robot::Robot::resolve("warthog").unwrap();
@@ -170,7 +249,7 @@ pub fn drive_log(
         steps,
         ..ProtocolConfig::default()
     };
-    let mut plant = TestRobot::new(spec);
+    let mut plant = TestRobot::with(spec, extra);
     let mut frames = Vec::new();
     run_drive(
         &mut plant,

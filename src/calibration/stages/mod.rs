@@ -19,6 +19,7 @@
 
 pub mod baseline;
 pub mod candidates;
+pub mod discovery;
 pub mod final_fit;
 pub mod report;
 pub mod screening;

@@ -111,6 +111,13 @@ pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
         .effects
         .values()
         .into_iter()
+        // A discovered term carries a coefficient for every library feature; those its
+        // equation does not use stay at 0 and are not part of the model.
+        .filter(|(k, v)| {
+            let generic =
+                crate::effects::param_owner(k).is_some_and(|(i, _)| crate::effects::REGISTRY[i].generic());
+            !(generic && *v == 0.0)
+        })
         .map(|(k, v)| {
             let name = format!("effect.{k}");
             let spec = selection
@@ -201,6 +208,9 @@ pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
         final_fit: final_fit.fit,
         final_fit_kept: final_fit.kept,
         stand_ins: final_fit.stand_ins,
+        discovery: None,
+        diagnosis_before: None,
+        diagnosis_after: None,
         effects,
         not_evaluated,
         model_before: ctx.declared.clone(),

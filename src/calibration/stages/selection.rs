@@ -371,63 +371,9 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
         }
     }
     // Backward: each selected effect out, the others refit; dropped unless keeping it passes.
-    let mut backward = Vec::new();
-    if st.selected.len() >= 2 {
-        let mut k = 0;
-        while k < st.selected.len() && st.selected.len() >= 2 {
-            let c = st.selected[k].clone();
-            let neutral: Vec<f64> = c
-                .params
-                .iter()
-                .map(|p| p.param.neutral().unwrap_or(p.start))
-                .collect();
-            let without = st.current.with_values(&c.params, &neutral)?;
-            let others: Vec<ParamSpec> = st
-                .selected
-                .iter()
-                .filter(|o| o.name != c.name)
-                .flat_map(|o| o.params.iter().filter(|p| !p.discrete).copied())
-                .collect();
-            let (m, _) = fit(
-                &ctx.train,
-                ctx.factory,
-                &without,
-                &others,
-                &ctx.floor,
-                &opts.fit,
-                &mut |_| {},
-            )?;
-            let v = ctx.validation.errors(ctx.factory, &m)?;
-            let (with_s, without_s) = (score(&st.validation, &ctx.floor), score(&v, &ctx.floor));
-            let se = bootstrap_reduction_se(
-                &v,
-                &st.validation,
-                &ctx.floor,
-                opts.rule.bootstrap_samples,
-                opts.seed ^ 0xbac ^ k as u64,
-            );
-            let dropped = without_s - with_s <= opts.rule.k_se_remove * se;
-            backward.push(BackwardStep {
-                effect: c.name.clone(),
-                score_with: with_s,
-                score_without: without_s,
-                se,
-                dropped,
-            });
-            (ctx.progress)(&format!(
-                "backward: without {} validation {with_s:.2} -> {without_s:.2} (± {se:.2}){}",
-                c.name,
-                if dropped { ", dropped" } else { ", kept" }
-            ));
-            if dropped {
-                st.selected.remove(k);
-                st.current = m;
-                st.validation = v;
-                st.refit_current = false;
-            } else {
-                k += 1;
-            }
-        }
+    let backward = backward_pass(ctx, &mut st.selected, &mut st.current, &mut st.validation)?;
+    if backward.iter().any(|b| b.dropped) {
+        st.refit_current = false;
     }
     Ok(SelectionOutput {
         rounds,
@@ -440,4 +386,71 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
         converged: st.converged,
         refit_current: st.refit_current,
     })
+}
+
+/// The backward pass: each of `selected` out in turn, the others refit; dropped unless
+/// keeping it lowers the validation score by more than `k_se_remove` bootstrap standard
+/// errors. Updates the selection, the model and its validation errors.
+pub fn backward_pass(
+    ctx: &Context<'_>,
+    selected: &mut Vec<Candidate>,
+    current: &mut ModelParams,
+    validation: &mut Vec<StepErrors>,
+) -> Result<Vec<BackwardStep>> {
+    let opts = ctx.opts;
+    let mut backward = Vec::new();
+    let mut k = 0;
+    while k < selected.len() && selected.len() >= 2 {
+        let c = selected[k].clone();
+        let neutral: Vec<f64> = c
+            .params
+            .iter()
+            .map(|p| p.param.neutral().unwrap_or(p.start))
+            .collect();
+        let without = current.with_values(&c.params, &neutral)?;
+        let others: Vec<ParamSpec> = selected
+            .iter()
+            .filter(|o| o.name != c.name)
+            .flat_map(|o| o.params.iter().filter(|p| !p.discrete).copied())
+            .collect();
+        let (m, _) = fit(
+            &ctx.train,
+            ctx.factory,
+            &without,
+            &others,
+            &ctx.floor,
+            &opts.fit,
+            &mut |_| {},
+        )?;
+        let v = ctx.validation.errors(ctx.factory, &m)?;
+        let (with_s, without_s) = (score(validation.iter(), &ctx.floor), score(&v, &ctx.floor));
+        let se = bootstrap_reduction_se(
+            &v,
+            validation,
+            &ctx.floor,
+            opts.rule.bootstrap_samples,
+            opts.seed ^ 0xbac ^ k as u64,
+        );
+        let dropped = without_s - with_s <= opts.rule.k_se_remove * se;
+        backward.push(BackwardStep {
+            effect: c.name.clone(),
+            score_with: with_s,
+            score_without: without_s,
+            se,
+            dropped,
+        });
+        (ctx.progress)(&format!(
+            "backward: without {} validation {with_s:.2} -> {without_s:.2} (± {se:.2}){}",
+            c.name,
+            if dropped { ", dropped" } else { ", kept" }
+        ));
+        if dropped {
+            selected.remove(k);
+            *current = m;
+            *validation = v;
+        } else {
+            k += 1;
+        }
+    }
+    Ok(backward)
 }

@@ -227,6 +227,8 @@ pub fn read_bag(path: &Path, opts: &BagOptions) -> Result<BagLog> {
             file: path.display().to_string(),
         },
     };
+    meta.validate()
+        .map_err(|(field, m)| Error::log(path, format!("declared `{field}`"), m))?;
     let (signals, t0) = assemble::decode(&bag, &roles)?;
     let (log, report) = assemble::build_log(&signals, t0, meta, &roles, path)?;
     notes.push(match report.segmentation {

@@ -58,7 +58,7 @@ pub mod read;
 pub mod write;
 
 pub use read::{decode_mcap, read_mcap, read_mcap_frames};
-pub use write::{encode_mcap, partial_path, write_mcap, McapWriter};
+pub use write::{encode_mcap, interrupted_path, partial_path, write_mcap, McapWriter};
 
 use crate::error::Error;
 #[cfg(doc)]

@@ -275,13 +275,8 @@ fn parse_meta(m: &BTreeMap<String, String>, file: &Path) -> Result<LogMeta> {
             e.inner().to_string(),
         )
     })?;
-    if !(meta.rate_hz.is_finite() && meta.rate_hz > 0.0) {
-        return Err(Error::log(
-            file,
-            format!("{loc} key `log_meta` at `rate_hz`"),
-            format!("{} is not a positive rate", meta.rate_hz),
-        ));
-    }
+    meta.validate()
+        .map_err(|(field, m)| Error::log(file, format!("{loc} key `log_meta` at `{field}`"), m))?;
     Ok(meta)
 }
 

@@ -9,6 +9,7 @@ use crate::log::ros_msgs::{
     Time, Transform, TransformStamped, Twist, TwistStamped, TwistWithCovariance, Vector3,
 };
 use crate::log::{Frame, FrameSink, LogMeta, Pose};
+use crate::provenance::Provenance;
 use std::fs::File;
 use std::io::{BufWriter, Cursor, Seek, Write};
 
@@ -46,7 +47,7 @@ struct FrameEncoder<W: Write + Seek> {
 }
 
 impl<W: Write + Seek> FrameEncoder<W> {
-    fn new(sink: W, meta: &LogMeta, file: &Path) -> Result<Self> {
+    fn new(sink: W, meta: &LogMeta, file: &Path, provenance: Option<&Provenance>) -> Result<Self> {
         let opts = mcap::WriteOptions::new()
             .profile("ros2")
             .library(format!("drive-sim {}", env!("CARGO_PKG_VERSION")))
@@ -58,12 +59,18 @@ impl<W: Write + Seek> FrameEncoder<W> {
         let mut w = opts.create(sink).map_err(e)?;
         let json = serde_json::to_string(meta)
             .map_err(|x| Error::log(file, "metadata", format!("cannot serialize: {x}")))?;
+        let mut metadata = BTreeMap::from([
+            ("format".to_string(), FORMAT.to_string()),
+            ("log_meta".to_string(), json),
+        ]);
+        if let Some(p) = provenance {
+            let p = serde_json::to_string(p)
+                .map_err(|x| Error::log(file, "metadata", format!("cannot serialize: {x}")))?;
+            metadata.insert("provenance".to_string(), p);
+        }
         w.write_metadata(&mcap::records::Metadata {
             name: METADATA_NAME.into(),
-            metadata: BTreeMap::from([
-                ("format".to_string(), FORMAT.to_string()),
-                ("log_meta".to_string(), json),
-            ]),
+            metadata,
         })
         .map_err(e)?;
         let mut topics = BTreeMap::new();
@@ -317,6 +324,15 @@ impl std::fmt::Debug for McapWriter {
     }
 }
 
+/// `NAME.interrupted.mcap` for the log `NAME.mcap`: where an interrupted run is closed.
+pub fn interrupted_path(path: &Path) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    path.with_file_name(format!("{stem}.interrupted.mcap"))
+}
+
 /// `<path>.partial`.
 pub fn partial_path(path: &Path) -> PathBuf {
     let mut s = path.as_os_str().to_owned();
@@ -328,12 +344,27 @@ impl McapWriter {
     /// Starts a log at `path` (removing any file already there, as a new log replaces it) and
     /// writes the metadata.
     pub fn create(path: impl AsRef<Path>, meta: &LogMeta) -> Result<Self> {
+        Self::create_with_provenance(path, meta, None)
+    }
+
+    /// [`create`](Self::create), also recording `provenance` (version, schema version, file
+    /// hashes, options) in the metadata record, under the key `provenance`.
+    pub fn create_with_provenance(
+        path: impl AsRef<Path>,
+        meta: &LogMeta,
+        provenance: Option<&Provenance>,
+    ) -> Result<Self> {
         let path = path.as_ref().to_path_buf();
         let partial = partial_path(&path);
         // An existing log at `path` stays untouched until `finish` atomically renames the new
         // one over it: a failed run loses nothing that was already written.
         let file = File::create(&partial).map_err(|e| Error::io(&partial, e))?;
-        let enc = FrameEncoder::new(BufWriter::with_capacity(1 << 16, file), meta, &partial)?;
+        let enc = FrameEncoder::new(
+            BufWriter::with_capacity(1 << 16, file),
+            meta,
+            &partial,
+            provenance,
+        )?;
         Ok(Self {
             enc: Some(enc),
             path,
@@ -375,7 +406,21 @@ impl McapWriter {
     }
 
     /// Writes the summary, syncs the file and renames it to its final path.
-    pub fn finish(mut self) -> Result<McapSummary> {
+    pub fn finish(self) -> Result<McapSummary> {
+        let path = self.path.clone();
+        self.finish_to(path)
+    }
+
+    /// Closes a log cut short (SIGINT / SIGTERM) with a valid summary under
+    /// [`interrupted_path`] of its final path, so that any reader opens it and nobody takes
+    /// it for a complete run. Only frames already written are in it.
+    pub fn finish_interrupted(self) -> Result<McapSummary> {
+        let path = interrupted_path(&self.path);
+        self.finish_to(path)
+    }
+
+    fn finish_to(mut self, path: PathBuf) -> Result<McapSummary> {
+        self.path = path;
         self.encoder()?;
         let enc = self
             .enc
@@ -416,7 +461,7 @@ pub fn write_mcap(path: impl AsRef<Path>, meta: &LogMeta, frames: &[Frame]) -> R
 /// Encodes `frames` into an in-memory MCAP file (same bytes as [`write_mcap`] writes).
 /// `file` only names the log in errors.
 pub fn encode_mcap(meta: &LogMeta, frames: &[Frame], file: &Path) -> Result<Vec<u8>> {
-    let mut enc = FrameEncoder::new(Cursor::new(Vec::new()), meta, file)?;
+    let mut enc = FrameEncoder::new(Cursor::new(Vec::new()), meta, file, None)?;
     for f in frames {
         enc.write_frame(f)?;
     }
