@@ -11,9 +11,11 @@
 pub mod analysis;
 pub mod calibration;
 pub mod cli;
+pub mod compare;
 pub mod config;
 pub mod discovery;
 pub mod effects;
+pub mod effects_table;
 pub mod error;
 pub mod experiments;
 pub mod geometry;

@@ -2,6 +2,7 @@
 //! user limits and the safe area of the DRIVE protocol.
 
 use crate::config::{non_negative, positive, Validate};
+use crate::effects::Effects;
 use crate::error::Result;
 use crate::kinematics::{CommandSpace, IdealDiffDrive};
 use crate::measurement::Nominal;
@@ -34,6 +35,15 @@ pub struct Robot {
     pub limits: UserLimits,
     /// Safe area of the DRIVE protocol.
     pub safe_area: SafeArea,
+    /// Model effects the robot shows (motor saturation, gains, controller clamps, sensor faults), by the effect registry's parameter names (`[effects]` table;
+    /// optional). Checked against the registry when the file is read; the simulator applies
+    /// them (see [`crate::effects_table`]).
+    #[serde(
+        default,
+        skip_serializing_if = "Effects::is_empty",
+        deserialize_with = "crate::effects_table::deserialize"
+    )]
+    pub effects: Effects,
 }
 
 /// Chassis mass and box dimensions.

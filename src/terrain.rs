@@ -2,6 +2,7 @@
 //! soft-soil effects and roughness.
 
 use crate::config::{non_negative, positive, Validate};
+use crate::effects::Effects;
 use crate::error::Result;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -32,6 +33,15 @@ pub struct Terrain {
     pub resistance: Resistance,
     /// Ground unevenness.
     pub roughness: Roughness,
+    /// Model effects the ground adds (contact effects such as turning resistance), by the effect registry's parameter names (`[effects]` table;
+    /// optional). Checked against the registry when the file is read; the simulator applies
+    /// them (see [`crate::effects_table`]).
+    #[serde(
+        default,
+        skip_serializing_if = "Effects::is_empty",
+        deserialize_with = "crate::effects_table::deserialize"
+    )]
+    pub effects: Effects,
 }
 
 /// Slip-dependent friction: the coefficient rises to a peak at a characteristic slip, then

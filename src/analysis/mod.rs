@@ -7,6 +7,7 @@
 //! transfer functions ([`smoother`]), the risk scenarios ([`risk`]) and the box-plot statistics
 //! ([`stats`]). Every result type is serde-serializable; NaN values serialize as `null`.
 
+pub mod bootstrap;
 pub mod crosscheck;
 pub mod rho;
 pub mod risk;
@@ -30,6 +31,32 @@ use smoother::{FastParams, Grid, KernelCovariance, TransferFunctions};
 use spaces::Spaces;
 use stats::BoxStats;
 use velocity::SampleKinematics;
+
+/// Bootstrap-by-step 95 % intervals ([`bootstrap`]) of every median `analyze` prints and
+/// writes: steady slips (signed, and signed along the command as printed), ρ.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct MedianIntervals {
+    /// How the intervals were drawn.
+    pub bootstrap: bootstrap::Bootstrap,
+    /// Median steady ρ.
+    pub rho: Option<bootstrap::Interval>,
+    /// Median steady longitudinal slip, m/s.
+    pub vx_m_s: Option<bootstrap::Interval>,
+    /// Median steady lateral slip, m/s.
+    pub vy_m_s: Option<bootstrap::Interval>,
+    /// Median steady angular slip, rad/s.
+    pub wz_rad_s: Option<bootstrap::Interval>,
+    /// Median steady left-wheel slip, rad/s.
+    pub left_rad_s: Option<bootstrap::Interval>,
+    /// Median steady right-wheel slip, rad/s.
+    pub right_rad_s: Option<bootstrap::Interval>,
+    /// The same for the slips signed along the command ([`AlongCommandStats`]), in its order:
+    /// vx, |vy|, wz, left, right.
+    pub along_command: [Option<bootstrap::Interval>; 5],
+    /// Set when the run has too few steps for a reliable interval (named warning).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub warning: Option<String>,
+}
 
 /// Transfer-function (kernel smoother) settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -297,6 +324,9 @@ pub struct Analysis {
     pub risk: Vec<RiskScenario>,
     /// Smoothed steady-state slips and ρ over U (fields: vx, vy, wz, left, right, rho).
     pub transfer: Option<TransferFunctions>,
+    /// Bootstrap intervals of the medians.
+    #[serde(default)]
+    pub median_ci95: MedianIntervals,
     /// Flat rows for summary.json.
     pub rows: Vec<SummaryRow>,
 }
@@ -440,6 +470,31 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
             })),
         },
     };
+    let boot = bootstrap::Bootstrap::default();
+    let along_cols: [Vec<f64>; 5] = [
+        col(&|s| along(s.steady.cmd_body.vx_m_s, s.steady.slip_body.vx_m_s)),
+        col(&|s| s.steady.slip_body.vy_m_s.abs()),
+        col(&|s| along(s.steady.cmd_body.wz_rad_s, s.steady.slip_body.wz_rad_s)),
+        col(&|s| along(s.steady.cmd_wheels.left_rad_s, s.steady.slip_wheels.left_rad_s)),
+        col(&|s| along(s.steady.cmd_wheels.right_rad_s, s.steady.slip_wheels.right_rad_s)),
+    ];
+    let median_ci95 = MedianIntervals {
+        bootstrap: boot,
+        rho: boot.median_interval(&rhos),
+        vx_m_s: boot.median_interval(&g_vx),
+        vy_m_s: boot.median_interval(&g_vy),
+        wz_rad_s: boot.median_interval(&g_wz),
+        left_rad_s: boot.median_interval(&g_l),
+        right_rad_s: boot.median_interval(&g_r),
+        along_command: along_cols.each_ref().map(|c| boot.median_interval(c)),
+        warning: (steps.len() < bootstrap::MIN_STEPS_FOR_INTERVAL).then(|| {
+            format!(
+                "too_few_steps: {} analysed steps (fewer than {}): the median intervals are unreliable",
+                steps.len(),
+                bootstrap::MIN_STEPS_FOR_INTERVAL
+            )
+        }),
+    };
     let idd_rmse = rms(&steps.iter().map(|s| s.steady.slip_body).collect::<Vec<_>>());
     let commands_outside_u = steps
         .iter()
@@ -533,6 +588,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         max_kinetic_energy,
         risk,
         transfer,
+        median_ci95,
         rows,
     })
 }

@@ -37,6 +37,7 @@ pub mod solver;
 pub mod stages;
 pub mod steps;
 pub mod surrogate;
+pub mod twin;
 
 pub use data::{split_steps, Split, StepSet};
 pub use fit::{FitOptions, FitResult, FittedParam, Optimizer};
@@ -288,6 +289,40 @@ pub fn models_for_log(log: &DriveLog) -> Result<(Robot, Terrain, Vec<String>)> {
     Ok((robot, terrain, notes))
 }
 
+/// The robot and terrain to start from: `robot` / `terrain` (names or TOML files, e.g. a
+/// twin's) when given, used as written, else the log's own ([`models_for_log`]). The notes
+/// say what was chosen; a robot of another name than the log's is refused (its nominal values
+/// would not be the ones the commands were computed with).
+pub fn models_for(
+    log: &DriveLog,
+    robot: Option<&str>,
+    terrain: Option<&str>,
+) -> Result<(Robot, Terrain, Vec<String>)> {
+    let (mut r, mut t, mut notes) = models_for_log(log)?;
+    if let Some(name) = robot {
+        let (given, file) = Robot::resolve(name)?;
+        if given.name != log.meta.robot {
+            return Err(Error::config(
+                file,
+                "name",
+                format!(
+                    "robot `{}` is not the log's robot `{}` ({})",
+                    given.name, log.meta.robot, log.meta.name
+                ),
+            ));
+        }
+        notes.push(format!("robot from {}", file.display()));
+        r = given;
+    }
+    if let Some(name) = terrain {
+        let (given, file) = Terrain::resolve(name)?;
+        notes.retain(|n| !n.starts_with("terrain `"));
+        notes.push(format!("terrain from {}", file.display()));
+        t = given;
+    }
+    Ok((r, t, notes))
+}
+
 /// Runs the calibration loop (see the module doc) of the plant `factory` builds, starting
 /// from `robot` and `terrain`, on `log`.
 pub fn calibrate(
@@ -374,7 +409,8 @@ pub fn calibrate_timed(
         }
         _ => train_all,
     };
-    let declared = ModelParams::new(robot.clone(), terrain.clone());
+    // A robot or terrain file's own effects (a twin's) are the starting model's effects.
+    let declared = twin::lift_effects(robot, terrain)?;
     let (pool, not_evaluated) = candidates::candidates_for(factory, &reach, opts.candidates.as_deref());
     if let Some(only) = &opts.candidates {
         for n in only {
@@ -587,26 +623,97 @@ pub struct ReplayComparison {
     pub idd: ErrorSummary,
     /// Noise floor of the recording.
     pub floor: ErrorSummary,
+    /// Error of the replay on a calibration's test steps, scored with that calibration's
+    /// noise floor (what its `after` reports for the calibrated model), when asked for.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test: Option<ErrorSummary>,
+}
+
+/// Steps to score a replay on the way a calibration scored its model: its test steps and the
+/// noise floor of its training steps.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScoreSteps {
+    /// Test steps.
+    pub steps: Vec<u32>,
+    /// Noise floor the scores are relative to.
+    pub floor: NoiseFloor,
+}
+
+/// The fields of a `calibration.json` that [`ScoreSteps`] reads (the whole report does not
+/// read back: JSON has no infinity, so some of its numbers are written as null).
+#[derive(Deserialize)]
+struct ScoreStepsJson {
+    heldout_steps: Vec<u32>,
+    floor: NoiseFloor,
+}
+
+impl ScoreSteps {
+    /// The test steps and floor of a `calibration.json` (`file` names it in errors).
+    pub fn from_json(text: &str, file: &Path) -> Result<Self> {
+        let r: ScoreStepsJson = serde_json::from_str(text)
+            .map_err(|e| Error::config(file, "heldout_steps / floor", e.to_string()))?;
+        Ok(Self {
+            steps: r.heldout_steps,
+            floor: r.floor,
+        })
+    }
+
+    /// The test steps and floor of a calibration report.
+    pub fn of_report(r: &CalibrationReport) -> Self {
+        Self {
+            steps: r.heldout_steps.clone(),
+            floor: r.floor.clone(),
+        }
+    }
 }
 
 /// Replays every step of `log` on the declared model `kind` (no fit) and compares it with the
 /// recording, beside the IDD and the noise floor. What `drive-sim replay MEASURED` runs.
 pub fn replay_and_compare(log: &DriveLog, kind: ModelKind) -> Result<ReplayComparison> {
     let (robot, terrain, _) = models_for_log(log)?;
-    let params = ModelParams::new(robot, terrain);
+    replay_model_and_compare(log, &twin::lift_effects(&robot, &terrain)?, kind, None)
+}
+
+/// Replays every step of `log` on `params` (e.g. a twin's files, [`twin::lift_effects`]) with
+/// the plant `kind`, compares it with the recording beside the IDD and the noise floor and,
+/// with `score`, also on a calibration's test steps.
+pub fn replay_model_and_compare(
+    log: &DriveLog,
+    params: &ModelParams,
+    kind: ModelKind,
+    score: Option<&ScoreSteps>,
+) -> Result<ReplayComparison> {
     let factory = kind.factory();
     let slices = steps::step_slices(log);
     let ids: Vec<u32> = slices.iter().map(|s| s.step).collect();
     let all = StepSet::new(&slices, &ids, log.meta.rate_hz)?;
     let floor = NoiseFloor::estimate(&all.features)?;
-    let model = ErrorSummary::pool(&all.errors(factory.as_ref(), &params)?, &floor);
-    let idd = ErrorSummary::pool(&all.errors(&IddFactory, &params)?, &floor);
-    let replayed = replay_log(log, factory.as_ref(), &params, &ReplayOptions::default())?;
+    let model = ErrorSummary::pool(&all.errors(factory.as_ref(), params)?, &floor);
+    let idd = ErrorSummary::pool(&all.errors(&IddFactory, params)?, &floor);
+    let test = match score {
+        Some(s) => {
+            if let Some(missing) = s.steps.iter().find(|id| !ids.contains(id)) {
+                return Err(Error::log(
+                    &log.meta.name,
+                    format!("step {missing}"),
+                    "the calibration's test step is not in this log (was it calibrated on another log?)",
+                ));
+            }
+            let set = StepSet::new(&slices, &s.steps, log.meta.rate_hz)?;
+            Some(ErrorSummary::pool(
+                &set.errors(factory.as_ref(), params)?,
+                &s.floor,
+            ))
+        }
+        None => None,
+    };
+    let replayed = replay_log(log, factory.as_ref(), params, &ReplayOptions::default())?;
     Ok(ReplayComparison {
         replayed,
         model,
         idd,
         floor: ErrorSummary::floor(&floor),
+        test,
     })
 }
 

@@ -167,23 +167,17 @@ pub fn replay_log(
     let frames: Vec<Frame> = replayed.iter().flatten().map(|s| s.to_frame()).collect();
     let meta = LogMeta {
         name: format!("{}_replay_{}", log.meta.name, factory.name()),
-        origin: Origin::Simulated {
-            seed: 0,
+        origin: Origin::Replayed {
+            of: log.meta.name.clone(),
+            model: factory.name(),
             robot_file: params.robot.name.clone(),
             terrain_file: params.terrain.name.clone(),
-            // The model's effects are declared, not injected: they go in the description.
-            sampler: format!(
-                "replay of {} (effects: {})",
-                log.meta.name,
-                params
-                    .effects
-                    .values()
-                    .iter()
-                    .map(|(k, v)| format!("{k}={v}"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-            injected: Vec::new(),
+            effects: params
+                .effects
+                .declared()
+                .iter()
+                .map(|(k, v)| format!("{k}={v}"))
+                .collect(),
         },
         ..log.meta.clone()
     };

@@ -111,6 +111,28 @@ fn print_analysis_table(analyses: &[crate::analysis::Analysis]) -> anyhow::Resul
             a.spaces.t_area_pct_wheels,
             a.yaw_rate_source
         )?;
+        // The same medians' bootstrap-by-step intervals (the definition `compare` uses).
+        let ci = &a.median_ci95;
+        let f = |i: &Option<crate::analysis::bootstrap::Interval>| {
+            i.map_or("(none)".to_string(), |i| {
+                format!("[{:.3}, {:.3}]", i.lower, i.upper)
+            })
+        };
+        let ac = &ci.along_command;
+        writeln!(
+            out,
+            "{:<20} 95 % CI (bootstrap by step): g_vx {} |g_vy| {} g_wz {} g_left {} g_right {} rho {}",
+            "",
+            f(&ac[0]),
+            f(&ac[1]),
+            f(&ac[2]),
+            f(&ac[3]),
+            f(&ac[4]),
+            f(&ci.rho)
+        )?;
+        if let Some(w) = &ci.warning {
+            writeln!(out, "{:<20} warning: {w}", "")?;
+        }
     }
     Ok(())
 }

@@ -21,6 +21,11 @@ pub struct ReplayArgs {
     /// Model replayed: `simulator` (rapier) or `kinematic` (grey-box, fast).
     #[arg(long, default_value = "simulator")]
     pub model: String,
+    /// Also score the replay on the test steps of this `calibration.json`, with its noise
+    /// floor: replaying a twin (`--robot OUT/twin/robot.toml --terrain OUT/twin/terrain.toml`)
+    /// reproduces that calibration's test score.
+    #[arg(long, value_name = "CALIBRATION_JSON")]
+    pub score_like: Option<PathBuf>,
 }
 
 /// Options of `drive-sim calibrate`.
@@ -53,6 +58,10 @@ pub struct CalibrateArgs {
     /// Only these candidate effects (comma-separated registry names).
     #[arg(long, value_delimiter = ',')]
     pub candidates: Option<Vec<String>>,
+    /// Calibrate on the odd or even steps only (the twin is then judged on the other half with
+    /// `compare --real-steps`), or on all of them.
+    #[arg(long, value_enum, default_value = "all")]
+    pub use_steps: crate::log::UseSteps,
 }
 
 /// Replays a log on the declared model and reports how far it is, beside the IDD and the floor.
@@ -66,16 +75,34 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
         log.meta.name,
         args.model
     );
+    // `--robot` / `--terrain` (names or files, e.g. a twin) choose the model replayed.
+    let (robot, terrain, notes) =
+        calibration::models_for(&log, args.input.robot.as_deref(), args.input.terrain.as_deref())?;
+    for n in &notes {
+        eprintln!("drive-sim: {n}");
+    }
+    let score = match &args.score_like {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).map_err(|e| crate::Error::io(p, e))?;
+            Some(calibration::ScoreSteps::from_json(&text, p)?)
+        }
+        None => None,
+    };
+    let params = calibration::twin::lift_effects(&robot, &terrain)?;
+    let cmp = calibration::replay_model_and_compare(&log, &params, kind, score.as_ref())?;
     let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
-    let cmp = calibration::replay_and_compare(&log, kind)?;
     let dir = staged.path();
     // The replay as a log of its own, readable by `analyze` and Foxglove.
     let mut meta = cmp.replayed.meta.clone();
     meta.name = format!("{}_replay", log.meta.name);
-    if let Origin::Measured { file } = &log.meta.origin {
-        meta.origin = Origin::Measured {
-            file: format!("replay of {file} on the {} model", args.model),
-        };
+    if let Origin::Replayed {
+        robot_file,
+        terrain_file,
+        ..
+    } = &mut meta.origin
+    {
+        robot_file.clone_from(&args.input.robot.clone().unwrap_or_else(|| robot.name.clone()));
+        terrain_file.clone_from(&args.input.terrain.clone().unwrap_or_else(|| terrain.name.clone()));
     }
     let frames: Vec<_> = cmp.replayed.samples.iter().map(|s| s.to_frame()).collect();
     let mcap = args.out.join(format!("{}.mcap", meta.name));
@@ -86,11 +113,13 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
             "model": cmp.model,
             "idd": cmp.idd,
             "floor": cmp.floor,
+            "test": cmp.test,
             "provenance": provenance(&args.log, serde_json::json!({
                 "model": args.model,
                 "robot": args.input.robot,
                 "terrain": args.input.terrain,
                 "roles": args.input.roles,
+                "score_like": args.score_like,
             })),
         }),
     )?;
@@ -109,6 +138,14 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
             f(&cmp.idd),
             f(&cmp.model),
             f(&cmp.floor)
+        )?;
+    }
+    if let Some(t) = &cmp.test {
+        writeln!(
+            out,
+            "score on the calibration's {} test steps (its noise floor): {:.4}",
+            score.as_ref().map_or(0, |s| s.steps.len()),
+            t.score
         )?;
     }
     eprintln!(
@@ -142,8 +179,11 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
     // The output folder is checked (and staged) before the long work; it appears whole.
     let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
     eprintln!("drive-sim: reading {}", args.log.display());
-    let log = super::input::open_log(&args.log, &args.input)?;
-    let (robot, terrain, notes) = calibration::models_for_log(&log)?;
+    let log = args
+        .use_steps
+        .select(&super::input::open_log(&args.log, &args.input)?);
+    let (robot, terrain, notes) =
+        calibration::models_for(&log, args.input.robot.as_deref(), args.input.terrain.as_deref())?;
     let mut opts = CalibrationOptions {
         seed: args.seed,
         max_effects: args.max_effects,
@@ -169,12 +209,13 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
         })?;
     report.status.notes.splice(0..0, notes);
     report.reproduce = format!(
-        "drive-sim calibrate {} --model {} --seed {} --max-effects {} --optimizer {} --out {}",
+        "drive-sim calibrate {} --model {} --seed {} --max-effects {} --optimizer {} --use-steps {} --out {}",
         args.log.display(),
         args.model,
         args.seed,
         args.max_effects,
         args.optimizer,
+        args.use_steps.as_str(),
         args.out.display()
     );
     let mut files = calibration::write_report(&report, staged.path())?;
@@ -190,13 +231,27 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
                 "max_fit_steps": args.max_fit_steps,
                 "optimizer": args.optimizer,
                 "candidates": args.candidates,
+                "use_steps": args.use_steps.as_str(),
                 "robot": args.input.robot,
                 "terrain": args.input.terrain,
                 "roles": args.input.roles,
             }),
         ),
     )?;
+    // A simulator fit is a runnable twin; a kinematic fit's values are effective ones.
+    if kind == ModelKind::Simulator {
+        let twin = calibration::twin::twin_of_report(&report)?;
+        let paths = calibration::twin::write_twin(&twin, &staged.path().join("twin"))?;
+        files.extend(paths);
+    }
     staged.commit()?;
+    if kind == ModelKind::Simulator {
+        eprintln!(
+            "drive-sim: twin: drive-sim run --robot {} --terrain {}",
+            args.out.join("twin/robot.toml").display(),
+            args.out.join("twin/terrain.toml").display()
+        );
+    }
     print_report(&report)?;
     eprintln!("drive-sim: time per stage:");
     for line in timings.lines() {

@@ -9,12 +9,14 @@ use std::path::{Path, PathBuf};
 pub struct InputArgs {
     /// Bags: robot for the nominal values (`warthog`, `husky` or a robot TOML); default: the
     /// roles preset's robot. The DRIVE node's parameter YAML beside the bag overrides radius,
-    /// baseline, limits and step length.
+    /// baseline, limits and step length. `replay` and `calibrate`: also the model replayed or
+    /// calibrated from, used as written (e.g. a twin's `robot.toml`).
     #[arg(long)]
     pub robot: Option<String>,
     /// Terrain the log was recorded on, a name (see `drive-sim terrains`) or a terrain TOML:
     /// replaces the label a log declares (required when that label is a terrain drive-sim does
     /// not know); a bag does not record one (default `unlabelled`, models start from `asphalt`).
+    /// `replay` and `calibrate`: also the terrain model, used as written (e.g. a twin's).
     #[arg(long, value_name = "NAME|FILE")]
     pub terrain: Option<String>,
     /// Bags: topic roles, `warthog`, `husky` (the DRIVE node's presets) or a roles TOML;

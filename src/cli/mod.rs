@@ -2,6 +2,7 @@
 
 pub mod analyze;
 pub mod calibrate;
+pub mod compare;
 pub mod demo;
 pub mod input;
 pub mod run;
@@ -44,6 +45,10 @@ pub enum Command {
     /// Closes the loop: baseline error, terrain calibration, residual, effects selected with
     /// evidence, error after, all on held-out steps; JSON + HTML report and a fitted terrain file.
     Calibrate(calibrate::CalibrateArgs),
+    /// Compares a real log with simulated ones in the paper's terms (median ρ and slips, T/U
+    /// areas, transfer-function difference maps) with bootstrap intervals and Holm-corrected
+    /// verdicts; writes comparison.json, figures and report.html.
+    Compare(compare::CompareArgs),
     /// Lists the robots (built-in and ./robots/*.toml).
     Robots,
     /// Lists the terrains (built-in and ./terrains/*.toml).
@@ -126,6 +131,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         }
         Some(Command::Replay(a)) => calibrate::replay(&a),
         Some(Command::Calibrate(a)) => calibrate::calibrate(&a),
+        Some(Command::Compare(a)) => compare::compare(&a),
         Some(Command::Robots) => list_robots(),
         Some(Command::Terrains) => list_terrains(),
         Some(Command::Effects) => list_effects(),

@@ -13,7 +13,7 @@ pub mod ros_msgs;
 
 pub use crate::measurement::{
     DriveLog, Frame, FrameSink, GroundTruth, ImuReading, Interruption, LogMeta, Measurement, Nominal, Origin,
-    Phase, Pose, Sample,
+    Phase, Pose, Sample, UseSteps,
 };
 
 /// Reads a DRIVE log of either kind: a simulated `.mcap` or a measured `.csv` (with its JSON).

@@ -92,6 +92,22 @@ pub enum Origin {
         /// The file it was read from.
         file: String,
     },
+    /// The commands of another log replayed on a model, step for step (`drive-sim replay`):
+    /// each step pairs with the step of the same number in that log (what `compare` uses to
+    /// pair differences by step).
+    Replayed {
+        /// Name of the log whose commands were replayed.
+        of: String,
+        /// Plant replayed (`simulator`, `kinematic`).
+        model: String,
+        /// Robot model (name or file) replayed.
+        robot_file: String,
+        /// Terrain model (name or file) replayed.
+        terrain_file: String,
+        /// The model's effects, as `name=value` strings.
+        #[serde(default)]
+        effects: Vec<String>,
+    },
 }
 
 /// Metadata of a log.
@@ -187,6 +203,39 @@ impl LogMeta {
     }
 }
 
+/// Which steps of a log to use: a twin calibrated on one half of a run is judged on the other.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum UseSteps {
+    /// Every step.
+    #[default]
+    All,
+    /// Steps with an odd number.
+    Odd,
+    /// Steps with an even number.
+    Even,
+}
+
+impl UseSteps {
+    /// Name on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::All => "all",
+            Self::Odd => "odd",
+            Self::Even => "even",
+        }
+    }
+
+    /// The log restricted to these steps (itself for `All`), named `<name>_odd` / `_even`.
+    pub fn select(self, log: &DriveLog) -> DriveLog {
+        match self {
+            Self::All => log.clone(),
+            Self::Odd => log.with_steps("odd", |s| s % 2 == 1),
+            Self::Even => log.with_steps("even", |s| s % 2 == 0),
+        }
+    }
+}
+
 /// A DRIVE log: metadata, the samples of completed steps (in order), and the interruptions.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DriveLog {
@@ -270,6 +319,30 @@ impl DriveLog {
             interruptions,
             duration_s,
         }
+    }
+
+    /// The log restricted to the steps `keep` accepts (their samples and interruptions; the
+    /// duration shrinks in proportion to the productive time kept, so time efficiency stays
+    /// comparable), named `<name>_<label>`.
+    pub fn with_steps(&self, label: &str, keep: impl Fn(u32) -> bool) -> DriveLog {
+        let before = self.steps().len().max(1) as f64;
+        let samples: Vec<Sample> = self.samples.iter().filter(|s| keep(s.step)).cloned().collect();
+        let mut out = DriveLog {
+            meta: LogMeta {
+                name: format!("{}_{label}", self.meta.name),
+                ..self.meta.clone()
+            },
+            samples,
+            interruptions: self
+                .interruptions
+                .iter()
+                .filter(|i| keep(i.step))
+                .cloned()
+                .collect(),
+            duration_s: self.duration_s,
+        };
+        out.duration_s = self.duration_s * out.steps().len() as f64 / before;
+        out
     }
 
     /// Indices of the completed steps, in order.

@@ -9,7 +9,7 @@
 
 mod drive_log;
 
-pub use drive_log::{DriveLog, Interruption, LogMeta, Nominal, Origin};
+pub use drive_log::{DriveLog, Interruption, LogMeta, Nominal, Origin, UseSteps};
 
 use crate::kinematics::{BodyVelocity, WheelSpeeds};
 use serde::{Deserialize, Serialize};

@@ -42,6 +42,26 @@ pub struct ProtocolConfig {
     pub max_attempts: u32,
     /// Longest a re-orientation may take before the run is declared stuck, s.
     pub max_reorient_s: f64,
+    /// The operator turns the robot back at up to this yaw rate (and never faster than half
+    /// the robot's yaw-rate limit), rad/s. A person with a joystick turns a Warthog at about
+    /// 2 rad/s; the first simulated operator turned at 1 rad/s and spent a quarter of the
+    /// protocol time turning.
+    #[serde(default = "default_reorient_yaw_rate")]
+    pub reorient_yaw_rate_rad_s: f64,
+    /// The operator drives the robot back towards the centre at up to this speed (and never
+    /// faster than half the robot's speed limit), m/s. The first simulated operator drove at a
+    /// walking pace (0.3 of the limit, at most 0.6 m/s) and spent 20-50 % of the protocol time
+    /// doing so.
+    #[serde(default = "default_reorient_speed")]
+    pub reorient_speed_m_s: f64,
+}
+
+fn default_reorient_yaw_rate() -> f64 {
+    2.0
+}
+
+fn default_reorient_speed() -> f64 {
+    2.0
 }
 
 impl Default for ProtocolConfig {
@@ -56,6 +76,8 @@ impl Default for ProtocolConfig {
             border_margin_m: 0.5,
             max_attempts: 4,
             max_reorient_s: 60.0,
+            reorient_yaw_rate_rad_s: default_reorient_yaw_rate(),
+            reorient_speed_m_s: default_reorient_speed(),
         }
     }
 }
@@ -97,6 +119,28 @@ pub struct RunSummary {
     pub productive_time_s: f64,
     /// Productive over total time (the paper's time-efficiency ratio).
     pub time_efficiency: f64,
+    /// Where the rest of the time went, s: attempts cut short by the safety operator (the
+    /// driving done before each interruption).
+    #[serde(default)]
+    pub interrupted_attempts_time_s: f64,
+    /// Re-orientations after interruptions (stopping, driving back towards the centre,
+    /// turning to the new heading, settling), s.
+    #[serde(default)]
+    pub reorientation_time_s: f64,
+    /// Standing still before the first step and after the last one, s.
+    #[serde(default)]
+    pub idle_time_s: f64,
+    /// Of the re-orientation time: braking to a stop (after the interruption and after each
+    /// manoeuvre), s.
+    #[serde(default)]
+    pub reorientation_stopping_s: f64,
+    /// Of the re-orientation time: driving back towards the centre (when no heading let the
+    /// command run a whole step from where the robot stopped), s.
+    #[serde(default)]
+    pub reorientation_driving_s: f64,
+    /// Of the re-orientation time: turning to the new heading, s.
+    #[serde(default)]
+    pub reorientation_turning_s: f64,
 }
 
 /// Where the protocol hands its frames; defined with the frames, below the log writers that
@@ -188,6 +232,7 @@ impl Runner<'_> {
         for _ in 0..settle {
             self.tick(Phase::Idle, WheelSpeeds::default(), 0)?;
         }
+        self.summary.idle_time_s += self.plant.time_s() - self.t0;
         let mut history: Vec<StepOutcome> = Vec::new();
         let mut previous = WheelSpeeds::default();
         for step in 0..self.cfg.steps {
@@ -195,6 +240,7 @@ impl Runner<'_> {
             let mut attempts_of_cmd = 0;
             let mut cmd = self.draw(sampler, step, previous, &history);
             loop {
+                let t_attempt = self.plant.time_s();
                 self.plant.begin_step(crate::effects::StepContext {
                     step,
                     previous_cmd: previous,
@@ -211,6 +257,7 @@ impl Runner<'_> {
                     }
                     AttemptEnd::Interrupted => {
                         self.summary.interruptions += 1;
+                        self.summary.interrupted_attempts_time_s += self.plant.time_s() - t_attempt;
                         attempt += 1;
                         if attempt >= MAX_ATTEMPTS_PER_STEP {
                             return Err(Error::Diverged {
@@ -226,7 +273,9 @@ impl Runner<'_> {
                             });
                         }
                         attempts_of_cmd += 1;
+                        let t_reorient = self.plant.time_s();
                         self.reorient(step, cmd)?;
+                        self.summary.reorientation_time_s += self.plant.time_s() - t_reorient;
                         if attempts_of_cmd >= self.cfg.max_attempts {
                             self.summary.abandoned_commands += 1;
                             attempts_of_cmd = 0;
@@ -242,9 +291,11 @@ impl Runner<'_> {
             };
         }
         // One window of rest at the end so the log shows the robot stopping.
+        let t_rest = self.plant.time_s();
         for _ in 0..self.cfg.samples_per_window() {
             self.tick(Phase::Idle, WheelSpeeds::default(), self.cfg.steps)?;
         }
+        self.summary.idle_time_s += self.plant.time_s() - t_rest;
         self.summary.total_time_s = self.plant.time_s() - self.t0;
         self.summary.time_efficiency =
             self.summary.productive_time_s / self.summary.total_time_s.max(f64::MIN_POSITIVE);
@@ -329,23 +380,36 @@ impl Runner<'_> {
     /// side the command drives towards, the paper's rule).
     fn reorient(&mut self, step: u32, cmd: WheelSpeeds) -> Result<()> {
         let phase = Phase::Reorient { step };
-        let max_wz = (0.5 * self.space.max_ang_rad_s).min(1.0);
+        let max_wz = (0.5 * self.space.max_ang_rad_s).min(self.cfg.reorient_yaw_rate_rad_s);
+        let mut t = self.plant.time_s();
+        // Time since `t` (and `t` moved on), for the summary's breakdown.
+        let lap = |plant: &dyn Plant, t: &mut f64| {
+            let d = plant.time_s() - *t;
+            *t = plant.time_s();
+            d
+        };
         let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
         self.stop(phase, step, deadline)?;
+        self.summary.reorientation_stopping_s += lap(self.plant, &mut t);
         if !self.best_heading(self.plant.true_pose(), cmd).1 {
             let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
             self.drive_towards_centre(phase, step, cmd, max_wz, deadline)?;
+            self.summary.reorientation_driving_s += lap(self.plant, &mut t);
             let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
             self.stop(phase, step, deadline)?;
+            self.summary.reorientation_stopping_s += lap(self.plant, &mut t);
         }
         let (heading, _) = self.best_heading(self.plant.true_pose(), cmd);
         let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
         self.turn_to(phase, step, move |_| heading, max_wz, deadline)?;
+        self.summary.reorientation_turning_s += lap(self.plant, &mut t);
         let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
-        self.stop(phase, step, deadline)
+        self.stop(phase, step, deadline)?;
+        self.summary.reorientation_stopping_s += lap(self.plant, &mut t);
+        Ok(())
     }
 
-    /// Drives towards the centre of the safe area at a walking pace until `cmd` fits from the
+    /// Drives towards the centre of the safe area at the operator's pace until `cmd` fits from the
     /// robot's position (checked every 0.5 s) or it is within 1 m of the centre. It drives
     /// straight, forward or backward, whichever faces the centre, steering only gently, and
     /// turns in place first only if the centre is nearly abeam: a skid-steer on soft ground may
@@ -379,7 +443,7 @@ impl Runner<'_> {
             let vx = if err.abs() > 1.2 {
                 0.0
             } else {
-                dir * 0.3 * self.space.max_lin_m_s.min(2.0)
+                dir * (0.5 * self.space.max_lin_m_s).min(self.cfg.reorient_speed_m_s)
             };
             let wz = (1.5 * err).clamp(-max_wz, max_wz);
             let c = idd.wheels_from_body(BodyVelocity::new(vx, 0.0, wz));

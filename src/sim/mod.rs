@@ -360,7 +360,9 @@ impl Simulator {
             dt: (1.0 / cfg.physics_hz) as f32,
             ..Default::default()
         };
-        let effects = cfg.effects.clone();
+        // A robot's and a terrain's own effects (their `[effects]` tables) run under the
+        // configuration's, which override them.
+        let effects = crate::effects_table::combine(&robot.effects, &terrain.effects, &cfg.effects)?;
         let mods = effects.modifiers();
         let effects_on_body = effects.acts_on_body();
         let radius_m = w.radius_m * mods.wheel_radius_scale;

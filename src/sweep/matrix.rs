@@ -84,6 +84,7 @@ impl ProtocolOverrides {
             border_margin_m: self.border_margin_m.unwrap_or(d.border_margin_m),
             max_attempts: self.max_attempts.unwrap_or(d.max_attempts),
             max_reorient_s: self.max_reorient_s.unwrap_or(d.max_reorient_s),
+            ..d
         }
     }
 }

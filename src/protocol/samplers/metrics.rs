@@ -292,6 +292,7 @@ mod tests {
             total_time_s: 48.0,
             productive_time_s: 24.0,
             time_efficiency: 0.5,
+            ..RunSummary::default()
         };
         let tu = time_use(&summary);
         assert_eq!(tu.interruptions_per_step, 0.5);

@@ -1,0 +1,586 @@
+//! `compare`: does a simulated DRIVE run reproduce a real one, in the paper's own terms?
+//!
+//! [`compare`] puts a real log and one or more simulated logs of the same robot side by side:
+//! median steady-state ρ and slips (vx, vy, wz, each wheel), the area of T over U in both
+//! frames, the transfer functions as difference maps (sim − real), and interruptions and time
+//! efficiency where the real log records them (a measured CSV export does not).
+//!
+//! Every difference gets a bootstrap-by-step interval ([`crate::analysis::bootstrap`], the same
+//! definition `analyze` uses for its medians) that carries both runs' sampling error:
+//! - **paired** when the simulated log replays the real log's commands (its metadata says so,
+//!   [`crate::log::Origin::Replayed`]): the same steps are drawn in both runs;
+//! - **two-sample** otherwise: each run's steps are drawn independently.
+//!
+//! The p-values of the differences (two-sided, from the same resamples) are adjusted with
+//! Holm's method over the verdicts of each simulated log, so "no significant difference" is a
+//! family-wise statement at the chosen level. The transfer-function RMS difference has no
+//! bootstrap: it is judged against a yardstick, the same RMS between the two halves (odd and
+//! even steps) of the real run, scaled to full size ([`tf::yardstick_scale`]).
+//!
+//! The library computes ([`compare`] → [`ComparisonReport`]); [`mod@write`] writes
+//! `comparison.json`, the figures and the report.
+
+pub mod tf;
+pub mod write;
+
+use crate::analysis::bootstrap::{holm, two_sided_p, Bootstrap, Interval, MIN_STEPS_FOR_INTERVAL};
+use crate::analysis::{analyze, spaces, stats, Analysis, AnalysisParams, SmootherParams};
+use crate::error::{Error, Result};
+use crate::kinematics::CommandSpace;
+use crate::log::{DriveLog, Origin};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+/// Options of [`compare`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CompareOptions {
+    /// Resampling of every interval.
+    pub bootstrap: Bootstrap,
+    /// Family-wise significance level of the Holm-corrected verdicts.
+    pub alpha: f64,
+    /// A transfer function reproduces the real one when its RMS difference is at most this many
+    /// times the split-half yardstick.
+    pub tf_tolerance: f64,
+    /// T/U areas agree when they differ by at most this many percentage points.
+    pub area_tolerance_pp: f64,
+    /// Grid resolution of the transfer functions (m/s and rad/s; the paper's 0.1).
+    pub grid_step: f64,
+    /// Kernel variance; the paper's for the robot when `None`.
+    pub kernel_var: Option<f64>,
+    /// A grid point is compared only where both runs have at least this kernel weight (about
+    /// one step within 1.2 σ): elsewhere a smoothed value is an extrapolation.
+    pub min_weight: f64,
+}
+
+impl Default for CompareOptions {
+    fn default() -> Self {
+        Self {
+            bootstrap: Bootstrap::default(),
+            alpha: 0.05,
+            tf_tolerance: 1.5,
+            area_tolerance_pp: 5.0,
+            grid_step: 0.1,
+            kernel_var: None,
+            min_weight: 0.5,
+        }
+    }
+}
+
+/// One log as the comparison sees it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunInfo {
+    /// Dataset name.
+    pub name: String,
+    /// File it was read from.
+    pub file: Option<PathBuf>,
+    /// Robot.
+    pub robot: String,
+    /// Terrain.
+    pub terrain: String,
+    /// Steps analysed.
+    pub steps: usize,
+    /// Interruptions, when the log records the protocol's state.
+    pub interruptions: Option<usize>,
+    /// Time efficiency (productive share of protocol time), when recorded.
+    pub time_efficiency: Option<f64>,
+}
+
+/// How the two runs' steps were resampled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Pairing {
+    /// The simulated log replays the real commands: steps drawn together (same step numbers).
+    Paired,
+    /// Independent runs: each run's steps drawn on their own.
+    TwoSample,
+}
+
+/// A scalar metric of both runs and its difference.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MetricDiff {
+    /// Metric key, e.g. `median_rho`, `median_slip_vx`, `t_area_pct_body`.
+    pub metric: String,
+    /// Unit.
+    pub unit: String,
+    /// Value on the real run.
+    pub real: f64,
+    /// Its interval.
+    pub real_ci95: Option<Interval>,
+    /// Value on the simulated run.
+    pub sim: f64,
+    /// Its interval.
+    pub sim_ci95: Option<Interval>,
+    /// `sim − real`.
+    pub difference: f64,
+    /// Interval of the difference (both runs' sampling error).
+    pub difference_ci95: Option<Interval>,
+    /// Two-sided bootstrap p-value of a zero difference.
+    pub p: f64,
+    /// Holm-adjusted p-value over this simulated log's verdicts.
+    pub p_holm: f64,
+    /// The difference is significant at the family-wise level.
+    pub significant: bool,
+    /// Tolerance the target sets on |difference| (T/U areas: 5 percentage points).
+    pub tolerance: Option<f64>,
+    /// |difference| within the tolerance.
+    pub within_tolerance: Option<bool>,
+}
+
+/// Transfer-function difference of one channel.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TfDiff {
+    /// Channel, e.g. `slip_vx_m_s`.
+    pub channel: String,
+    /// Unit.
+    pub unit: String,
+    /// RMS over the compared grid points of (sim − real).
+    pub rms: f64,
+    /// RMS between the real run's odd and even steps (same grid points).
+    pub split_half_rms: f64,
+    /// The split-half RMS scaled to the two full runs' sizes: the RMS expected from sampling
+    /// alone.
+    pub yardstick: f64,
+    /// `rms / yardstick`.
+    pub ratio: f64,
+    /// `ratio ≤ tf_tolerance`.
+    pub within: bool,
+    /// Grid points compared.
+    pub points: usize,
+}
+
+/// Interruptions and time efficiency of both runs (one value per run: no interval).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TimeDiff {
+    /// Interruptions per completed step, real run.
+    pub real_interruptions_per_step: f64,
+    /// Same, simulated run.
+    pub sim_interruptions_per_step: f64,
+    /// Time efficiency of the real run.
+    pub real_time_efficiency: f64,
+    /// Time efficiency of the simulated run.
+    pub sim_time_efficiency: f64,
+}
+
+/// The verdict on one simulated log.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Verdict {
+    /// No significant difference, T/U areas within tolerance, every transfer function within
+    /// its yardstick.
+    pub reproduces: bool,
+    /// Metrics with a significant difference (Holm).
+    pub significant: Vec<String>,
+    /// T/U areas beyond the tolerance.
+    pub areas_beyond_tolerance: Vec<String>,
+    /// Transfer functions beyond the yardstick.
+    pub tf_beyond_yardstick: Vec<String>,
+}
+
+/// One simulated log against the real one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SimComparison {
+    /// The simulated log.
+    pub sim: RunInfo,
+    /// Resampling used.
+    pub pairing: Pairing,
+    /// Steps drawn together (paired) or the two runs' step counts (two-sample).
+    pub steps_used: (usize, usize),
+    /// Scalar metrics.
+    pub metrics: Vec<MetricDiff>,
+    /// Transfer-function differences.
+    pub transfer: Vec<TfDiff>,
+    /// Difference maps (sim − real) on the real run's grid.
+    pub maps: tf::DiffMaps,
+    /// Interruptions and time efficiency, when both logs record them.
+    pub time: Option<TimeDiff>,
+    /// Verdict.
+    pub verdict: Verdict,
+}
+
+/// A named warning in the report (never a silent fallback).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Warning {
+    /// Stable name, e.g. `too_few_steps`.
+    pub name: String,
+    /// What and where.
+    pub message: String,
+}
+
+/// Everything [`compare`] found (`comparison.json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ComparisonReport {
+    /// The real run.
+    pub real: RunInfo,
+    /// Options used.
+    pub options: CompareOptions,
+    /// One entry per simulated log.
+    pub sims: Vec<SimComparison>,
+    /// Named warnings.
+    pub warnings: Vec<Warning>,
+}
+
+/// What one step contributes to the metrics.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct StepRow {
+    pub step: u32,
+    /// ρ, slips vx, vy, wz, left, right.
+    pub values: [f64; 6],
+    pub cmd_body: (f64, f64),
+    pub cmd_wheels: (f64, f64),
+    pub t_body: (f64, f64),
+    pub t_wheels: (f64, f64),
+    pub vy: f64,
+}
+
+fn rows(a: &Analysis) -> Vec<StepRow> {
+    a.steps
+        .iter()
+        .map(|s| {
+            let r = &s.steady;
+            StepRow {
+                step: s.step,
+                values: [
+                    s.steady_rho.rho,
+                    r.slip_body.vx_m_s,
+                    r.slip_body.vy_m_s,
+                    r.slip_body.wz_rad_s,
+                    r.slip_wheels.left_rad_s,
+                    r.slip_wheels.right_rad_s,
+                ],
+                cmd_body: (r.cmd_body.vx_m_s, r.cmd_body.wz_rad_s),
+                cmd_wheels: (r.cmd_wheels.left_rad_s, r.cmd_wheels.right_rad_s),
+                t_body: (r.realized_body.vx_m_s, r.realized_body.wz_rad_s),
+                t_wheels: (r.realized_wheels.left_rad_s, r.realized_wheels.right_rad_s),
+                vy: r.realized_body.vy_m_s,
+            }
+        })
+        .collect()
+}
+
+/// The metrics compared, with their units and tolerance.
+const METRICS: &[(&str, &str, Option<f64>)] = &[
+    ("median_rho", "-", None),
+    ("median_slip_vx", "m/s", None),
+    ("median_slip_vy", "m/s", None),
+    ("median_slip_wz", "rad/s", None),
+    ("median_slip_left", "rad/s", None),
+    ("median_slip_right", "rad/s", None),
+    ("t_area_pct_body", "%", Some(0.0)),
+    ("t_area_pct_wheels", "%", Some(0.0)),
+];
+
+/// Metric `k` of [`METRICS`] on a set of steps.
+fn statistic(k: usize, rows: &[&StepRow], space: &CommandSpace) -> f64 {
+    if k < 6 {
+        return stats::median(&rows.iter().map(|r| r.values[k]).collect::<Vec<_>>());
+    }
+    let col = |f: fn(&StepRow) -> (f64, f64)| rows.iter().map(|r| f(r)).collect::<Vec<_>>();
+    let s = spaces::spaces(
+        space,
+        col(|r| r.cmd_body),
+        col(|r| r.cmd_wheels),
+        col(|r| r.t_body),
+        col(|r| r.t_wheels),
+        &rows.iter().map(|r| r.vy).collect::<Vec<_>>(),
+    );
+    if k == 6 {
+        s.t_area_pct_body
+    } else {
+        s.t_area_pct_wheels
+    }
+}
+
+fn pick<'a>(rows: &'a [StepRow], idx: &[usize]) -> Vec<&'a StepRow> {
+    idx.iter().map(|&i| &rows[i]).collect()
+}
+
+/// Resampled values of every metric on `rows` for each draw.
+fn resampled(rows: &[StepRow], draws: &[Vec<usize>], space: &CommandSpace) -> Vec<Vec<f64>> {
+    (0..METRICS.len())
+        .map(|k| {
+            draws
+                .iter()
+                .map(|d| statistic(k, &pick(rows, d), space))
+                .collect()
+        })
+        .collect()
+}
+
+/// Differences `sim − real` of two independent sets of resampled statistics: every pair when
+/// there are few enough (both exhaustive), else draw i with draw i.
+fn two_sample_diffs(real: &[f64], sim: &[f64], budget: usize) -> Vec<f64> {
+    if real.is_empty() || sim.is_empty() {
+        return Vec::new();
+    }
+    if real.len() * sim.len() <= budget {
+        return sim.iter().flat_map(|s| real.iter().map(move |r| s - r)).collect();
+    }
+    let n = real.len().max(sim.len());
+    (0..n)
+        .map(|i| sim[i % sim.len()] - real[i % real.len()])
+        .collect()
+}
+
+/// The analysis `compare` runs on each log: default parameters without the smoother (the
+/// comparison smooths on one common grid itself).
+pub fn analysis_of(log: &DriveLog) -> Result<Analysis> {
+    let params = AnalysisParams {
+        smoother: SmootherParams {
+            enabled: false,
+            ..SmootherParams::default()
+        },
+        ..AnalysisParams::default()
+    };
+    analyze(log, &params)
+}
+
+/// Whether a log records the protocol's interruptions and timing (simulated logs and bags do;
+/// a measured CSV export does not).
+pub fn records_time(log: &DriveLog) -> bool {
+    match &log.meta.origin {
+        Origin::Measured { file } => !file.to_ascii_lowercase().ends_with(".csv"),
+        Origin::Replayed { .. } => false,
+        Origin::Simulated { .. } => true,
+    }
+}
+
+fn run_info(log: &DriveLog, a: &Analysis, file: Option<PathBuf>) -> RunInfo {
+    let rec = records_time(log);
+    RunInfo {
+        name: log.meta.name.clone(),
+        file,
+        robot: log.meta.robot.clone(),
+        terrain: log.meta.terrain.clone(),
+        steps: a.steps.len(),
+        interruptions: rec.then_some(log.interruptions.len()),
+        time_efficiency: rec.then(|| log.time_efficiency()),
+    }
+}
+
+/// A log to compare, with the file it came from (for the report).
+#[derive(Debug, Clone, Copy)]
+pub struct Input<'a> {
+    /// The log.
+    pub log: &'a DriveLog,
+    /// Its file.
+    pub file: Option<&'a std::path::Path>,
+}
+
+/// Compares `real` with each of `sims` (see the module doc). Refuses logs of another robot
+/// than the real one's (bad input); warns, by name, of runs too short for an interval.
+pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<ComparisonReport> {
+    if sims.is_empty() {
+        return Err(Error::config("compare", "SIM", "give at least one simulated log"));
+    }
+    for s in sims {
+        if s.log.meta.robot != real.log.meta.robot {
+            return Err(Error::log(
+                s.file
+                    .map_or_else(|| s.log.meta.name.clone().into(), |f| f.to_path_buf()),
+                "metadata: robot",
+                format!(
+                    "robot `{}` is not the real log's `{}` ({}): a comparison needs one robot",
+                    s.log.meta.robot,
+                    real.log.meta.robot,
+                    real.file
+                        .map_or_else(|| real.log.meta.name.clone(), |f| f.display().to_string())
+                ),
+            ));
+        }
+    }
+    if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
+        return Err(Error::config(
+            "compare",
+            "alpha",
+            format!("must be in (0, 1), got {}", opts.alpha),
+        ));
+    }
+    let real_a = analysis_of(real.log)?;
+    let real_rows = rows(&real_a);
+    let space = real.log.meta.nominal.command_space();
+    let mut warnings = Vec::new();
+    let few = |name: &str, n: usize, warnings: &mut Vec<Warning>| {
+        if n < MIN_STEPS_FOR_INTERVAL {
+            warnings.push(Warning {
+                name: "too_few_steps".into(),
+                message: format!(
+                    "`{name}` has {n} analysed steps (fewer than {MIN_STEPS_FOR_INTERVAL}): its intervals are unreliable"
+                ),
+            });
+        }
+    };
+    few(&real.log.meta.name, real_rows.len(), &mut warnings);
+    if !records_time(real.log) {
+        warnings.push(Warning {
+            name: "time_not_recorded".into(),
+            message: format!(
+                "`{}` does not record interruptions or protocol time (a CSV export): time efficiency is not compared",
+                real.log.meta.name
+            ),
+        });
+    }
+    let b = &opts.bootstrap;
+    let real_draws = b.draws(real_rows.len(), 1);
+    let real_stats = resampled(&real_rows, &real_draws, &space);
+    let tf_grid = tf::TfSetup::new(real.log, opts);
+    let real_fields = tf_grid.fields(&real_rows.iter().collect::<Vec<_>>());
+    // Halves by alternating position (not step number: a log may already hold only the odd
+    // or the even steps, `--real-steps`).
+    let odd: Vec<&StepRow> = real_rows.iter().skip(1).step_by(2).collect();
+    let even: Vec<&StepRow> = real_rows.iter().step_by(2).collect();
+    let halves = (tf_grid.fields(&odd), tf_grid.fields(&even));
+
+    let mut out = Vec::new();
+    for s in sims {
+        let sim_a = analysis_of(s.log)?;
+        let sim_rows = rows(&sim_a);
+        few(&s.log.meta.name, sim_rows.len(), &mut warnings);
+        let paired = matches!(&s.log.meta.origin, Origin::Replayed { of, .. } if *of == real.log.meta.name);
+        let all_real: Vec<&StepRow> = real_rows.iter().collect();
+        let all_sim: Vec<&StepRow> = sim_rows.iter().collect();
+        let (pairing, steps_used, per_metric) = if paired {
+            // The steps both logs analysed, in the real log's order.
+            let common: Vec<(StepRow, StepRow)> = real_rows
+                .iter()
+                .filter_map(|r| sim_rows.iter().find(|q| q.step == r.step).map(|q| (*r, *q)))
+                .collect();
+            let (rr, ss): (Vec<StepRow>, Vec<StepRow>) = common.into_iter().unzip();
+            let draws = b.draws(rr.len(), 3);
+            let rs = resampled(&rr, &draws, &space);
+            let sm = resampled(&ss, &draws, &space);
+            let per: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> = rs
+                .into_iter()
+                .zip(sm)
+                .map(|(r, q)| {
+                    let d = q.iter().zip(&r).map(|(a, b)| a - b).collect();
+                    (r, q, d)
+                })
+                .collect();
+            (Pairing::Paired, (rr.len(), ss.len()), per)
+        } else {
+            let draws = b.draws(sim_rows.len(), 2);
+            let sm = resampled(&sim_rows, &draws, &space);
+            let per = real_stats
+                .iter()
+                .zip(sm)
+                .map(|(r, q)| {
+                    let d = two_sample_diffs(r, &q, b.resamples);
+                    (r.clone(), q, d)
+                })
+                .collect();
+            (Pairing::TwoSample, (real_rows.len(), sim_rows.len()), per)
+        };
+        let mut metrics: Vec<MetricDiff> = METRICS
+            .iter()
+            .zip(&per_metric)
+            .enumerate()
+            .map(|(k, ((name, unit, tol), (r, q, d)))| {
+                let real_v = statistic(k, &all_real, &space);
+                let sim_v = statistic(k, &all_sim, &space);
+                let diff = sim_v - real_v;
+                let tolerance = tol.map(|_| opts.area_tolerance_pp);
+                MetricDiff {
+                    metric: name.to_string(),
+                    unit: unit.to_string(),
+                    real: real_v,
+                    real_ci95: b.interval(r),
+                    sim: sim_v,
+                    sim_ci95: b.interval(q),
+                    difference: diff,
+                    difference_ci95: b.interval(d),
+                    p: two_sided_p(d),
+                    p_holm: f64::NAN,
+                    significant: false,
+                    tolerance,
+                    within_tolerance: tolerance.map(|t| diff.abs() <= t),
+                }
+            })
+            .collect();
+        let adjusted = holm(&metrics.iter().map(|m| m.p).collect::<Vec<_>>());
+        for (m, p) in metrics.iter_mut().zip(adjusted) {
+            m.p_holm = p;
+            m.significant = p.is_finite() && p < opts.alpha;
+        }
+        let sim_fields = tf_grid.fields(&all_sim);
+        let (transfer, maps) = tf_grid.compare(
+            &real_fields,
+            &sim_fields,
+            &halves,
+            real_rows.len(),
+            sim_rows.len(),
+        );
+        if transfer.iter().all(|t| t.points == 0) {
+            warnings.push(Warning {
+                name: "tf_no_overlap".into(),
+                message: format!(
+                    "`{}` and `{}` share no grid point with enough steps near it: transfer functions not compared",
+                    real.log.meta.name, s.log.meta.name
+                ),
+            });
+        }
+        let sim_info = run_info(s.log, &sim_a, s.file.map(|f| f.to_path_buf()));
+        let time = if records_time(real.log) && records_time(s.log) {
+            let per = |l: &DriveLog, n: usize| l.interruptions.len() as f64 / n.max(1) as f64;
+            Some(TimeDiff {
+                real_interruptions_per_step: per(real.log, real_rows.len()),
+                sim_interruptions_per_step: per(s.log, sim_rows.len()),
+                real_time_efficiency: real.log.time_efficiency(),
+                sim_time_efficiency: s.log.time_efficiency(),
+            })
+        } else {
+            None
+        };
+        let verdict = Verdict {
+            significant: metrics
+                .iter()
+                .filter(|m| m.significant)
+                .map(|m| m.metric.clone())
+                .collect(),
+            areas_beyond_tolerance: metrics
+                .iter()
+                .filter(|m| m.within_tolerance == Some(false))
+                .map(|m| m.metric.clone())
+                .collect(),
+            tf_beyond_yardstick: transfer
+                .iter()
+                .filter(|t| t.points > 0 && !t.within)
+                .map(|t| t.channel.clone())
+                .collect(),
+            reproduces: false,
+        };
+        let verdict = Verdict {
+            reproduces: verdict.significant.is_empty()
+                && verdict.areas_beyond_tolerance.is_empty()
+                && verdict.tf_beyond_yardstick.is_empty(),
+            ..verdict
+        };
+        out.push(SimComparison {
+            sim: sim_info,
+            pairing,
+            steps_used,
+            metrics,
+            transfer,
+            maps,
+            time,
+            verdict,
+        });
+    }
+    Ok(ComparisonReport {
+        real: run_info(real.log, &real_a, real.file.map(|f| f.to_path_buf())),
+        options: *opts,
+        sims: out,
+        warnings,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn two_sample_enumerates_every_pair_when_small() {
+        let d = two_sample_diffs(&[1.0, 2.0], &[5.0, 7.0], 100);
+        assert_eq!(d, vec![4.0, 3.0, 6.0, 5.0]);
+        let d = two_sample_diffs(&[1.0, 2.0, 3.0], &[5.0, 7.0], 4);
+        assert_eq!(d, vec![4.0, 5.0, 2.0]);
+    }
+}

@@ -1,0 +1,190 @@
+//! Transfer functions of two runs on one grid, their difference maps, and the split-half
+//! yardstick the RMS difference is judged against.
+//!
+//! Why a yardstick: a kernel-smoothed map of ~150 noisy steps differs from the same robot's
+//! next run by its sampling error alone. Splitting the real run into alternate steps gives
+//! two independent half-size estimates (alternate steps); their RMS difference estimates that error. With a
+//! per-grid-point variance σ²/n for a map of n steps, the halves differ by
+//! RMS² ≈ σ²(2/n_r + 2/n_r) = 4σ²/n_r, and two full runs of n_r and n_s steps by
+//! σ²(1/n_r + 1/n_s). The yardstick is therefore the split-half RMS times
+//! √((1 + n_r/n_s)/4) ([`yardstick_scale`]); √½ for runs of equal size.
+
+use super::{CompareOptions, StepRow, TfDiff};
+use crate::analysis::smoother::{smooth, FastParams, Grid, KernelCovariance, Smoothed};
+use crate::log::DriveLog;
+use serde::{Deserialize, Serialize};
+
+/// Channels compared: the steady slips in both frames.
+pub const CHANNELS: &[(&str, &str)] = &[
+    ("slip_vx_m_s", "m/s"),
+    ("slip_vy_m_s", "m/s"),
+    ("slip_wz_rad_s", "rad/s"),
+    ("slip_left_rad_s", "rad/s"),
+    ("slip_right_rad_s", "rad/s"),
+];
+
+/// Factor from the split-half RMS of a run of `n_real` steps to the RMS expected between it
+/// and an independent run of `n_sim` steps (module doc).
+pub fn yardstick_scale(n_real: usize, n_sim: usize) -> f64 {
+    ((1.0 + n_real as f64 / n_sim.max(1) as f64) / 4.0).sqrt()
+}
+
+/// Difference maps `sim − real` on the real run's grid (`wz` major, `vx` minor; NaN where a
+/// point is outside U or not supported by both runs).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DiffMaps {
+    /// Grid abscissae, m/s.
+    pub vx_m_s: Vec<f64>,
+    /// Grid ordinates, rad/s.
+    pub wz_rad_s: Vec<f64>,
+    /// Channel names, in the order of `values`.
+    pub channels: Vec<String>,
+    /// Per channel, per grid point.
+    pub values: Vec<Vec<f64>>,
+}
+
+/// The common grid and smoother.
+#[derive(Debug, Clone)]
+pub struct TfSetup {
+    grid: Grid,
+    cov: KernelCovariance,
+    fast: FastParams,
+    min_weight: f64,
+    tolerance: f64,
+}
+
+impl TfSetup {
+    /// The grid over the real log's command space and the paper's kernel for its robot.
+    pub fn new(real: &DriveLog, opts: &CompareOptions) -> Self {
+        let space = real.meta.nominal.command_space();
+        let var = opts
+            .kernel_var
+            .unwrap_or_else(|| KernelCovariance::paper_variance(&real.meta.robot));
+        Self {
+            grid: Grid::over_space(&space, opts.grid_step, opts.grid_step),
+            cov: KernelCovariance {
+                var_vx: var,
+                var_wz: var,
+            },
+            fast: FastParams::default(),
+            min_weight: opts.min_weight,
+            tolerance: opts.tf_tolerance,
+        }
+    }
+
+    /// The smoothed slip fields of a set of steps.
+    pub(crate) fn fields(&self, rows: &[&StepRow]) -> Smoothed {
+        let pts: Vec<(f64, f64)> = rows.iter().map(|r| r.cmd_body).collect();
+        let cols: Vec<Vec<f64>> = (1..6)
+            .map(|k| rows.iter().map(|r| r.values[k]).collect())
+            .collect();
+        let refs: Vec<&[f64]> = cols.iter().map(|c| c.as_slice()).collect();
+        smooth(&self.grid, &self.cov, &self.fast, &pts, &refs).1
+    }
+
+    fn supported(&self, f: &Smoothed, i: usize) -> bool {
+        self.grid.inside[i] && f.weight_sum[i] >= self.min_weight
+    }
+
+    /// RMS of `a − b` per channel over the points both support (and `extra` supports), with
+    /// the point count.
+    fn rms(&self, a: &Smoothed, b: &Smoothed, extra: &Smoothed) -> Vec<(f64, usize)> {
+        (0..CHANNELS.len())
+            .map(|c| {
+                let mut sum = 0.0;
+                let mut n = 0;
+                for i in 0..self.grid.len() {
+                    if self.supported(a, i) && self.supported(b, i) && self.supported(extra, i) {
+                        let d = a.values[c][i] - b.values[c][i];
+                        if d.is_finite() {
+                            sum += d * d;
+                            n += 1;
+                        }
+                    }
+                }
+                (if n > 0 { (sum / n as f64).sqrt() } else { f64::NAN }, n)
+            })
+            .collect()
+    }
+
+    /// The transfer-function differences of `sim` against `real`, judged against the
+    /// split-half yardstick of `real`'s `halves`, and the difference maps.
+    pub(crate) fn compare(
+        &self,
+        real: &Smoothed,
+        sim: &Smoothed,
+        halves: &(Smoothed, Smoothed),
+        n_real: usize,
+        n_sim: usize,
+    ) -> (Vec<TfDiff>, DiffMaps) {
+        // Both comparisons on the same points: those the real run, the simulated run and both
+        // halves support.
+        let mut both = sim.clone();
+        for i in 0..self.grid.len() {
+            if !(self.supported(&halves.0, i) && self.supported(&halves.1, i)) {
+                both.weight_sum[i] = 0.0;
+            }
+        }
+        let main = self.rms(sim, real, &both);
+        let split = self.rms(&halves.0, &halves.1, &both);
+        let scale = yardstick_scale(n_real, n_sim);
+        let diffs = CHANNELS
+            .iter()
+            .zip(main.iter().zip(&split))
+            .map(|((name, unit), (&(rms, points), &(sh, _)))| {
+                let yardstick = sh * scale;
+                let ratio = if yardstick > 0.0 {
+                    rms / yardstick
+                } else if rms == 0.0 {
+                    0.0
+                } else {
+                    f64::INFINITY
+                };
+                TfDiff {
+                    channel: name.to_string(),
+                    unit: unit.to_string(),
+                    rms,
+                    split_half_rms: sh,
+                    yardstick,
+                    ratio,
+                    within: points > 0 && ratio <= self.tolerance,
+                    points,
+                }
+            })
+            .collect();
+        let values = (0..CHANNELS.len())
+            .map(|c| {
+                (0..self.grid.len())
+                    .map(|i| {
+                        if self.supported(real, i) && self.supported(sim, i) {
+                            sim.values[c][i] - real.values[c][i]
+                        } else {
+                            f64::NAN
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        (
+            diffs,
+            DiffMaps {
+                vx_m_s: self.grid.vx_m_s.clone(),
+                wz_rad_s: self.grid.wz_rad_s.clone(),
+                channels: CHANNELS.iter().map(|c| c.0.to_string()).collect(),
+                values,
+            },
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn equal_runs_scale_by_root_half() {
+        assert!((yardstick_scale(150, 150) - 0.5f64.sqrt()).abs() < 1e-12);
+        // A twice longer simulated run: (1 + 1/2)/4.
+        assert!((yardstick_scale(150, 300) - (0.375f64).sqrt()).abs() < 1e-12);
+    }
+}

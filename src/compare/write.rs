@@ -1,0 +1,276 @@
+//! Writing a comparison: `comparison.json`, the difference-map figures, and `report.html`
+//! whose first screen is the verdict table.
+
+use super::{ComparisonReport, MetricDiff, SimComparison};
+use crate::analysis::bootstrap::Interval;
+use crate::error::{Error, Result};
+use crate::report::{
+    heat_maps, AxisLabel, ColourMap, ColourScale, Comparison, FigureFiles, Grid2, HeatPanel, HtmlReport,
+};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+fn ci(i: &Option<Interval>) -> String {
+    match i {
+        Some(i) => format!("[{:.4}, {:.4}]", i.lower, i.upper),
+        None => "(no interval)".into(),
+    }
+}
+
+fn verdict_word(m: &MetricDiff) -> &'static str {
+    match (m.significant, m.within_tolerance) {
+        (true, Some(true)) => "differs (within tolerance)",
+        (true, _) => "differs",
+        (false, Some(false)) => "beyond tolerance",
+        (false, _) => "no difference",
+    }
+}
+
+/// The verdict table as plain text (what the CLI prints): one block per simulated log.
+pub fn verdict_text(r: &ComparisonReport) -> String {
+    let mut s = String::new();
+    for c in &r.sims {
+        let _ = writeln!(
+            s,
+            "{} vs {} ({} bootstrap, {} resamples, Holm over {} metrics at {}): {}",
+            c.sim.name,
+            r.real.name,
+            match c.pairing {
+                super::Pairing::Paired => "paired-by-step",
+                super::Pairing::TwoSample => "two-sample",
+            },
+            r.options.bootstrap.resamples,
+            c.metrics.len(),
+            r.options.alpha,
+            if c.verdict.reproduces {
+                "REPRODUCES"
+            } else {
+                "DIFFERS"
+            }
+        );
+        let _ = writeln!(
+            s,
+            "  {:<26} {:>10} {:>10} {:>10} {:>24} {:>8}  verdict",
+            "metric", "real", "sim", "sim-real", "95 % interval", "p Holm"
+        );
+        for m in &c.metrics {
+            let _ = writeln!(
+                s,
+                "  {:<26} {:>10.4} {:>10.4} {:>10.4} {:>24} {:>8.4}  {}",
+                format!("{} [{}]", m.metric, m.unit),
+                m.real,
+                m.sim,
+                m.difference,
+                ci(&m.difference_ci95),
+                m.p_holm,
+                verdict_word(m)
+            );
+        }
+        for t in &c.transfer {
+            let _ = writeln!(
+                s,
+                "  TF {:<17} RMS {:.4} {}, yardstick {:.4} (split-half {:.4}), ratio {:.2} on {} points: {}",
+                t.channel,
+                t.rms,
+                t.unit,
+                t.yardstick,
+                t.split_half_rms,
+                t.ratio,
+                t.points,
+                if t.points == 0 {
+                    "not compared"
+                } else if t.within {
+                    "within"
+                } else {
+                    "beyond"
+                }
+            );
+        }
+        if let Some(t) = &c.time {
+            let _ = writeln!(
+                s,
+                "  time efficiency real {:.1} %, sim {:.1} %; interruptions per step real {:.3}, sim {:.3}",
+                100.0 * t.real_time_efficiency,
+                100.0 * t.sim_time_efficiency,
+                t.real_interruptions_per_step,
+                t.sim_interruptions_per_step
+            );
+        }
+    }
+    for w in &r.warnings {
+        let _ = writeln!(s, "warning [{}]: {}", w.name, w.message);
+    }
+    s
+}
+
+fn verdict_table(r: &ComparisonReport, c: &SimComparison) -> Comparison {
+    Comparison {
+        caption: format!(
+            "{} against {}: {} ({:?} bootstrap by step, Holm-corrected at {})",
+            c.sim.name,
+            r.real.name,
+            if c.verdict.reproduces {
+                "reproduces the real run"
+            } else {
+                "differs from the real run"
+            },
+            c.pairing,
+            r.options.alpha
+        ),
+        columns: vec![
+            "real [95 %]".into(),
+            "sim [95 %]".into(),
+            "sim − real [95 %]".into(),
+            "p (Holm)".into(),
+            "verdict".into(),
+        ],
+        rows: c
+            .metrics
+            .iter()
+            .map(|m| {
+                (
+                    m.metric.clone(),
+                    m.unit.clone(),
+                    vec![
+                        format!("{:.4} {}", m.real, ci(&m.real_ci95)),
+                        format!("{:.4} {}", m.sim, ci(&m.sim_ci95)),
+                        format!("{:.4} {}", m.difference, ci(&m.difference_ci95)),
+                        format!("{:.4}", m.p_holm),
+                        verdict_word(m).to_string(),
+                    ],
+                )
+            })
+            .chain(c.transfer.iter().map(|t| {
+                (
+                    format!("TF RMS {}", t.channel),
+                    t.unit.clone(),
+                    vec![
+                        format!("yardstick {:.4}", t.yardstick),
+                        format!("RMS {:.4}", t.rms),
+                        format!("ratio {:.2}", t.ratio),
+                        format!("≤ {}", r.options.tf_tolerance),
+                        if t.points == 0 {
+                            "not compared".into()
+                        } else if t.within {
+                            "within yardstick".into()
+                        } else {
+                            "beyond yardstick".into()
+                        },
+                    ],
+                )
+            }))
+            .collect(),
+    }
+}
+
+fn map_figure(
+    dir: &Path,
+    idx: usize,
+    r: &ComparisonReport,
+    c: &SimComparison,
+    real_u: &[(f64, f64)],
+) -> Result<FigureFiles> {
+    let panels: Vec<HeatPanel> = c
+        .maps
+        .channels
+        .iter()
+        .zip(&c.maps.values)
+        .take(3)
+        .map(|(name, v)| HeatPanel {
+            title: name.clone(),
+            grid: Grid2 {
+                vx_m_s: c.maps.vx_m_s.clone(),
+                wz_rad_s: c.maps.wz_rad_s.clone(),
+                values: v.iter().map(|x| x.is_finite().then_some(*x)).collect(),
+            },
+            command_space: real_u.to_vec(),
+        })
+        .collect();
+    heat_maps(
+        dir,
+        &format!("tf_difference_{idx}"),
+        &format!("Transfer-function difference, {} − {}", c.sim.name, r.real.name),
+        &panels,
+        &ColourScale {
+            value: AxisLabel::new("slip difference (sim − real)", "m/s, rad/s"),
+            map: ColourMap::Diverging,
+            range: None,
+        },
+        None,
+    )
+}
+
+/// Writes `comparison.json`, one difference-map figure per simulated log and `report.html`
+/// into `dir`; returns the paths written. `real_u` is U in the body frame of the real robot.
+pub fn write_comparison(r: &ComparisonReport, real_u: &[(f64, f64)], dir: &Path) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let json = dir.join("comparison.json");
+    let text = serde_json::to_string_pretty(r).map_err(|e| Error::Report(format!("comparison.json: {e}")))?;
+    std::fs::write(&json, text).map_err(|e| Error::io(&json, e))?;
+    let mut paths = vec![json];
+    let mut html = HtmlReport::new(format!("Does the simulation reproduce {}?", r.real.name));
+    html.section("Verdicts");
+    for c in &r.sims {
+        html.comparison(verdict_table(r, c));
+    }
+    for w in &r.warnings {
+        html.paragraph(format!("Warning [{}]: {}", w.name, w.message));
+    }
+    let mut figures = Vec::new();
+    for (i, c) in r.sims.iter().enumerate() {
+        // A map with no compared point has nothing to draw.
+        if c.maps
+            .values
+            .iter()
+            .take(3)
+            .all(|v| v.iter().all(|x| !x.is_finite()))
+        {
+            continue;
+        }
+        let f = map_figure(dir, i, r, c, real_u)?;
+        paths.push(f.svg.clone());
+        paths.push(f.png.clone());
+        figures.push((c.sim.name.clone(), f));
+    }
+    html.section("How to read this").paragraph(format!(
+        "Each difference is sim − real with a {:.0} % bootstrap-by-step interval ({} resamples; paired by step when the simulated log replays the real commands, two-sample otherwise). p-values are Holm-adjusted over each simulated log's metrics; a metric differs when its adjusted p is below {}. T/U areas must also agree within {} percentage points. A transfer function's RMS difference is judged against the real run's split-half RMS scaled to full size (at most {}×).",
+        100.0 * r.options.bootstrap.level,
+        r.options.bootstrap.resamples,
+        r.options.alpha,
+        r.options.area_tolerance_pp,
+        r.options.tf_tolerance
+    ));
+    if !figures.is_empty() {
+        html.section("Transfer-function difference maps");
+        for (name, f) in &figures {
+            html.figure(
+                format!("Steady slip transfer functions, {name} minus {} (blank: outside U or too few steps nearby in either run).", r.real.name),
+                f,
+            )?;
+        }
+    }
+    html.section("Runs").paragraph(format!(
+        "real: {} ({} on {}, {} steps{}).",
+        r.real.name,
+        r.real.robot,
+        r.real.terrain,
+        r.real.steps,
+        r.real
+            .time_efficiency
+            .map_or(String::new(), |t| format!(", time efficiency {:.1} %", 100.0 * t))
+    ));
+    for c in &r.sims {
+        html.paragraph(format!(
+            "simulated: {} ({} on {}, {} steps{}).",
+            c.sim.name,
+            c.sim.robot,
+            c.sim.terrain,
+            c.sim.steps,
+            c.sim
+                .time_efficiency
+                .map_or(String::new(), |t| format!(", time efficiency {:.1} %", 100.0 * t))
+        ));
+    }
+    paths.push(html.write(dir)?);
+    Ok(paths)
+}

@@ -1,0 +1,159 @@
+//! `compare` on the measured data: a log against itself and against its own split halves finds
+//! no difference, against another terrain's log it finds one; the intervals of a tiny fixture
+//! match a hand (brute-force) computation; logs of two robots are refused as bad input.
+
+use drive_sim::analysis::stats::quantile_sorted;
+use drive_sim::compare::{analysis_of, compare, CompareOptions, Input, Pairing};
+use drive_sim::log::csv::read_measured_csv;
+use drive_sim::log::DriveLog;
+use std::path::Path;
+
+const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured");
+
+fn log(name: &str) -> DriveLog {
+    read_measured_csv(Path::new(DIR).join(format!("{name}.csv"))).unwrap()
+}
+
+fn input(l: &DriveLog) -> Input<'_> {
+    Input { log: l, file: None }
+}
+
+#[test]
+fn a_log_against_itself_and_its_halves_shows_no_difference() {
+    let real = log("warthog_asphalt");
+    let opts = CompareOptions::default();
+    let r = compare(input(&real), &[input(&real)], &opts).unwrap();
+    let c = &r.sims[0];
+    assert_eq!(c.pairing, Pairing::TwoSample);
+    assert!(c.verdict.reproduces, "{:#?}", c.verdict);
+    assert!(c
+        .metrics
+        .iter()
+        .all(|m| m.difference == 0.0 && m.difference_ci95.unwrap().contains(0.0)));
+    assert!(c.transfer.iter().all(|t| t.rms == 0.0 && t.points > 0));
+    assert!(r.warnings.iter().any(|w| w.name == "time_not_recorded"));
+
+    // The run against its own halves (alternate steps): each half is a sample of the same
+    // robot on the same ground. Medians and transfer functions agree. (The area of T does
+    // not: the hull of 50 steps is smaller than that of 100, by 7-8 points here; T/U areas
+    // compare runs of similar length.)
+    let odd = real.with_steps("odd", |s| s % 2 == 1);
+    let even = real.with_steps("even", |s| s % 2 == 0);
+    let r = compare(input(&real), &[input(&odd), input(&even)], &opts).unwrap();
+    for c in &r.sims {
+        assert!(
+            c.verdict.significant.iter().all(|m| m.starts_with("t_area")),
+            "{}: {:#?}",
+            c.sim.name,
+            c.metrics
+        );
+        assert!(
+            c.verdict.tf_beyond_yardstick.is_empty(),
+            "{}: {:#?}",
+            c.sim.name,
+            c.transfer
+        );
+        assert!(c.transfer.iter().all(|t| t.points > 0));
+    }
+    // One half against the other (same length): no metric differs. The yardstick is then the
+    // split of a half (25-step quarters), itself noisy: the ratios stay below 2 (1.56 at most
+    // measured, lateral slip).
+    let r = compare(input(&odd), &[input(&even)], &opts).unwrap();
+    let c = &r.sims[0];
+    assert!(c.verdict.significant.is_empty(), "{:#?}", c.metrics);
+    assert!(
+        c.transfer.iter().all(|t| t.points > 0 && t.ratio < 2.0),
+        "{:#?}",
+        c.transfer
+    );
+}
+
+#[test]
+fn another_terrain_differs() {
+    let asphalt = log("warthog_asphalt");
+    let ice = log("warthog_ice");
+    let r = compare(input(&asphalt), &[input(&ice)], &CompareOptions::default()).unwrap();
+    let c = &r.sims[0];
+    assert!(!c.verdict.reproduces);
+    assert!(
+        c.verdict.significant.iter().any(|m| m == "median_rho"),
+        "{:#?}",
+        c.verdict
+    );
+    assert!(!c.verdict.tf_beyond_yardstick.is_empty(), "{:#?}", c.transfer);
+}
+
+#[test]
+fn another_robot_is_refused_as_bad_input() {
+    let w = log("warthog_asphalt");
+    let h = log("husky_2023");
+    let e = compare(input(&w), &[input(&h)], &CompareOptions::default()).unwrap_err();
+    assert!(e.is_bad_input(), "{e}");
+    assert!(
+        e.to_string().contains("husky") && e.to_string().contains("warthog"),
+        "{e}"
+    );
+}
+
+/// Median of three values.
+fn med3(mut v: [f64; 3]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[1]
+}
+
+#[test]
+fn intervals_of_a_three_step_fixture_match_a_hand_computation() {
+    let full = log("warthog_asphalt");
+    let steps = full.steps();
+    let (a, b) = (&steps[..3], &steps[3..6]);
+    let real = full.with_steps("a", |s| a.contains(&s));
+    let sim = full.with_steps("b", |s| b.contains(&s));
+    let rho = |l: &DriveLog| -> Vec<f64> {
+        analysis_of(l)
+            .unwrap()
+            .steps
+            .iter()
+            .map(|s| s.steady_rho.rho)
+            .collect()
+    };
+    let (rr, rs) = (rho(&real), rho(&sim));
+    assert_eq!((rr.len(), rs.len()), (3, 3));
+    // Every resample of three steps (27) in each run, every pair of them (729): the exact
+    // two-sample bootstrap of the difference of medians.
+    let resamples = |v: &[f64]| -> Vec<f64> {
+        let mut out = Vec::new();
+        for i in 0..3 {
+            for j in 0..3 {
+                for k in 0..3 {
+                    out.push(med3([v[i], v[j], v[k]]));
+                }
+            }
+        }
+        out
+    };
+    let (mr, ms) = (resamples(&rr), resamples(&rs));
+    let mut diffs: Vec<f64> = ms.iter().flat_map(|s| mr.iter().map(move |r| s - r)).collect();
+    diffs.sort_by(f64::total_cmp);
+    let (lo, hi) = (quantile_sorted(&diffs, 0.025), quantile_sorted(&diffs, 0.975));
+    let below = diffs.iter().filter(|&&d| d <= 0.0).count() as f64 / 729.0;
+    let above = diffs.iter().filter(|&&d| d >= 0.0).count() as f64 / 729.0;
+    let p = (2.0 * below.min(above)).min(1.0);
+
+    let r = compare(input(&real), &[input(&sim)], &CompareOptions::default()).unwrap();
+    let m = &r.sims[0].metrics[0];
+    assert_eq!(m.metric, "median_rho");
+    let ci = m.difference_ci95.unwrap();
+    assert!(
+        (ci.lower - lo).abs() < 1e-12 && (ci.upper - hi).abs() < 1e-12,
+        "{ci:?} vs [{lo}, {hi}]"
+    );
+    assert!((m.p - p).abs() < 1e-12, "{} vs {p}", m.p);
+    assert!((m.difference - (med3([rs[0], rs[1], rs[2]]) - med3([rr[0], rr[1], rr[2]]))).abs() < 1e-12);
+    // Too few steps for a reliable interval: said by name, for both runs.
+    assert_eq!(
+        r.warnings.iter().filter(|w| w.name == "too_few_steps").count(),
+        2,
+        "{:#?}",
+        r.warnings
+    );
+}
