@@ -71,6 +71,7 @@ fn cheap_options() -> CalibrationOptions {
             .map(String::from)
             .to_vec(),
         ),
+        discover: false,
         ..CalibrationOptions::default()
     }
 }
@@ -158,7 +159,12 @@ fn calibrate_measured(name: &str) -> CalibrationReport {
         &robot,
         &terrain,
         &SimFactory::default(),
-        &CalibrationOptions::default(),
+        // The catalogue's findings on measured data; discovery (minutes more on these logs)
+        // is tested on generated data in tests/discovery.rs and measured with the CLI.
+        &CalibrationOptions {
+            discover: false,
+            ..CalibrationOptions::default()
+        },
     )
     .unwrap();
     common::print_summary(name, &r, t0.elapsed().as_secs_f64());

@@ -114,7 +114,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
             "idd": cmp.idd,
             "floor": cmp.floor,
             "test": cmp.test,
-            "provenance": provenance(&args.log, serde_json::json!({
+            "provenance": provenance(&args.log, &robot, &terrain, &args.input, serde_json::json!({
                 "model": args.model,
                 "robot": args.input.robot,
                 "terrain": args.input.terrain,
@@ -224,6 +224,9 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
         &staged.path().join("calibration.json"),
         &provenance(
             &args.log,
+            &robot,
+            &terrain,
+            &args.input,
             serde_json::json!({
                 "model": args.model,
                 "seed": args.seed,
@@ -399,7 +402,30 @@ fn print_report(r: &CalibrationReport) -> Result<(), std::io::Error> {
     Ok(())
 }
 
-/// Provenance of a replay or calibration output: the log's hash and the options.
-fn provenance(log: &std::path::Path, options: serde_json::Value) -> crate::provenance::Provenance {
-    crate::provenance::Provenance::new(vec![crate::provenance::InputFile::of_file("log", log)], options)
+/// Provenance of a replay or calibration output: the hashes of the log and of the robot and
+/// terrain files the model started from, and the options.
+fn provenance(
+    log: &std::path::Path,
+    robot: &crate::robot::Robot,
+    terrain: &crate::terrain::Terrain,
+    input: &super::input::InputArgs,
+    options: serde_json::Value,
+) -> crate::provenance::Provenance {
+    use crate::provenance::InputFile;
+    let mut inputs = vec![InputFile::of_file("log", log)];
+    // The same names or files the model was resolved from (the log's robot and terrain unless
+    // --robot / --terrain said otherwise); resolution already succeeded once.
+    let robot_name = input.robot.clone().unwrap_or_else(|| robot.name.clone());
+    if let Ok((_, path)) = crate::robot::Robot::resolve(&robot_name) {
+        inputs.push(InputFile::of_model("robot", &path, crate::robot::BUILTIN_ROBOTS));
+    }
+    let terrain_name = input.terrain.clone().unwrap_or_else(|| terrain.name.clone());
+    if let Ok((_, path)) = crate::terrain::Terrain::resolve(&terrain_name) {
+        inputs.push(InputFile::of_model(
+            "terrain",
+            &path,
+            crate::terrain::BUILTIN_TERRAINS,
+        ));
+    }
+    crate::provenance::Provenance::new(inputs, options)
 }
