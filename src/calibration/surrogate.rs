@@ -42,6 +42,8 @@ pub struct KinematicPlant {
     effects: Effects,
     /// What the effects change in the dynamics, read once.
     mods: PlantModifiers,
+    /// An effect moves the body apart from its wheels, read once.
+    on_body: bool,
     noise: Option<(KinematicNoise, ChaCha8Rng)>,
     /// Commands with the time they were given, oldest first (for the dead time).
     cmds: VecDeque<(f64, WheelSpeeds)>,
@@ -78,11 +80,13 @@ impl KinematicPlant {
             )));
         }
         let mods = effects.modifiers();
+        let on_body = effects.acts_on_body();
         let mut p = Self {
             idd,
             time_constant_s,
             effects,
             mods,
+            on_body,
             noise: noise.map(|n| (n, ChaCha8Rng::seed_from_u64(n.seed))),
             cmds: VecDeque::new(),
             wheels: WheelSpeeds::default(),
@@ -175,7 +179,7 @@ impl Plant for KinematicPlant {
         } else {
             1.0
         };
-        let on_body = self.effects.acts_on_body();
+        let on_body = self.on_body;
         let latest = self.cmds.back().map(|c| c.1).unwrap_or_default();
         let mut x = TermInput {
             cmd: latest,
@@ -235,11 +239,8 @@ impl Plant for KinematicPlant {
             }
             integrate_unicycle(&mut self.pose, v_mid, h);
             self.time_s += h;
-            self.velocity = if on_body {
-                v_mid
-            } else {
-                idd.body_from_wheels(self.wheels)
-            };
+            // Without a body stage, `self.body` is the wheels' velocity at the substep's end.
+            self.velocity = if on_body { v_mid } else { self.body };
             // Only a pose latency reads past poses.
             if self.mods.pose_latency_s > 0.0 {
                 self.poses.push_back((self.time_s, self.pose));

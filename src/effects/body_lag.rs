@@ -31,6 +31,9 @@ impl Effect for BodyLag {
     fn stage(&self) -> Stage {
         Stage::Body
     }
+    fn moves_body(&self) -> bool {
+        true
+    }
     fn params(&self) -> &'static [ParamDef] {
         PARAMS
     }

@@ -32,6 +32,9 @@ impl Effect for CentripetalSlip {
     fn stage(&self) -> Stage {
         Stage::Body
     }
+    fn moves_body(&self) -> bool {
+        true
+    }
     fn params(&self) -> &'static [ParamDef] {
         PARAMS
     }

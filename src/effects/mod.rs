@@ -292,6 +292,11 @@ pub trait Effect: Send + Sync {
     fn wheel_targets_in(&self, p: &[f64], w: WheelSpeeds, _x: &TermInput) -> WheelSpeeds {
         self.wheel_targets(p, w)
     }
+    /// The effect moves the body apart from what its wheels command (a body offset or a body
+    /// lag), so plants must run their body stage.
+    fn moves_body(&self) -> bool {
+        false
+    }
     /// A velocity added to the body's (body frame) that the wheels do not see: a sideways
     /// slide, a turn the wheels do not explain. Plants integrate it into the pose, and the IMU
     /// sees its yaw rate.
@@ -589,11 +594,10 @@ impl Effects {
         })
     }
 
-    /// Whether any effect switched on acts at the body stage (offsets or a lag): plants skip
-    /// the body-stage bookkeeping otherwise.
+    /// Whether any effect switched on moves the body apart from its wheels
+    /// ([`Effect::moves_body`]): plants skip the body-stage bookkeeping otherwise.
     pub fn acts_on_body(&self) -> bool {
-        self.active()
-            .any(|e| e.stage() == Stage::Body && e.name() != "wheel_radius_scale")
+        self.active().any(|e| e.moves_body())
     }
 
     /// The IMU yaw-rate reading for the true yaw rate `wz_rad_s`.

@@ -33,6 +33,9 @@ impl Effect for ReverseBaselineScale {
     fn stage(&self) -> Stage {
         Stage::Body
     }
+    fn moves_body(&self) -> bool {
+        true
+    }
     fn params(&self) -> &'static [ParamDef] {
         PARAMS
     }

@@ -475,6 +475,9 @@ impl Effect for Term {
     fn generic(&self) -> bool {
         true
     }
+    fn moves_body(&self) -> bool {
+        self.target.stage() == Stage::Body
+    }
     fn wheel_targets_in(&self, p: &[f64], w: WheelSpeeds, x: &TermInput) -> WheelSpeeds {
         match self.target {
             TermTarget::WheelLeft => WheelSpeeds::new(
