@@ -135,7 +135,7 @@ impl FittedParam {
     /// Sets the standard error, interval and identifiability of parameter `i` of `cov`; for an
     /// effect parameter, the interval must exclude the neutral value (for a limit, whose
     /// neutral value is infinite: stay below the box's top, the largest command).
-    fn with_uncertainty(mut self, spec: &ParamSpec, cov: &Covariance, i: usize) -> Self {
+    pub(crate) fn with_uncertainty(mut self, spec: &ParamSpec, cov: &Covariance, i: usize) -> Self {
         let se = cov.se[i];
         self.se = Some(se);
         let mut why = Vec::new();

@@ -28,6 +28,7 @@ pub mod data;
 pub mod diagnosis;
 pub mod figures;
 pub mod fit;
+pub mod joint;
 pub mod metrics;
 pub mod model;
 pub mod params;

@@ -50,6 +50,20 @@ impl Param {
         }
     }
 
+    /// A property of the ground under the robot (fitted once per log when several logs of one
+    /// robot are calibrated together, [`super::joint`]) rather than of the robot (fitted once
+    /// for all): the terrain's friction and rolling resistance, and the effects that say so
+    /// ([`Effect::on_terrain`]).
+    pub fn on_terrain(&self) -> bool {
+        match self {
+            Self::PeakLongitudinal | Self::PeakLateral | Self::PeakSlipRatio | Self::RollingCoefficient => {
+                true
+            }
+            Self::Baseline | Self::TimeConstant => false,
+            Self::Effect { .. } => self.effect().is_some_and(|e| e.on_terrain()),
+        }
+    }
+
     /// Unit.
     pub fn unit(&self) -> &'static str {
         match self {

@@ -17,7 +17,7 @@
 use super::fit::FittedParam;
 use super::model::ModelParams;
 use super::CalibrationReport;
-use crate::effects::{Effect, Effects, Stage};
+use crate::effects::{Effect, Effects};
 use crate::error::{Error, Result};
 use crate::robot::Robot;
 use crate::terrain::Terrain;
@@ -25,10 +25,10 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// Whether `effect` belongs in the terrain file of a twin (the contact stage: it changes how
-/// this ground grips) rather than in the robot file.
+/// Whether `effect` belongs in the terrain file of a twin (it changes how this ground grips,
+/// [`Effect::on_terrain`]) rather than in the robot file.
 pub fn terrain_side(effect: &dyn Effect) -> bool {
-    effect.stage() == Stage::Contact
+    effect.on_terrain()
 }
 
 /// Splits a set of effects into the robot's and the terrain's ([`terrain_side`]); only the

@@ -31,8 +31,10 @@ pub struct ReplayArgs {
 /// Options of `drive-sim calibrate`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct CalibrateArgs {
-    /// The log to calibrate on (measured `.csv` or simulated `.mcap`).
-    pub log: PathBuf,
+    /// The log to calibrate on (measured `.csv` or simulated `.mcap`); several logs of one
+    /// robot are calibrated jointly: one robot, one terrain per log.
+    #[arg(required = true, num_args = 1..)]
+    pub logs: Vec<PathBuf>,
     /// Output directory.
     #[arg(long, default_value = "out/calibration")]
     pub out: PathBuf,
@@ -173,15 +175,19 @@ fn error_rows() -> Vec<Row> {
 
 /// Runs the whole loop and writes its report, its timings and its figures.
 pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
+    if args.logs.len() > 1 {
+        return calibrate_joint(args);
+    }
+    let log_path = &args.logs[0];
     // Bad input is refused before any long work.
     let kind = ModelKind::parse(&args.model)?;
     let optimizer = calibration::Optimizer::parse(&args.optimizer)?;
     // The output folder is checked (and staged) before the long work; it appears whole.
     let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
-    eprintln!("drive-sim: reading {}", args.log.display());
+    eprintln!("drive-sim: reading {}", log_path.display());
     let log = args
         .use_steps
-        .select(&super::input::open_log(&args.log, &args.input)?);
+        .select(&super::input::open_log(log_path, &args.input)?);
     let (robot, terrain, notes) =
         calibration::models_for(&log, args.input.robot.as_deref(), args.input.terrain.as_deref())?;
     let mut opts = CalibrationOptions {
@@ -210,7 +216,7 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
     report.status.notes.splice(0..0, notes);
     report.reproduce = format!(
         "drive-sim calibrate {} --model {} --seed {} --max-effects {} --optimizer {} --use-steps {} --out {}",
-        args.log.display(),
+        log_path.display(),
         args.model,
         args.seed,
         args.max_effects,
@@ -223,7 +229,7 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
     crate::provenance::stamp_json_file(
         &staged.path().join("calibration.json"),
         &provenance(
-            &args.log,
+            log_path,
             &robot,
             &terrain,
             &args.input,
@@ -266,6 +272,143 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
         args.out.display()
     );
     Ok(())
+}
+
+/// `calibrate LOG1 LOG2 ...`: one robot fitted on every log, a terrain per log
+/// ([`calibration::joint`]).
+fn calibrate_joint(args: &CalibrateArgs) -> anyhow::Result<()> {
+    let kind = ModelKind::parse(&args.model)?;
+    let optimizer = calibration::Optimizer::parse(&args.optimizer)?;
+    if args.input.terrain.is_some() {
+        return Err(crate::Error::config(
+            "--terrain",
+            "terrain",
+            "with several logs each starts from its own terrain; `--terrain` names one for all",
+        )
+        .into());
+    }
+    let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
+    let mut logs = Vec::new();
+    for p in &args.logs {
+        eprintln!("drive-sim: reading {}", p.display());
+        logs.push(args.use_steps.select(&super::input::open_log(p, &args.input)?));
+    }
+    // Logs of different robots are refused before any work.
+    calibration::joint::check_one_robot(&logs.iter().collect::<Vec<_>>())?;
+    let (robot, _, notes) = calibration::models_for(&logs[0], args.input.robot.as_deref(), None)?;
+    for n in &notes {
+        eprintln!("drive-sim: {n}");
+    }
+    let mut joint_logs = Vec::new();
+    for l in &logs {
+        let (_, terrain, notes) = calibration::models_for(l, None, None)?;
+        for n in notes {
+            eprintln!("drive-sim: {}: {n}", l.meta.name);
+        }
+        joint_logs.push(calibration::joint::JointLog { log: l, terrain });
+    }
+    let mut opts = CalibrationOptions {
+        seed: args.seed,
+        max_effects: args.max_effects,
+        max_fit_steps: args.max_fit_steps,
+        candidates: args.candidates.clone(),
+        ..CalibrationOptions::default()
+    };
+    opts.fit.optimizer = optimizer;
+    eprintln!(
+        "drive-sim: calibrating the {} model of {} jointly on {} logs",
+        args.model,
+        robot.name,
+        logs.len()
+    );
+    let t0 = std::time::Instant::now();
+    let factory = kind.factory();
+    let input = calibration::joint::JointInput {
+        logs: joint_logs,
+        robot: &robot,
+        factory: factory.as_ref(),
+        opts: &opts,
+    };
+    let mut report = calibration::joint::calibrate_joint(&input, &|line| {
+        eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64())
+    })?;
+    report.reproduce = format!(
+        "drive-sim calibrate {} --model {} --seed {} --max-effects {} --optimizer {} --use-steps {} --out {}",
+        args.logs
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(" "),
+        args.model,
+        args.seed,
+        args.max_effects,
+        args.optimizer,
+        args.use_steps.as_str(),
+        args.out.display()
+    );
+    let files = calibration::joint::write_joint(&report, staged.path())?;
+    staged.commit()?;
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "joint calibration of {} ({} model) on {} logs; effects: {}",
+        report.robot,
+        report.model_kind,
+        report.logs.len(),
+        if report.effects.is_empty() {
+            "none".to_string()
+        } else {
+            report.effects.join(", ")
+        }
+    )?;
+    for p in &report.robot_params {
+        let single: Vec<String> = report
+            .singles
+            .iter()
+            .map(|r| {
+                twin_param(r, &p.name).map_or("-".to_string(), |q| with_interval(&q))
+            })
+            .collect();
+        writeln!(
+            out,
+            "robot {} = {} (each log alone: {})",
+            p.name,
+            with_interval(p),
+            single.join("; ")
+        )?;
+    }
+    for l in &report.logs {
+        writeln!(
+            out,
+            "log {} ({}): test score {:.3} joint, {:.3} its own calibration; {}",
+            l.dataset,
+            l.terrain_file,
+            l.joint.score,
+            l.single_score,
+            l.terrain_params
+                .iter()
+                .map(|p| format!("{} = {}", p.name, with_interval(p)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )?;
+    }
+    writeln!(out, "joint fit: {} ({} evaluations)", report.fit.status, report.fit.evaluations)?;
+    for n in &report.notes {
+        writeln!(out, "  note: {n}")?;
+    }
+    eprintln!(
+        "drive-sim: wrote {} files into {}",
+        files.len(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// The fitted parameter `name` of a single-log report, as its twin holds it.
+fn twin_param(r: &CalibrationReport, name: &str) -> Option<calibration::FittedParam> {
+    calibration::twin::fitted_params(r)
+        .into_iter()
+        .find(|p| p.name == name)
 }
 
 /// `value ± se` or `value` alone, for an interval printed in a table.

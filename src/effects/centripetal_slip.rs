@@ -32,6 +32,10 @@ impl Effect for CentripetalSlip {
     fn stage(&self) -> Stage {
         Stage::Body
     }
+    fn on_terrain(&self) -> bool {
+        // The slip angle is how this ground's grip carries the centripetal force.
+        true
+    }
     fn moves_body(&self) -> bool {
         true
     }

@@ -260,6 +260,13 @@ pub trait Effect: Send + Sync {
     fn stage(&self) -> Stage;
     /// Its parameters.
     fn params(&self) -> &'static [ParamDef];
+    /// It describes how a ground grips under this robot rather than the robot itself: a
+    /// twin puts it in the terrain file, and a calibration on several logs of one robot fits
+    /// it once per log (terrain) instead of once for all (robot). The contact stage by
+    /// default; a body-stage slip caused by the tyres on this ground says so itself.
+    fn on_terrain(&self) -> bool {
+        self.stage() == Stage::Contact
+    }
     /// The kinematic model (no tyre) can run it: every stage but the contact.
     fn kinematic(&self) -> bool {
         self.stage() != Stage::Contact

@@ -44,6 +44,9 @@ pub struct Unmodelled {
     pub body_lag_s: f64,
     /// Track width when the command drives backwards, m (`None`: the same as forward).
     pub reverse_track_m: Option<f64>,
+    /// Each motor clips its wheel-speed target at this magnitude, rad/s (0: no limit; the
+    /// generator's own clamp, for the joint calibration's robot effect).
+    pub wheel_limit_rad_s: f64,
     /// Not an effect: noise on the pose's yaw, rad (a lidar pose has some; without it the
     /// transient yaw-rate floor is the estimator's round-off and any lag mismatch flags).
     pub pose_yaw_noise_rad: f64,
@@ -136,10 +139,14 @@ impl Plant for TestRobot {
         let n = (dt_s / 1e-3).round().max(1.0) as usize;
         let h = dt_s / n as f64;
         let drift = 1.0 + self.extra.gain_drift_per_step * self.step as f64;
-        let target = [
+        let mut target = [
             drift * self.spec.gain[0] * self.cmd.left_rad_s,
             drift * self.spec.gain[1] * self.cmd.right_rad_s,
         ];
+        if self.extra.wheel_limit_rad_s > 0.0 {
+            let l = self.extra.wheel_limit_rad_s;
+            target = target.map(|t| t.clamp(-l, l));
+        }
         for _ in 0..n {
             for (w, t) in self.wheels.iter_mut().zip(target) {
                 *w += h / self.spec.lag_s * (t - *w);

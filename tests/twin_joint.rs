@@ -1,0 +1,134 @@
+//! Several logs, one robot: three DRIVE runs of one generator robot whose motors clip at a
+//! wheel-speed limit (the robot's), each on a ground with its own centripetal slip (the
+//! terrain's). The joint calibration recovers the shared limit with a tighter interval than any
+//! log alone, and each log's slip. Logs of different robots are refused before any work.
+
+mod common;
+
+use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};
+use drive_sim::calibration::joint::{calibrate_joint, JointInput, JointLog};
+use drive_sim::calibration::{CalibrationOptions, KinematicFactory};
+use drive_sim::terrain::Terrain;
+
+const LIMIT: f64 = 11.0;
+const SLIPS: [f64; 3] = [0.05, 0.15, 0.25];
+
+fn spec(seed: u64) -> TestRobotSpec {
+    TestRobotSpec {
+        radius_m: 0.3,
+        track_m: 1.08,
+        lag_s: 0.15,
+        gain: [1.0, 1.0],
+        enc_noise: 0.1,
+        pose_noise: 0.01,
+        imu_noise: 0.02,
+        seed,
+    }
+}
+
+fn log(k: usize) -> drive_sim::log::DriveLog {
+    let extra = Unmodelled {
+        wheel_limit_rad_s: LIMIT,
+        centripetal_s: SLIPS[k],
+        pose_yaw_noise_rad: 0.003,
+        ..Unmodelled::default()
+    };
+    let (mut log, _) = drive_log_with(&format!("ground{k}"), spec(40 + k as u64), extra, 40);
+    log.meta.terrain = format!("ground{k}");
+    log
+}
+
+fn opts() -> CalibrationOptions {
+    CalibrationOptions {
+        candidates: Some(vec![
+            "wheel_speed_saturation_rad_s".into(),
+            "centripetal_slip".into(),
+        ]),
+        max_effects: 2,
+        discover: false,
+        ..CalibrationOptions::default()
+    }
+}
+
+#[test]
+fn joint_fit_shares_the_robot_and_fits_a_terrain_per_log() {
+    let logs: Vec<_> = (0..3).map(log).collect();
+    let (robot, _) = drive_sim::robot::Robot::resolve("warthog").unwrap();
+    let (terrain, _) = Terrain::resolve("asphalt").unwrap();
+    let opts = opts();
+    let input = JointInput {
+        logs: logs
+            .iter()
+            .map(|l| JointLog {
+                log: l,
+                terrain: terrain.clone(),
+            })
+            .collect(),
+        robot: &robot,
+        factory: &KinematicFactory,
+        opts: &opts,
+    };
+    let r = calibrate_joint(&input, &|line| eprintln!("{line}")).unwrap();
+    eprintln!("robot: {:#?}", r.robot_params);
+    for l in &r.logs {
+        eprintln!(
+            "{}: joint {:.3}, single {:.3}, {:?}",
+            l.dataset,
+            l.joint.score,
+            l.single_score,
+            l.terrain_params
+                .iter()
+                .map(|p| (p.name.as_str(), p.value, p.se))
+                .collect::<Vec<_>>()
+        );
+    }
+    // The robot block holds the limit, the terrain blocks the slip: from the registry, not
+    // from names in the joint code.
+    let lim_name = "effect.wheel_speed_saturation_rad_s";
+    assert!(r.robot_param_names.iter().any(|n| n == lim_name), "{:?}", r.robot_param_names);
+    assert!(
+        r.terrain_param_names.iter().any(|n| n == "effect.centripetal_slip_s"),
+        "{:?}",
+        r.terrain_param_names
+    );
+    let lim = r.robot_params.iter().find(|p| p.name == lim_name).unwrap();
+    let se = lim.se.expect("the joint limit has an interval");
+    assert!(
+        (lim.value - LIMIT).abs() < 0.05 * LIMIT,
+        "joint limit {} ± {se}, true {LIMIT}",
+        lim.value
+    );
+    // Tighter than any log alone.
+    for s in &r.singles {
+        let own = drive_sim::calibration::twin::fitted_params(s)
+            .into_iter()
+            .find(|p| p.name == lim_name);
+        if let Some(own_se) = own.and_then(|p| p.se) {
+            assert!(se < own_se, "joint se {se} vs {} alone {own_se}", s.dataset);
+        }
+    }
+    for (l, truth) in r.logs.iter().zip(SLIPS) {
+        let p = l
+            .terrain_params
+            .iter()
+            .find(|p| p.name == "effect.centripetal_slip_s")
+            .unwrap();
+        assert!(
+            (p.value - truth).abs() < 0.03,
+            "{}: slip {} (true {truth})",
+            l.dataset,
+            p.value
+        );
+        assert_eq!(l.terrain_file, format!("terrain_{}.toml", l.dataset));
+    }
+}
+
+#[test]
+fn logs_of_different_robots_are_refused_before_any_work() {
+    let a = log(0);
+    let mut b = log(1);
+    b.meta.robot = "husky".into();
+    let e = drive_sim::calibration::joint::check_one_robot(&[&a, &b]).unwrap_err();
+    assert!(e.is_bad_input(), "{e}");
+    assert!(e.to_string().contains("husky"), "{e}");
+}
