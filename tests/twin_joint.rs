@@ -132,3 +132,72 @@ fn logs_of_different_robots_are_refused_before_any_work() {
     assert!(e.is_bad_input(), "{e}");
     assert!(e.to_string().contains("husky"), "{e}");
 }
+
+fn drive_sim_cli(args: &[&str], cwd: &std::path::Path) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_drive-sim"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("the drive-sim binary runs")
+}
+
+fn run_log(robot: &str, terrain: &str, steps: &str, cwd: &std::path::Path) {
+    let out = drive_sim_cli(
+        &[
+            "run", "--robot", robot, "--terrain", terrain, "--steps", steps, "--seed", "3", "--out",
+            "logs", "--quiet",
+        ],
+        cwd,
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+#[test]
+fn cli_joint_calibration_writes_one_report_per_log_and_refuses_two_robots() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_log("warthog", "asphalt", "16", d);
+    run_log("warthog", "gravel", "16", d);
+    run_log("husky", "asphalt", "4", d);
+    // Two robots: exit 2, nothing written.
+    let out = drive_sim_cli(
+        &[
+            "calibrate",
+            "logs/warthog_asphalt_s3.mcap",
+            "logs/husky_asphalt_s3.mcap",
+            "--model",
+            "kinematic",
+            "--out",
+            "bad",
+        ],
+        d,
+    );
+    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("husky") && err.contains("one robot"), "{err}");
+    assert!(!d.join("bad").exists());
+    // One robot on two terrains: the joint report and each log's own.
+    let out = drive_sim_cli(
+        &[
+            "calibrate",
+            "logs/warthog_asphalt_s3.mcap",
+            "logs/warthog_gravel_s3.mcap",
+            "--model",
+            "kinematic",
+            "--candidates",
+            "wheel_speed_saturation_rad_s",
+            "--out",
+            "joint",
+        ],
+        d,
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("joint/calibration.json")).unwrap()).unwrap();
+    assert_eq!(json["robot"], "warthog");
+    assert_eq!(json["logs"].as_array().unwrap().len(), 2);
+    assert_eq!(json["logs"][1]["terrain_file"], "terrain_warthog_gravel_s3.toml");
+    for ds in ["warthog_asphalt_s3", "warthog_gravel_s3"] {
+        assert!(d.join("joint").join(ds).join("calibration.json").exists(), "{ds}");
+    }
+}
