@@ -69,7 +69,14 @@ fn joint_fit_shares_the_robot_and_fits_a_terrain_per_log() {
         opts: &opts,
     };
     let r = calibrate_joint(&input, &|line| eprintln!("{line}")).unwrap();
-    eprintln!("robot: {:#?}", r.robot_params);
+    for p in &r.robot_params {
+        eprintln!("robot {} = {} ± {:?}", p.name, p.value, p.se);
+    }
+    for s in &r.singles {
+        for p in drive_sim::calibration::twin::fitted_params(s) {
+            eprintln!("{} alone: {} = {} ± {:?}", s.dataset, p.name, p.value, p.se);
+        }
+    }
     for l in &r.logs {
         eprintln!(
             "{}: joint {:.3}, single {:.3}, {:?}",
