@@ -92,9 +92,15 @@ fn joint_fit_shares_the_robot_and_fits_a_terrain_per_log() {
     // The robot block holds the limit, the terrain blocks the slip: from the registry, not
     // from names in the joint code.
     let lim_name = "effect.wheel_speed_saturation_rad_s";
-    assert!(r.robot_param_names.iter().any(|n| n == lim_name), "{:?}", r.robot_param_names);
     assert!(
-        r.terrain_param_names.iter().any(|n| n == "effect.centripetal_slip_s"),
+        r.robot_param_names.iter().any(|n| n == lim_name),
+        "{:?}",
+        r.robot_param_names
+    );
+    assert!(
+        r.terrain_param_names
+            .iter()
+            .any(|n| n == "effect.centripetal_slip_s"),
         "{:?}",
         r.terrain_param_names
     );
@@ -151,8 +157,18 @@ fn drive_sim_cli(args: &[&str], cwd: &std::path::Path) -> std::process::Output {
 fn run_log(robot: &str, terrain: &str, steps: &str, cwd: &std::path::Path) {
     let out = drive_sim_cli(
         &[
-            "run", "--robot", robot, "--terrain", terrain, "--steps", steps, "--seed", "3", "--out",
-            "logs", "--quiet",
+            "run",
+            "--robot",
+            robot,
+            "--terrain",
+            terrain,
+            "--steps",
+            steps,
+            "--seed",
+            "3",
+            "--out",
+            "logs",
+            "--quiet",
         ],
         cwd,
     );
@@ -179,7 +195,12 @@ fn cli_joint_calibration_writes_one_report_per_log_and_refuses_two_robots() {
         ],
         d,
     );
-    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("husky") && err.contains("one robot"), "{err}");
     assert!(!d.join("bad").exists());

@@ -131,7 +131,13 @@ pub fn check_one_robot(logs: &[&DriveLog]) -> Result<()> {
 pub fn terrain_file_name(dataset: &str) -> String {
     let safe: String = dataset
         .chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
         .collect();
     format!("terrain_{safe}.toml")
 }
@@ -315,7 +321,7 @@ fn joint_specs(
     // On/off parameters are not in the joint fit: they keep the value each log's own
     // calibration chose.
     all.retain(|s| !s.discrete);
-    all.into_iter().partition(|s| !s.param.on_terrain())
+    all.into_iter().partition(|s| !factory.on_terrain(&s.param))
 }
 
 /// Runs the joint calibration (see the module doc). `progress` hears a line per stage.
@@ -379,6 +385,17 @@ pub fn calibrate_joint(input: &JointInput<'_>, progress: &(dyn Fn(&str) + Sync))
         }
     }
     effect_params.sort_unstable();
+    let flags: Vec<String> = effect_params
+        .iter()
+        .filter(|&&(e, p)| crate::effects::REGISTRY[e].params()[p].kind == crate::effects::ParamKind::Flag)
+        .map(|&(e, p)| crate::effects::REGISTRY[e].params()[p].key.to_string())
+        .collect();
+    if !flags.is_empty() {
+        notes.push(format!(
+            "on/off parameters are not fitted jointly: {} keep each log's own choice (the robot file is the first log's)",
+            flags.join(", ")
+        ));
+    }
     let effects: Vec<String> = {
         let mut v: Vec<String> = effect_params
             .iter()
@@ -436,10 +453,25 @@ pub fn calibrate_joint(input: &JointInput<'_>, progress: &(dyn Fn(&str) + Sync))
         terrain_specs.push(ts);
     }
     // Start: each log from its own calibrated model; the shared values from the median of
-    // the logs' own fits (inside the box).
+    // the logs' own fits (inside the box) among the logs that fitted them (an effect off in a
+    // log is no evidence of its value).
     let mut x0 = Vec::new();
     for s in &robot_specs {
-        let mut v: Vec<f64> = prepared.iter().map(|p| s.start_in(&p.start)).collect();
+        let fitted: Vec<f64> = singles
+            .iter()
+            .filter_map(|r| {
+                super::twin::fitted_params(r)
+                    .into_iter()
+                    .find(|p| p.name == s.param.name())
+            })
+            .map(|p| p.value)
+            .filter(|v| (s.lower..=s.upper).contains(v))
+            .collect();
+        let mut v: Vec<f64> = if fitted.is_empty() {
+            prepared.iter().map(|p| s.start_in(&p.start)).collect()
+        } else {
+            fitted
+        };
         v.sort_by(f64::total_cmp);
         x0.push(v[v.len() / 2]);
     }
@@ -476,7 +508,10 @@ pub fn calibrate_joint(input: &JointInput<'_>, progress: &(dyn Fn(&str) + Sync))
             "the joint model could not be evaluated at its start (every log's own calibrated model)".into(),
         ));
     }
-    let initial_score = (problem.layout().log_score(&problem.residuals(&x0).unwrap_or_default())).exp();
+    let initial_score = (problem
+        .layout()
+        .log_score(&problem.residuals(&x0).unwrap_or_default()))
+    .exp();
     let sol = lm::minimize(&problem, &x0, &opts.fit.lm, &mut |_| {});
     let specs = problem.specs();
     let names: Vec<String> = {
@@ -486,7 +521,9 @@ pub fn calibrate_joint(input: &JointInput<'_>, progress: &(dyn Fn(&str) + Sync))
         }
         n
     };
-    let free: Vec<usize> = (0..specs.len()).filter(|&i| !specs[i].at_bound(sol.x[i])).collect();
+    let free: Vec<usize> = (0..specs.len())
+        .filter(|&i| !specs[i].at_bound(sol.x[i]))
+        .collect();
     let covariance = match &sol.jacobian {
         Some(jac) if !free.is_empty() && !sol.residuals.is_empty() => Some(sandwich(
             problem.layout(),

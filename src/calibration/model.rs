@@ -45,6 +45,12 @@ pub trait PlantFactory: Sync {
     /// Terrain and robot parameters this plant depends on, with their search boxes: what the
     /// base fit adjusts and what is refit beside a candidate effect.
     fn base_params(&self, params: &ModelParams) -> Vec<ParamSpec>;
+    /// Whether `param` is a property of the ground under the robot in this plant (fitted once
+    /// per log in a joint calibration, [`super::joint`]): [`Param::on_terrain`] unless the
+    /// plant's own base parameter stands in for the ground.
+    fn on_terrain(&self, param: &Param) -> bool {
+        param.on_terrain()
+    }
 }
 
 /// The ideal differential drive with instantaneous wheels: the "IDD prediction" reference.
@@ -97,6 +103,12 @@ impl PlantFactory for KinematicFactory {
             ParamSpec::new(Param::Baseline, 0.7 * b, upper.max(b)),
             ParamSpec::new(Param::TimeConstant, 0.02, 1.5),
         ]
+    }
+    fn on_terrain(&self, param: &Param) -> bool {
+        // The effective baseline of a skid-steer is how far its wheels slip sideways in a
+        // turn: a property of the ground (2.24, 1.86 and 2.02 m on the Warthog's asphalt, ice
+        // and gravel runs for a geometric 1.08 m).
+        *param == Param::Baseline || param.on_terrain()
     }
 }
 

@@ -365,9 +365,7 @@ fn calibrate_joint(args: &CalibrateArgs) -> anyhow::Result<()> {
         let single: Vec<String> = report
             .singles
             .iter()
-            .map(|r| {
-                twin_param(r, &p.name).map_or("-".to_string(), |q| with_interval(&q))
-            })
+            .map(|r| twin_param(r, &p.name).map_or("-".to_string(), |q| with_interval(&q)))
             .collect();
         writeln!(
             out,
@@ -392,7 +390,11 @@ fn calibrate_joint(args: &CalibrateArgs) -> anyhow::Result<()> {
                 .join(", ")
         )?;
     }
-    writeln!(out, "joint fit: {} ({} evaluations)", report.fit.status, report.fit.evaluations)?;
+    writeln!(
+        out,
+        "joint fit: {} ({} evaluations)",
+        report.fit.status, report.fit.evaluations
+    )?;
     for n in &report.notes {
         writeln!(out, "  note: {n}")?;
     }
