@@ -306,14 +306,7 @@ fn fingerprint(path: &Path) -> (usize, f64, Vec<[f64; 4]>, Vec<String>) {
         .log
         .samples
         .iter()
-        .map(|s| {
-            [
-                s.stamp_s,
-                s.m.enc.left_rad_s,
-                s.m.imu.wz_rad_s,
-                s.m.pose.yaw_rad,
-            ]
-        })
+        .map(|s| [s.stamp_s, s.m.enc.left_rad_s, s.m.imu.wz_rad_s, s.m.pose.yaw_rad])
         .collect();
     (steps, rho, samples, o.warnings)
 }
@@ -395,11 +388,23 @@ fn mcap_counts_from_the_indexes_match_a_streamed_scan() {
     let tmp = tempfile::tempdir().unwrap();
     let a = tmp.path().join("indexed");
     let b = tmp.path().join("streamed");
-    write_bag("warthog_gravel", &a, &["--storage", "mcap", "--steps", "5", "--cloud-hz", "10"]);
+    write_bag(
+        "warthog_gravel",
+        &a,
+        &["--storage", "mcap", "--steps", "5", "--cloud-hz", "10"],
+    );
     write_bag(
         "warthog_gravel",
         &b,
-        &["--storage", "mcap", "--steps", "5", "--cloud-hz", "10", "--mcap-no-summary"],
+        &[
+            "--storage",
+            "mcap",
+            "--steps",
+            "5",
+            "--cloud-hz",
+            "10",
+            "--mcap-no-summary",
+        ],
     );
     let (ba, bb) = (
         drive_sim::log::bag::Bag::open(&a).unwrap(),
@@ -437,7 +442,13 @@ fn a_truncated_mcap_bag_is_an_error_naming_the_file() {
     assert!(e.contains("cut.mcap") && e.contains("MCAP record"), "{e}");
     let i = drive_sim::log::bag::inspect(&cut, &opts());
     let shown = i.to_string();
-    assert!(shown.contains("problem:") && shown.contains("cut.mcap"), "{shown}");
+    assert!(
+        shown.contains("problem:") && shown.contains("cut.mcap"),
+        "{shown}"
+    );
     // What came before the cut is still listed.
-    assert!(shown.contains("/icp_odom") && shown.contains("roles ("), "{shown}");
+    assert!(
+        shown.contains("/icp_odom") && shown.contains("roles ("),
+        "{shown}"
+    );
 }

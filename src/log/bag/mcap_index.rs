@@ -16,7 +16,7 @@ use std::collections::BTreeMap;
 use std::os::unix::fs::FileExt;
 use std::path::Path;
 
-use super::storage::{TopicInfo, TopicStats};
+use super::storage::{OnMessage, TopicInfo, TopicStats};
 
 /// Two role messages closer than this in an uncompressed chunk are read with one read.
 const MERGE_GAP: u64 = 16 << 10;
@@ -67,9 +67,15 @@ impl McapIndex {
         );
         while let Some(event) = reader.next_event() {
             let step = match event {
-                Ok(SummaryReadEvent::ReadRequest(n)) => f.read(reader.insert(n)).map(|r| reader.notify_read(r)),
+                Ok(SummaryReadEvent::ReadRequest(n)) => {
+                    f.read(reader.insert(n)).map(|r| reader.notify_read(r))
+                }
                 Ok(SummaryReadEvent::SeekRequest(to)) => f.seek(to).map(|p| reader.notify_seeked(p)),
-                Err(e) => return Ok(Err(format!("its summary section does not read ({e}): truncated or damaged?"))),
+                Err(e) => {
+                    return Ok(Err(format!(
+                        "its summary section does not read ({e}): truncated or damaged?"
+                    )))
+                }
             };
             step.map_err(|e| Error::io(path, e))?;
         }
@@ -172,12 +178,7 @@ impl McapIndex {
     /// Calls `f(index in wanted, log time ns, payload)` for every message of the `wanted`
     /// topics; chunks without one are not read, and only the wanted messages of an
     /// uncompressed chunk are.
-    pub(crate) fn read(
-        &self,
-        path: &Path,
-        wanted: &[&str],
-        f: &mut dyn FnMut(usize, u64, &[u8]) -> Result<()>,
-    ) -> Result<()> {
+    pub(crate) fn read(&self, path: &Path, wanted: &[&str], f: &mut OnMessage<'_>) -> Result<()> {
         let want: BTreeMap<u16, usize> = self
             .channels
             .iter()
@@ -212,7 +213,7 @@ fn read_uncompressed(
     ci: &ChunkIndex,
     by_channel: &BTreeMap<u16, Vec<MessageIndexEntry>>,
     want: &BTreeMap<u16, usize>,
-    f: &mut dyn FnMut(usize, u64, &[u8]) -> Result<()>,
+    f: &mut OnMessage<'_>,
 ) -> Result<()> {
     let base = ci
         .compressed_data_offset()
@@ -253,11 +254,16 @@ fn read_uncompressed(
             let rec = &buf[(off - lo) as usize..(end - lo) as usize];
             let bad = |m: String| bad_chunk(path, ci, format!("record at chunk offset {off}: {m}"));
             if rec.len() < 9 || rec[0] != mcap::records::op::MESSAGE {
-                return Err(bad("not a message record, though a message index points at it".into()));
+                return Err(bad(
+                    "not a message record, though a message index points at it".into()
+                ));
             }
             let n = u64::from_le_bytes(rec[1..9].try_into().expect("8 bytes"));
             if n > (rec.len() - 9) as u64 {
-                return Err(bad(format!("{n} bytes long, more than the {} up to the next message", rec.len() - 9)));
+                return Err(bad(format!(
+                    "{n} bytes long, more than the {} up to the next message",
+                    rec.len() - 9
+                )));
             }
             match mcap::parse_record(rec[0], &rec[9..9 + n as usize]) {
                 Ok(Record::Message { header, data }) if header.channel_id == ch => {
@@ -284,7 +290,7 @@ fn read_compressed(
     path: &Path,
     ci: &ChunkIndex,
     want: &BTreeMap<u16, usize>,
-    f: &mut dyn FnMut(usize, u64, &[u8]) -> Result<()>,
+    f: &mut OnMessage<'_>,
 ) -> Result<()> {
     if ci.uncompressed_size > RECORD_LENGTH_LIMIT as u64 {
         return Err(bad_chunk(
@@ -298,7 +304,11 @@ fn read_compressed(
     }
     let buf = read_at(file, path, ci.chunk_start_offset, ci.chunk_length, "chunk")?;
     if buf.len() < 9 || buf[0] != mcap::records::op::CHUNK {
-        return Err(bad_chunk(path, ci, "the chunk index does not point at a chunk record"));
+        return Err(bad_chunk(
+            path,
+            ci,
+            "the chunk index does not point at a chunk record",
+        ));
     }
     let (header, data) = match mcap::parse_record(buf[0], &buf[9..]) {
         Ok(Record::Chunk { header, data }) => (header, data),

@@ -250,11 +250,7 @@ fn read_opened(bag: &Bag, roles: &RoleMap, opts: &BagOptions) -> Result<BagLog> 
     ));
     let mut warnings = bag.warnings.clone();
     warnings.extend(report.warnings);
-    Ok(BagLog {
-        log,
-        notes,
-        warnings,
-    })
+    Ok(BagLog { log, notes, warnings })
 }
 
 /// What `drive-sim inspect` shows of a bag; built even from a broken bag, with its problems.

@@ -3,7 +3,7 @@
 //!
 //! Topics nobody asked for are skipped before their payload is touched: the sqlite3 query
 //! selects the role topics only (SQLite does not read the blobs of the other rows), and an
-//! MCAP file with a summary section is read through its indexes ([`super::mcap_index`]): the
+//! MCAP file with a summary section is read through its indexes (`mcap_index`): the
 //! topic list, counts and time spans come from the summary and the message indexes, and only
 //! the role messages are read. An MCAP file without a summary (truncated, or written without
 //! one) is streamed whole instead, with a warning saying so.
@@ -329,7 +329,8 @@ impl Bag {
                 Storage::Sqlite3 => {
                     if zstd {
                         if unpacked.is_none() {
-                            unpacked = Some(tempfile::tempdir().map_err(|e| Error::io(std::env::temp_dir(), e))?);
+                            unpacked =
+                                Some(tempfile::tempdir().map_err(|e| Error::io(std::env::temp_dir(), e))?);
                         }
                         let dir = unpacked.as_ref().expect("just made").path();
                         d.read = dir.join(format!("{}.db3", data.len()));
@@ -371,9 +372,7 @@ impl Bag {
                                 Err(e) if list.is_empty() => return Err(e),
                                 // A damaged file still lists what came before the damage;
                                 // reading its messages fails there again, with this error.
-                                Err(e) => warnings.push(format!(
-                                    "{e}: its topics and counts stop there"
-                                )),
+                                Err(e) => warnings.push(format!("{e}: its topics and counts stop there")),
                                 Ok(()) => {}
                             }
                             list
