@@ -452,3 +452,50 @@ fn a_truncated_mcap_bag_is_an_error_naming_the_file() {
         "{shown}"
     );
 }
+
+/// `compare` reads bags through `log::open` like `analyze`: a file-compressed sqlite3 bag
+/// against the same run as an MCAP bag with lz4 chunks is the same run, every difference 0.
+#[test]
+fn compare_accepts_bags() {
+    if skip() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let real = tmp.path().join("real");
+    let sim = tmp.path().join("sim");
+    write_bag(
+        "warthog_gravel",
+        &real,
+        &["--steps", "8", "--compression", "file"],
+    );
+    write_bag(
+        "warthog_gravel",
+        &sim,
+        &["--steps", "8", "--storage", "mcap", "--mcap-chunks", "lz4"],
+    );
+    let out = tmp.path().join("cmp");
+    let o = Command::new(env!("CARGO_BIN_EXE_drive-sim"))
+        .args([
+            "compare",
+            "--robot",
+            "warthog",
+            "--terrain",
+            "gravel",
+            "--resamples",
+            "100",
+            "--out",
+        ])
+        .arg(&out)
+        .arg(&real)
+        .arg(&sim)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{}\n{stdout}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(out.join("comparison.json").is_file());
+    assert!(stdout.contains("RMS 0.0000"), "{stdout}");
+}
