@@ -73,6 +73,7 @@ fn run(name: &str, extra: Unmodelled, seed: u64) -> CalibrationReport {
                 .collect::<Vec<_>>()),
             r.discovery.as_ref().map(|d| &d.rounds)
         );
+        eprintln!("{name}: after {:#?}", r.diagnosis_after);
     }
     r
 }
@@ -228,10 +229,7 @@ fn body_lagging_its_wheels() {
         "{eqs:?}"
     );
     assert_close(&r, "body_time_constant_s", 0.3);
-    // A lag shows in the step's transient. Open: it ends at 2.8× its floor, not 1.5× (the
-    // replay starts the lagging body from a velocity estimated over the step's first 0.25 s,
-    // and the pose latency the catalogue took first as a stand-in stays); asserted here is
-    // what holds, below its flag of 3 and a third of what it was.
+    // A lag shows in the step's transient.
     let d = |r: Option<&drive_sim::calibration::diagnosis::Diagnosis>| {
         r.and_then(|d| d.channel("transient vx"))
             .map(|c| c.ratio)
@@ -239,7 +237,7 @@ fn body_lagging_its_wheels() {
     };
     let (before, after) = (d(r.diagnosis_before.as_ref()), d(r.diagnosis_after.as_ref()));
     eprintln!("lag: transient vx RMSE / floor {before:.2} -> {after:.2} (test steps)");
-    assert!(after < 3.0 && after < before / 3.0, "{before} -> {after}");
+    assert!(after <= 1.5, "{before} -> {after}");
 }
 
 #[test]

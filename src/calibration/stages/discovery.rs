@@ -563,10 +563,21 @@ fn read(target: TermTarget, eq: &Equation) -> (Vec<String>, Vec<String>) {
         }
     }
     if has(Feature::Ax) || has(Feature::Alpha) {
-        let tau = -coef(Feature::Ax).min(coef(Feature::Alpha).min(0.0));
-        reading.push(format!(
-            "a lag: the body follows its wheels with a time constant of about {tau:.2} s"
-        ));
+        // A body lagging the model by τ reads as a residual −τ · (the model's acceleration):
+        // a negative coefficient is a lag of that many seconds, a positive one a lead.
+        let c = [Feature::Ax, Feature::Alpha]
+            .into_iter()
+            .filter(|&f| has(f))
+            .map(coef)
+            .fold(f64::INFINITY, f64::min);
+        reading.push(if c < 0.0 {
+            format!(
+                "a lag: the body follows its wheels with a time constant of about {:.2} s",
+                -c
+            )
+        } else {
+            format!("a term in the acceleration ({c:+.3} s): the body responds faster than the model")
+        });
         if !wheel {
             suggests.push("body_lag");
         } else {
