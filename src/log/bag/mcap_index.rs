@@ -249,7 +249,7 @@ fn read_uncompressed(
             j += 1;
         }
         let (lo, hi) = (spans[k].0, spans[j].1);
-        let buf = read_at(file, path, base + lo, hi - lo, "chunk messages")?;
+        let buf = read_at(file, path, base.saturating_add(lo), hi - lo, "chunk messages")?;
         for &(off, end, ch) in &spans[k..=j] {
             let rec = &buf[(off - lo) as usize..(end - lo) as usize];
             let bad = |m: String| bad_chunk(path, ci, format!("record at chunk offset {off}: {m}"));
