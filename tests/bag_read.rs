@@ -221,11 +221,14 @@ fn bad_bags_give_errors_naming_topic_time_and_expectation() {
     ));
     assert!(e.contains("rosbag_v2") && e.contains("sqlite3"), "{e}");
     let e = err(&edited(
-        "zstd",
+        "lz4",
         "compression_format: ''",
-        "compression_format: zstd",
+        "compression_format: lz4",
     ));
-    assert!(e.contains("zstd"), "{e}");
+    assert!(
+        e.contains("`lz4`") && e.contains("compression_format") && e.contains("`zstd`"),
+        "{e}"
+    );
 
     // A truncated .db3: an error, never a panic; inspect still lists what it can.
     let trunc = tmp.path().join("trunc");
@@ -293,4 +296,206 @@ fn roles_are_guessed_and_reported_without_a_fitting_preset() {
         g.roles[&drive_sim::log::bag::Role::Imu].topic,
         "/MTI_imu/data_unbiased"
     );
+}
+
+/// Steps, median ρ and every sample's values of a bag, to compare two readings exactly.
+fn fingerprint(path: &Path) -> (usize, f64, Vec<[f64; 4]>, Vec<String>) {
+    let o = open(path, &opts()).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let (steps, rho) = steps_and_median_rho(&o.log);
+    let samples = o
+        .log
+        .samples
+        .iter()
+        .map(|s| [s.stamp_s, s.m.enc.left_rad_s, s.m.imu.wz_rad_s, s.m.pose.yaw_rad])
+        .collect();
+    (steps, rho, samples, o.warnings)
+}
+
+/// rosbag2's zstd compression (`ros2 bag record --compression-mode file|message
+/// --compression-format zstd`) and MCAP's own chunk compression (zstd written by rosbags, lz4
+/// by the Python `mcap` writer) read to the very same log as the uncompressed bag; so does an
+/// MCAP file without a summary section (streamed whole, with a warning naming why).
+#[test]
+fn compressed_and_unindexed_bags_read_like_the_uncompressed_one() {
+    if skip() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    for (storage, ext) in [("sqlite3", "db3"), ("mcap", "mcap")] {
+        let plain = tmp.path().join(format!("{storage}_plain"));
+        write_bag("warthog_gravel", &plain, &["--storage", storage, "--steps", "30"]);
+        let (steps, rho, samples, warnings) = fingerprint(&plain);
+        assert_eq!(steps, 30, "{storage}");
+        assert!(warnings.is_empty(), "{warnings:?}");
+        let mut variants: Vec<(&str, Vec<&str>)> = vec![
+            ("file", vec!["--compression", "file"]),
+            ("message", vec!["--compression", "message"]),
+        ];
+        if storage == "mcap" {
+            variants.push(("zstd_chunks", vec!["--mcap-chunks", "zstd"]));
+            variants.push(("lz4_chunks", vec!["--mcap-chunks", "lz4"]));
+            variants.push(("no_summary", vec!["--mcap-no-summary"]));
+        }
+        for (name, args) in variants {
+            let dir = tmp.path().join(format!("{storage}_{name}"));
+            let mut all = vec!["--storage", storage, "--steps", "30"];
+            all.extend(args);
+            write_bag("warthog_gravel", &dir, &all);
+            let mut paths = vec![dir.clone()];
+            // The data file alone too: a file-compressed one is recognised by its zstd magic.
+            paths.push(if name == "file" {
+                data_file(&dir, "zstd")
+            } else {
+                data_file(&dir, ext)
+            });
+            for path in paths {
+                let (s, r, x, w) = fingerprint(&path);
+                let what = format!("{storage} {name} {}", path.display());
+                assert_eq!(s, steps, "{what}");
+                assert_eq!(r, rho, "{what}");
+                assert_eq!(x.len(), samples.len(), "{what}");
+                assert!(x == samples, "{what}: samples differ");
+                if name == "no_summary" {
+                    assert!(
+                        w.len() == 1 && w[0].contains("no summary section") && w[0].contains("streamed"),
+                        "{what}: {w:?}"
+                    );
+                } else {
+                    assert!(w.is_empty(), "{what}: {w:?}");
+                }
+            }
+            let i = drive_sim::log::bag::inspect(&dir, &opts());
+            assert!(i.problems.is_empty(), "{:?}", i.problems);
+            let shown = i.to_string();
+            let want = match name {
+                "file" => "compression zstd, file mode",
+                "message" => "compression zstd, message mode",
+                _ => "compression none",
+            };
+            assert!(shown.contains(want), "{shown}");
+            assert!(shown.contains("/rslidar_points"), "{shown}");
+        }
+    }
+}
+
+/// `inspect` of an MCAP bag gives its counts and spans from the summary and message indexes,
+/// the same as a streamed scan of the same messages in a file without a summary.
+#[test]
+fn mcap_counts_from_the_indexes_match_a_streamed_scan() {
+    if skip() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let a = tmp.path().join("indexed");
+    let b = tmp.path().join("streamed");
+    write_bag(
+        "warthog_gravel",
+        &a,
+        &["--storage", "mcap", "--steps", "5", "--cloud-hz", "10"],
+    );
+    write_bag(
+        "warthog_gravel",
+        &b,
+        &[
+            "--storage",
+            "mcap",
+            "--steps",
+            "5",
+            "--cloud-hz",
+            "10",
+            "--mcap-no-summary",
+        ],
+    );
+    let (ba, bb) = (
+        drive_sim::log::bag::Bag::open(&a).unwrap(),
+        drive_sim::log::bag::Bag::open(&b).unwrap(),
+    );
+    assert!(ba.warnings.is_empty(), "{:?}", ba.warnings);
+    assert_eq!(bb.warnings.len(), 1, "{:?}", bb.warnings);
+    assert_eq!(ba.topics, bb.topics);
+    let (sa, sb) = (ba.stats().unwrap(), bb.stats().unwrap());
+    assert_eq!(sa, sb);
+    // A cloud every 0.1 s from the start up to the last step's last tick (1 s idle, 5 steps
+    // of 6 s; the writer sends clouds with the step ticks only).
+    let clouds = sa["/rslidar_points"];
+    assert_eq!(clouds.count, 310, "{clouds:?}");
+    assert_eq!(sa.len(), ba.topics.len());
+}
+
+/// A truncated MCAP bag (its summary cut off): an error naming the file and where reading
+/// stopped, never a panic; `inspect` names the problem.
+#[test]
+fn a_truncated_mcap_bag_is_an_error_naming_the_file() {
+    if skip() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("b");
+    write_bag("warthog_gravel", &dir, &["--storage", "mcap", "--steps", "4"]);
+    let file = data_file(&dir, "mcap");
+    let bytes = std::fs::read(&file).unwrap();
+    let cut = tmp.path().join("cut.mcap");
+    std::fs::write(&cut, &bytes[..bytes.len() * 2 / 3]).unwrap();
+    let e = open(&cut, &opts()).map(|_| ()).unwrap_err();
+    assert!(e.is_bad_input(), "{e}");
+    let e = e.to_string();
+    assert!(e.contains("cut.mcap") && e.contains("MCAP record"), "{e}");
+    let i = drive_sim::log::bag::inspect(&cut, &opts());
+    let shown = i.to_string();
+    assert!(
+        shown.contains("problem:") && shown.contains("cut.mcap"),
+        "{shown}"
+    );
+    // What came before the cut is still listed.
+    assert!(
+        shown.contains("/icp_odom") && shown.contains("roles ("),
+        "{shown}"
+    );
+}
+
+/// `compare` reads bags through `log::open` like `analyze`: a file-compressed sqlite3 bag
+/// against the same run as an MCAP bag with lz4 chunks is the same run, every difference 0.
+#[test]
+fn compare_accepts_bags() {
+    if skip() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let real = tmp.path().join("real");
+    let sim = tmp.path().join("sim");
+    write_bag(
+        "warthog_gravel",
+        &real,
+        &["--steps", "8", "--compression", "file"],
+    );
+    write_bag(
+        "warthog_gravel",
+        &sim,
+        &["--steps", "8", "--storage", "mcap", "--mcap-chunks", "lz4"],
+    );
+    let out = tmp.path().join("cmp");
+    let o = Command::new(env!("CARGO_BIN_EXE_drive-sim"))
+        .args([
+            "compare",
+            "--robot",
+            "warthog",
+            "--terrain",
+            "gravel",
+            "--resamples",
+            "100",
+            "--out",
+        ])
+        .arg(&out)
+        .arg(&real)
+        .arg(&sim)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{}\n{stdout}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(out.join("comparison.json").is_file());
+    assert!(stdout.contains("RMS 0.0000"), "{stdout}");
 }

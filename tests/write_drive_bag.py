@@ -14,7 +14,14 @@ a point-cloud topic the reader must skip. Steps follow each other as the DRIVE n
 (6 s each, no pause); `--interrupt S` first runs 2 s of step S, stops 1 s in `idle` with a zero
 command, then runs the whole step.
 
-Exit code 3: rosbags is not installed.
+Compression: `--compression file|message` writes the bag as `ros2 bag record
+--compression-mode file|message --compression-format zstd` does (rosbags' writer).
+`--mcap-chunks zstd` has rosbags compress the MCAP chunks themselves (MCAP's own chunk
+compression, not rosbag2's); `--mcap-chunks lz4` and `--mcap-no-summary` rewrite the MCAP file
+with the Python `mcap` writer (pip install mcap): lz4-compressed chunks, or no summary section
+(no chunk or message indexes, as a recorder that did not close its file cleanly leaves).
+
+Exit code 3: rosbags (or, for the rewrites, mcap) is not installed.
 """
 
 import argparse
@@ -26,7 +33,7 @@ from pathlib import Path
 
 try:
     import numpy as np
-    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
 except ImportError as e:  # pragma: no cover
     print(f"write_drive_bag.py: {e}: pip install rosbags", file=sys.stderr)
@@ -48,7 +55,14 @@ def main():
     ap.add_argument("--cloud-bytes", type=int, default=2000, help="point cloud message size")
     ap.add_argument("--cloud-hz", type=float, default=1.0)
     ap.add_argument("--params", action="store_true", help="write the DRIVE node's YAML beside")
+    ap.add_argument("--compression", choices=["none", "file", "message"], default="none", help="rosbag2 zstd compression mode")
+    ap.add_argument("--mcap-chunks", choices=["none", "zstd", "lz4"], default="none", help="MCAP chunk compression")
+    ap.add_argument("--mcap-no-summary", action="store_true", help="MCAP without a summary section")
     a = ap.parse_args()
+    if (a.mcap_chunks != "none" or a.mcap_no_summary) and a.storage != "mcap":
+        ap.error("--mcap-chunks and --mcap-no-summary need --storage mcap")
+    if a.compression == "file" and (a.mcap_chunks == "lz4" or a.mcap_no_summary):
+        ap.error("the MCAP rewrites work on an uncompressed file")
 
     meta = json.loads(Path(a.csv).with_suffix(".json").read_text())
     nom = meta["nominal"]
@@ -75,7 +89,13 @@ def main():
 
     plugin = StoragePlugin.SQLITE3 if a.storage == "sqlite3" else StoragePlugin.MCAP
     out = Path(a.out)
-    with Writer(out, version=8, storage_plugin=plugin) as w:
+    w = Writer(out, version=8, storage_plugin=plugin)
+    if a.compression != "none":
+        mode = CompressionMode.FILE if a.compression == "file" else CompressionMode.MESSAGE
+        w.set_compression(mode, CompressionFormat.ZSTD)
+    elif a.mcap_chunks == "zstd":
+        w.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+    with w:
         conns = {}
 
         def conn(topic, msgtype):
@@ -215,12 +235,56 @@ def main():
             tick_msgs(t, len(order), "idle", (0.0, 0.0), None, None)
             t += tick
 
+    if a.mcap_chunks == "lz4" or a.mcap_no_summary:
+        rewrite_mcap(next(out.glob("*.mcap")), a.mcap_chunks == "lz4", not a.mcap_no_summary)
+
     if a.params:
         (out if out.is_dir() else out.parent).joinpath("drive.config.yaml").write_text(
             "drive_node:\n  ros__parameters:\n"
             f"    cmd_rate: 20\n    max_lin_speed: {nom['max_lin_m_s']}\n    max_ang_speed: {nom['max_ang_rad_s']}\n"
             f"    step_len: 6.0\n    wheel_radius: {r}\n    wheel_baseline: {b}\n"
         )
+
+
+def rewrite_mcap(path, lz4, summary):
+    """Rewrites an MCAP file with the Python mcap writer: lz4 chunks, or no summary section."""
+    try:
+        from mcap.reader import make_reader
+        from mcap.writer import CompressionType, IndexType
+        from mcap.writer import Writer as McapWriter
+    except ImportError as e:  # pragma: no cover
+        print(f"write_drive_bag.py: {e}: pip install mcap", file=sys.stderr)
+        sys.exit(3)
+    tmp = path.with_suffix(".tmp")
+    with open(path, "rb") as src, open(tmp, "wb") as dst:
+        r = make_reader(src)
+        header = r.get_header()
+        if summary:
+            w = McapWriter(dst, compression=CompressionType.LZ4 if lz4 else CompressionType.NONE)
+        else:
+            w = McapWriter(
+                dst,
+                compression=CompressionType.LZ4 if lz4 else CompressionType.NONE,
+                index_types=IndexType.NONE,
+                repeat_channels=False,
+                repeat_schemas=False,
+                use_statistics=False,
+                use_summary_offsets=False,
+            )
+        w.start(profile=header.profile, library=header.library)
+        schemas, channels = {}, {}
+        for schema, channel, msg in r.iter_messages(log_time_order=False):
+            if schema.id not in schemas:
+                schemas[schema.id] = w.register_schema(schema.name, schema.encoding, schema.data)
+            if channel.id not in channels:
+                channels[channel.id] = w.register_channel(
+                    channel.topic, channel.message_encoding, schemas[schema.id], channel.metadata
+                )
+            w.add_message(channels[channel.id], msg.log_time, msg.data, msg.publish_time, msg.sequence)
+        for m in r.iter_metadata():
+            w.add_metadata(m.name, m.metadata)
+        w.finish()
+    tmp.replace(path)
 
 
 if __name__ == "__main__":

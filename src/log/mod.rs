@@ -89,11 +89,11 @@ fn open_file(
             std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
         )),
         Some("mcap") if mcap::read::is_drive_sim_mcap(path)? => mcap::read_mcap(path).map(plain),
-        Some("mcap") | Some("db3") => bag::read_bag(path, opts).map(from_bag),
+        Some("mcap") | Some("db3") | Some("zstd") => bag::read_bag(path, opts).map(from_bag),
         _ => Err(crate::Error::log(
             path,
             "file name",
-            "expected a measured .csv, a drive-sim .mcap, or a rosbag2 bag (directory, .db3 or .mcap)",
+            "expected a measured .csv, a drive-sim .mcap, or a rosbag2 bag (directory, .db3 or .mcap, or either as .zstd)",
         )),
     }
 }

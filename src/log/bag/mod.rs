@@ -12,6 +12,7 @@
 //! length); the terrain comes from `--terrain`.
 
 pub mod assemble;
+mod mcap_index;
 pub mod roles;
 pub mod storage;
 
@@ -21,7 +22,7 @@ use std::path::{Path, PathBuf};
 
 pub use assemble::Segmentation;
 pub use roles::{Role, RoleMap};
-pub use storage::{Bag, Storage};
+pub use storage::{Bag, Compression, Storage};
 
 /// How to read a bag: what it does not record itself.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -193,12 +194,18 @@ fn nominal_for(
 pub fn read_bag(path: &Path, opts: &BagOptions) -> Result<BagLog> {
     let bag = Bag::open(path)?;
     let roles = roles::choose(&bag, opts.roles.as_deref(), opts.robot.as_deref())?;
+    read_opened(&bag, &roles, opts)
+}
+
+/// Reads an opened bag with the roles chosen for it.
+fn read_opened(bag: &Bag, roles: &RoleMap, opts: &BagOptions) -> Result<BagLog> {
+    let path = bag.path.as_path();
     let mut notes = vec![format!("roles: {}", roles.source)];
     if roles.source.starts_with("guessed") {
         notes.extend(roles.describe().into_iter().map(|l| format!("  {l}")));
     }
     roles.check_required(path)?;
-    let (robot, nominal, step_s, more) = nominal_for(path, opts, &roles)?;
+    let (robot, nominal, step_s, more) = nominal_for(path, opts, roles)?;
     notes.extend(more);
     let rate_hz = 20.0;
     let windows_per_step = 3;
@@ -229,8 +236,8 @@ pub fn read_bag(path: &Path, opts: &BagOptions) -> Result<BagLog> {
     };
     meta.validate()
         .map_err(|(field, m)| Error::log(path, format!("declared `{field}`"), m))?;
-    let (signals, t0) = assemble::decode(&bag, &roles)?;
-    let (log, report) = assemble::build_log(&signals, t0, meta, &roles, path)?;
+    let (signals, t0) = assemble::decode(bag, roles)?;
+    let (log, report) = assemble::build_log(&signals, t0, meta, roles, path)?;
     notes.push(match report.segmentation {
         Some(Segmentation::StepTopic) => "steps: from the step index topic".into(),
         _ => "steps: no step index recorded, from runs of constant command".into(),
@@ -241,11 +248,9 @@ pub fn read_bag(path: &Path, opts: &BagOptions) -> Result<BagLog> {
         report.warnings.len(),
         log.interruptions.len()
     ));
-    Ok(BagLog {
-        log,
-        notes,
-        warnings: report.warnings,
-    })
+    let mut warnings = bag.warnings.clone();
+    warnings.extend(report.warnings);
+    Ok(BagLog { log, notes, warnings })
 }
 
 /// What `drive-sim inspect` shows of a bag; built even from a broken bag, with its problems.
@@ -263,7 +268,9 @@ pub struct Inspection {
     pub problems: Vec<String>,
 }
 
-/// Looks at a bag as far as it can: topics, counts, roles, then the log.
+/// Looks at a bag as far as it can: topics, counts, roles, then the log. The bag is opened
+/// once: counts come with the opening (MCAP) or from one query (sqlite3), and only the role
+/// topics are read for the log.
 pub fn inspect(path: &Path, opts: &BagOptions) -> Inspection {
     let mut out = Inspection::default();
     let bag = match Bag::open(path) {
@@ -286,13 +293,15 @@ pub fn inspect(path: &Path, opts: &BagOptions) -> Inspection {
         }
         Err(e) => out.problems.push(e.to_string()),
     }
-    out.bag = Some(bag);
     if out.problems.is_empty() {
-        match read_bag(path, opts) {
-            Ok(r) => out.read = Some(r),
-            Err(e) => out.problems.push(e.to_string()),
+        if let Some(roles) = &out.roles {
+            match read_opened(&bag, roles, opts) {
+                Ok(r) => out.read = Some(r),
+                Err(e) => out.problems.push(e.to_string()),
+            }
         }
     }
+    out.bag = Some(bag);
     out
 }
 
@@ -301,9 +310,10 @@ impl std::fmt::Display for Inspection {
         if let Some(b) = &self.bag {
             writeln!(
                 f,
-                "{}: rosbag2, storage {}, {} file(s), {} topics",
+                "{}: rosbag2, storage {}, compression {}, {} file(s), {} topics",
                 b.path.display(),
                 b.storage.id(),
+                b.compression.describe(),
                 b.files.len(),
                 b.topics.len()
             )?;
@@ -354,13 +364,21 @@ impl std::fmt::Display for Inspection {
                 writeln!(f, "  {l}")?;
             }
         }
-        if let Some(r) = &self.read {
-            for n in &r.notes {
-                writeln!(f, "{n}")?;
+        match (&self.read, &self.bag) {
+            (Some(r), _) => {
+                for n in &r.notes {
+                    writeln!(f, "{n}")?;
+                }
+                for w in &r.warnings {
+                    writeln!(f, "warning: {w}")?;
+                }
             }
-            for w in &r.warnings {
-                writeln!(f, "warning: {w}")?;
+            (None, Some(b)) => {
+                for w in &b.warnings {
+                    writeln!(f, "warning: {w}")?;
+                }
             }
+            (None, None) => {}
         }
         for p in &self.problems {
             writeln!(f, "problem: {p}")?;

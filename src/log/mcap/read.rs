@@ -49,7 +49,7 @@ const READ_TOPICS: [(&str, &crate::log::ros_msgs::MsgDef); 7] = [
 /// Longest record (or decompressed chunk) the reader accepts, bytes: drive-sim writes 1 MiB
 /// chunks and sub-kB messages, other tools use chunks of a few MiB; a corrupted length must not
 /// make the reader allocate more than this.
-const RECORD_LENGTH_LIMIT: usize = 64 << 20;
+pub(crate) const RECORD_LENGTH_LIMIT: usize = 64 << 20;
 
 /// Every record of an MCAP file in order, chunks unpacked, with every CRC checked.
 ///
