@@ -499,3 +499,59 @@ fn compare_accepts_bags() {
     assert!(out.join("comparison.json").is_file());
     assert!(stdout.contains("RMS 0.0000"), "{stdout}");
 }
+
+/// The commands read a bag from the command line as the library does: `analyze` gives the
+/// bag's steps, `replay` and `calibrate` (kinematic, catalogue only, to stay fast) run on it.
+#[test]
+fn analyze_replay_and_calibrate_read_a_bag_from_the_command_line() {
+    if skip() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let bag = tmp.path().join("bag");
+    write_bag("warthog_gravel", &bag, &["--steps", "30", "--storage", "mcap"]);
+    let log = open(&bag, &opts()).unwrap().log;
+    let (analysed, _) = steps_and_median_rho(&log);
+    let expected = log.steps().len();
+    let run = |args: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_drive-sim"))
+            .args(args)
+            .arg(&bag)
+            .args(["--robot", "warthog", "--terrain", "gravel"])
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    };
+    let json = |p: PathBuf| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display())))
+            .unwrap()
+    };
+    let an = tmp.path().join("an");
+    run(&["analyze", "--out", an.to_str().unwrap()]);
+    let summary = json(an.join("summary.json"));
+    let key = format!("\"steps_analysed\":{analysed}");
+    assert!(summary.to_string().contains(&key), "no {key} in {summary}");
+    let rep = tmp.path().join("rep");
+    run(&["replay", "--model", "kinematic", "--out", rep.to_str().unwrap()]);
+    assert!(rep.join("replay.json").is_file());
+    let cal = tmp.path().join("cal");
+    run(&[
+        "calibrate",
+        "--model",
+        "kinematic",
+        "--no-discovery",
+        "--candidates",
+        "wheel_speed_saturation_rad_s",
+        "--out",
+        cal.to_str().unwrap(),
+    ]);
+    let c = json(cal.join("calibration.json"));
+    let used = c["train_steps"].as_array().unwrap().len()
+        + c["validation_steps"].as_array().unwrap().len()
+        + c["heldout_steps"].as_array().unwrap().len();
+    assert_eq!(used, expected, "{c}");
+}

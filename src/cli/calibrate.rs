@@ -64,6 +64,10 @@ pub struct CalibrateArgs {
     /// `compare --real-steps`), or on all of them.
     #[arg(long, value_enum, default_value = "all")]
     pub use_steps: crate::log::UseSteps,
+    /// Skip equation discovery: the catalogue's effects only (much faster on measured data,
+    /// where discovery refits every candidate term beside every selected effect).
+    #[arg(long)]
+    pub no_discovery: bool,
 }
 
 /// Replays a log on the declared model and reports how far it is, beside the IDD and the floor.
@@ -195,6 +199,7 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
         max_effects: args.max_effects,
         max_fit_steps: args.max_fit_steps,
         candidates: args.candidates.clone(),
+        discover: !args.no_discovery,
         ..CalibrationOptions::default()
     };
     opts.fit.optimizer = optimizer;
@@ -312,6 +317,7 @@ fn calibrate_joint(args: &CalibrateArgs) -> anyhow::Result<()> {
         max_effects: args.max_effects,
         max_fit_steps: args.max_fit_steps,
         candidates: args.candidates.clone(),
+        discover: !args.no_discovery,
         ..CalibrationOptions::default()
     };
     opts.fit.optimizer = optimizer;
