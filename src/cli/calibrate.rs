@@ -70,6 +70,22 @@ pub struct CalibrateArgs {
     pub no_discovery: bool,
 }
 
+impl CalibrateArgs {
+    /// The calibration's options from the command line, with the parsed local solver.
+    fn options(&self, optimizer: calibration::Optimizer) -> CalibrationOptions {
+        let mut opts = CalibrationOptions {
+            seed: self.seed,
+            max_effects: self.max_effects,
+            max_fit_steps: self.max_fit_steps,
+            candidates: self.candidates.clone(),
+            discover: !self.no_discovery,
+            ..CalibrationOptions::default()
+        };
+        opts.fit.optimizer = optimizer;
+        opts
+    }
+}
+
 /// Replays a log on the declared model and reports how far it is, beside the IDD and the floor.
 pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
     let kind = ModelKind::parse(&args.model)?;
@@ -194,15 +210,7 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
         .select(&super::input::open_log(log_path, &args.input)?);
     let (robot, terrain, notes) =
         calibration::models_for(&log, args.input.robot.as_deref(), args.input.terrain.as_deref())?;
-    let mut opts = CalibrationOptions {
-        seed: args.seed,
-        max_effects: args.max_effects,
-        max_fit_steps: args.max_fit_steps,
-        candidates: args.candidates.clone(),
-        discover: !args.no_discovery,
-        ..CalibrationOptions::default()
-    };
-    opts.fit.optimizer = optimizer;
+    let opts = args.options(optimizer);
     eprintln!(
         "drive-sim: calibrating the {} model of {} on {} ({} steps: fit on {:.0} %, choose on {:.0} %, report on the rest), {}",
         args.model,
@@ -312,15 +320,7 @@ fn calibrate_joint(args: &CalibrateArgs) -> anyhow::Result<()> {
         }
         joint_logs.push(calibration::joint::JointLog { log: l, terrain });
     }
-    let mut opts = CalibrationOptions {
-        seed: args.seed,
-        max_effects: args.max_effects,
-        max_fit_steps: args.max_fit_steps,
-        candidates: args.candidates.clone(),
-        discover: !args.no_discovery,
-        ..CalibrationOptions::default()
-    };
-    opts.fit.optimizer = optimizer;
+    let opts = args.options(optimizer);
     eprintln!(
         "drive-sim: calibrating the {} model of {} jointly on {} logs",
         args.model,
