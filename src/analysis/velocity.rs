@@ -162,12 +162,19 @@ pub struct SampleKinematics {
     pub centered: bool,
 }
 
-/// Estimates every velocity of the samples of one window (in time order).
-pub fn window_kinematics(
-    samples: &[Sample],
-    half_width: usize,
-    idd: &IdealDiffDrive,
-) -> Vec<SampleKinematics> {
+/// The body velocity from the pose of each sample of one window (in time order), and the time
+/// each one belongs to.
+pub struct PoseVelocities {
+    /// Mean time of each sample's derivative neighbourhood, s: where its slope is unbiased.
+    pub t_mid_s: Vec<f64>,
+    /// vx, vy (positions rotated into the body frame) and wz (yaw) of each sample.
+    pub v: Vec<BodyVelocity>,
+}
+
+/// The pose velocities of one window's samples (in time order): what [`window_kinematics`]
+/// builds on, and all that calibration's replays need (it skips the accelerations, a third of
+/// the cost, on every model evaluation).
+pub fn window_pose_velocities(samples: &[Sample], half_width: usize) -> PoseVelocities {
     let t: Vec<f64> = samples.iter().map(|s| s.t_in_step_s).collect();
     let x: Vec<f64> = samples.iter().map(|s| s.m.pose.x_m).collect();
     let y: Vec<f64> = samples.iter().map(|s| s.m.pose.y_m).collect();
@@ -179,33 +186,45 @@ pub fn window_kinematics(
     // is the velocity at the neighbourhood's mean time; rotate it with the mean heading over the
     // same samples, not the heading of sample i, or the ends get a spurious lateral speed
     // (v sin(wz dt): 0.12 m/s at 2 m/s, 0.8 rad/s).
-    let t_mid = local_mean(&t, half_width);
+    let t_mid_s = local_mean(&t, half_width);
     let yaw_mid = local_mean(&yaw, half_width);
-    let mut vx = Vec::with_capacity(t.len());
-    let mut vy = Vec::with_capacity(t.len());
-    for i in 0..t.len() {
-        let (s, c) = yaw_mid[i].sin_cos();
-        // World (window-frame) velocity rotated into the body frame by -yaw.
-        vx.push(c * dx[i] + s * dy[i]);
-        vy.push(-s * dx[i] + c * dy[i]);
-    }
-    let dvx = local_slope(&t_mid, &vx, half_width);
-    let dvy = local_slope(&t_mid, &vy, half_width);
-    (0..t.len())
+    let v = (0..t.len())
+        .map(|i| {
+            let (s, c) = yaw_mid[i].sin_cos();
+            // World (window-frame) velocity rotated into the body frame by -yaw.
+            BodyVelocity::new(c * dx[i] + s * dy[i], -s * dx[i] + c * dy[i], dyaw[i])
+        })
+        .collect();
+    PoseVelocities { t_mid_s, v }
+}
+
+/// Estimates every velocity of the samples of one window (in time order).
+pub fn window_kinematics(
+    samples: &[Sample],
+    half_width: usize,
+    idd: &IdealDiffDrive,
+) -> Vec<SampleKinematics> {
+    let PoseVelocities { t_mid_s, v } = window_pose_velocities(samples, half_width);
+    let n = v.len();
+    let vx: Vec<f64> = v.iter().map(|v| v.vx_m_s).collect();
+    let vy: Vec<f64> = v.iter().map(|v| v.vy_m_s).collect();
+    let dvx = local_slope(&t_mid_s, &vx, half_width);
+    let dvy = local_slope(&t_mid_s, &vy, half_width);
+    (0..n)
         .map(|i| {
             let m = &samples[i].m;
-            let wz = dyaw[i];
+            let wz = v[i].wz_rad_s;
             SampleKinematics {
                 window: samples[i].window,
-                t_s: t[i],
-                pose: BodyVelocity::new(vx[i], vy[i], wz),
+                t_s: samples[i].t_in_step_s,
+                pose: v[i],
                 pose_acc_m_s2: (dvx[i] - wz * vy[i], dvy[i] + wz * vx[i]),
                 imu_wz_rad_s: m.imu.wz_rad_s,
                 imu_acc_m_s2: (m.imu.ax_m_s2, m.imu.ay_m_s2),
                 enc: m.enc,
                 enc_body: idd.body_from_wheels(m.enc),
                 cmd: m.cmd,
-                centered: i >= half_width && i + half_width < t.len(),
+                centered: i >= half_width && i + half_width < n,
             }
         })
         .collect()

@@ -4,7 +4,7 @@
 //!
 //! Every quantity comes from the same estimators applied to both logs, so an estimator bias
 //! cancels: body velocity from the pose stream (the analysis pipeline's per-sample local
-//! least-squares slopes, [`crate::analysis::velocity::window_kinematics`], and their window
+//! least-squares slopes, [`crate::analysis::velocity::window_pose_velocities`], and their window
 //! means), wheel speed from the encoders, yaw rate from the IMU. Poses are only differenced
 //! inside a window (measured logs restart them there).
 //!
@@ -29,9 +29,9 @@
 //! what the bootstrap (over steps) compares.
 
 use super::steps::StepSlice;
-use crate::analysis::velocity::window_kinematics;
+use crate::analysis::velocity::window_pose_velocities;
 use crate::error::{Error, Result};
-use crate::kinematics::{IdealDiffDrive, WheelSpeeds};
+use crate::kinematics::WheelSpeeds;
 use crate::log::{Pose, Sample};
 use crate::sim::plant::wrap_angle;
 use serde::{Deserialize, Serialize};
@@ -92,24 +92,15 @@ pub fn step_features(step: u32, samples: &[Sample]) -> Result<StepFeatures> {
         displacement: Vec::new(),
     };
     let mut n_cmd = 0usize;
-    // `enc_body` of the analysis kinematics is not used here: any geometry will do.
-    let unit = IdealDiffDrive {
-        wheel_radius_m: 1.0,
-        baseline_m: 1.0,
-    };
     for w in samples.chunk_by(|a, b| a.window == b.window) {
         let n = w.len();
         // The analysis pipeline's per-sample velocities (local least-squares slopes).
-        let kin = window_kinematics(w, DERIVATIVE_HALF_WIDTH, &unit);
+        let kin = window_pose_velocities(w, DERIVATIVE_HALF_WIDTH).v;
         for (s, k) in w.iter().zip(&kin) {
             f.t_s.push(s.t_in_step_s);
             f.window.push(s.window);
-            f.series.push([
-                k.pose.vx_m_s,
-                k.pose.wz_rad_s,
-                s.m.enc.left_rad_s,
-                s.m.enc.right_rad_s,
-            ]);
+            f.series
+                .push([k.vx_m_s, k.wz_rad_s, s.m.enc.left_rad_s, s.m.enc.right_rad_s]);
         }
         f.displacement.push(relative(&w[0].m.pose, &w[n - 1].m.pose));
         if w[0].window == 0 {
@@ -118,9 +109,9 @@ pub fn step_features(step: u32, samples: &[Sample]) -> Result<StepFeatures> {
         // Steady window: window means, as the analysis pipeline takes them.
         let mut v = [0.0; 6];
         for (s, k) in w.iter().zip(&kin) {
-            v[0] += k.pose.vx_m_s / n as f64;
-            v[1] += k.pose.vy_m_s / n as f64;
-            v[2] += k.pose.wz_rad_s / n as f64;
+            v[0] += k.vx_m_s / n as f64;
+            v[1] += k.vy_m_s / n as f64;
+            v[2] += k.wz_rad_s / n as f64;
             v[3] += s.m.enc.left_rad_s / n as f64;
             v[4] += s.m.enc.right_rad_s / n as f64;
             v[5] += s.m.imu.wz_rad_s / n as f64;

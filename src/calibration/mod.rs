@@ -475,10 +475,11 @@ pub fn calibrate_timed(
             .filter(|p| p.param == Param::TimeConstant)
             .copied()
             .collect();
-        (Some(out.report), out.shortlist, refit)
+        (Some(out.report), (out.shortlist, Some(out.pairs)), refit)
     } else {
-        (None, pool, base_specs.clone())
+        (None, (pool, None), base_specs.clone())
     };
+    let (pool, screened_pairs) = pool;
     let refit_for_discovery = refit.clone();
     let selection = timings.time("selection", || {
         selection::run(
@@ -488,6 +489,7 @@ pub fn calibrate_timed(
                 current_validation: baseline.current_validation.clone(),
                 pool,
                 refit,
+                pairs: screened_pairs,
                 base: if baseline.base_fit_kept {
                     base_specs.clone()
                 } else {

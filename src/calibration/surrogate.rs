@@ -8,7 +8,7 @@ use crate::effects::{Effects, PlantModifiers, StepContext, TermInput};
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use crate::log::{GroundTruth, Measurement, Pose};
-use crate::sim::plant::{integrate_unicycle, kinematic_measurement, wrap_angle, Plant};
+use crate::sim::plant::{integrate_unicycle_with, kinematic_measurement, wrap_angle, Heading, Plant};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -49,6 +49,8 @@ pub struct KinematicPlant {
     cmds: VecDeque<(f64, WheelSpeeds)>,
     wheels: WheelSpeeds,
     pose: Pose,
+    /// The heading of `pose`, kept as a rotation (see [`Heading`]).
+    heading: Heading,
     /// Recent true poses (time, pose), for the pose latency.
     poses: VecDeque<(f64, Pose)>,
     time_s: f64,
@@ -91,6 +93,7 @@ impl KinematicPlant {
             cmds: VecDeque::new(),
             wheels: WheelSpeeds::default(),
             pose: Pose::default(),
+            heading: Heading::of(0.0),
             poses: VecDeque::new(),
             time_s: 0.0,
             velocity: BodyVelocity::default(),
@@ -103,18 +106,50 @@ impl KinematicPlant {
         Ok(p)
     }
 
-    /// The command acting on the motors at time `t` (dead time applied).
-    fn delayed_cmd(&self, t: f64) -> WheelSpeeds {
-        let t = t - self.mods.dead_time_s;
-        let mut c = self.cmds.front().map(|c| c.1).unwrap_or_default();
-        for &(tc, cmd) in &self.cmds {
-            if tc <= t + 1e-12 {
-                c = cmd;
-            } else {
-                break;
+    /// The wheel targets over the substep `[t, t + h]`, the dead time applied: the targets of
+    /// the commands acting in `[t − d, t + h − d]`, each weighted by how long it acts there.
+    ///
+    /// Why not the command acting at the substep's start: a command switch seen through a dead
+    /// time falls inside a substep, and rounding it to the substep's start makes the response
+    /// a staircase of 10 ms plateaus in the dead time, on which a least-squares fit of the dead
+    /// time stalls (it used its whole iteration budget). Weighted, the switch acts at its time
+    /// and the response is continuous in the dead time. With no switch inside the substep (no
+    /// dead time, or one whole substeps long on the command grid) it is the one command's
+    /// target, exactly as before.
+    fn delayed_targets(&self, t: f64, h: f64, x: &TermInput) -> WheelSpeeds {
+        let (a, b) = (t - self.mods.dead_time_s, t + h - self.mods.dead_time_s);
+        // The command acting at `a`: the last one given at or before it.
+        let first = self
+            .cmds
+            .iter()
+            .rposition(|&(tc, _)| tc <= a + 1e-12)
+            .unwrap_or(0);
+        let target = |cmd: WheelSpeeds| self.effects.wheel_targets_in(cmd, &self.idd, x);
+        let switches = self
+            .cmds
+            .iter()
+            .skip(first + 1)
+            .take_while(|&&(tc, _)| tc < b - 1e-12);
+        let mut acc: Option<WheelSpeeds> = None;
+        let (mut from, mut cmd) = (a, self.cmds.get(first).map(|c| c.1).unwrap_or_default());
+        for &(tc, next) in switches {
+            let w = (tc - from) / h;
+            let sum = acc.get_or_insert_with(WheelSpeeds::default);
+            let tg = target(cmd);
+            sum.left_rad_s += w * tg.left_rad_s;
+            sum.right_rad_s += w * tg.right_rad_s;
+            (from, cmd) = (tc, next);
+        }
+        match acc {
+            None => target(cmd),
+            Some(mut sum) => {
+                let w = (b - from) / h;
+                let tg = target(cmd);
+                sum.left_rad_s += w * tg.left_rad_s;
+                sum.right_rad_s += w * tg.right_rad_s;
+                sum
             }
         }
-        c
     }
 
     fn true_idd(&self) -> IdealDiffDrive {
@@ -191,9 +226,7 @@ impl Plant for KinematicPlant {
         for _ in 0..n {
             x.t_in_step_s = self.time_s - self.step_t0_s;
             x.body = self.body;
-            let target = self
-                .effects
-                .wheel_targets_in(self.delayed_cmd(self.time_s), &self.idd, &x);
+            let target = self.delayed_targets(self.time_s, h, &x);
             let before = self.wheels;
             self.wheels.left_rad_s += a * (target.left_rad_s - self.wheels.left_rad_s);
             self.wheels.right_rad_s += a * (target.right_rad_s - self.wheels.right_rad_s);
@@ -230,14 +263,14 @@ impl Plant for KinematicPlant {
                 self.body = idd.body_from_wheels(self.wheels);
                 v
             };
+            let mid = integrate_unicycle_with(&mut self.pose, &mut self.heading, v_mid, h);
             // A lateral velocity (a body offset) moves the pose sideways: integrate the
             // planar motion in the frame at the mid heading.
             if v_mid.vy_m_s != 0.0 {
-                let (s, c) = (self.pose.yaw_rad + 0.5 * v_mid.wz_rad_s * h).sin_cos();
+                let (s, c) = (mid.sin(), mid.cos());
                 self.pose.x_m -= s * v_mid.vy_m_s * h;
                 self.pose.y_m += c * v_mid.vy_m_s * h;
             }
-            integrate_unicycle(&mut self.pose, v_mid, h);
             self.time_s += h;
             // Without a body stage, `self.body` is the wheels' velocity at the substep's end.
             self.velocity = if on_body { v_mid } else { self.body };
@@ -259,7 +292,7 @@ impl Plant for KinematicPlant {
     }
 
     fn measure(&mut self) -> Measurement {
-        let e = self.effects.clone();
+        let e = &self.effects;
         let v = self.velocity;
         let mut enc = e.encoders(self.wheels);
         let mut wz = e.imu_yaw_rate_in(v.wz_rad_s, &self.input);
@@ -317,6 +350,7 @@ impl Plant for KinematicPlant {
         // Kinematic: the wheels define the body velocity, unless the body lags them; then the
         // measured velocity is its state.
         self.pose = pose;
+        self.heading = Heading::of(pose.yaw_rad);
         self.wheels = wheels;
         self.velocity = self.true_idd().body_from_wheels(wheels);
         self.body = if self.mods.body_time_constant_s > 0.0 {

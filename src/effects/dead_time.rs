@@ -17,9 +17,10 @@ const PARAMS: &[ParamDef] = &[ParamDef {
         lower: 0.0,
         upper: 0.6,
     },
-    // Plants apply a delayed command at their integration steps (5 ms kinematic, 10 ms
-    // simulator): below that, a change of delay changes nothing.
-    resolution: Some(0.01),
+    // Both plants release a delayed command at its time inside their integration step (its
+    // target weighted by the part of the step it acts on), so the response is continuous in
+    // the delay and a finite difference finer than the step sees it.
+    resolution: None,
 }];
 
 impl Effect for DeadTime {

@@ -519,13 +519,32 @@ impl Simulator {
             }
         }
         let x = self.term_input();
-        let t = self.effects.wheel_targets_in(self.applied, &self.nominal, &x);
-        self.input = x;
-        let target = [t.left_rad_s, t.right_rad_s];
+        // A command that the dead time releases inside this physics step acts for the part of
+        // the step after its release, not from the next step on: the ramp moves towards each
+        // target for the share of the step it holds (exact for a rate-limited ramp with a
+        // piecewise-constant target). The response is then continuous in the dead time, which
+        // a least-squares fit of it needs (rounded to the step, it is a staircase of 10 ms
+        // plateaus). Same weighting as the kinematic model's.
+        let end = now + dt - dead;
+        let mut from = now - dead;
+        let mut target = self.effects.wheel_targets_in(self.applied, &self.nominal, &x);
         let dmax = self.accel_limit_rad_s2 * dt;
-        for (r, t) in self.ramp.iter_mut().zip(target) {
-            *r += (t - *r).clamp(-dmax, dmax);
+        let ramp_to = |ramp: &mut [f64; 2], t: WheelSpeeds, share: f64| {
+            for (r, t) in ramp.iter_mut().zip([t.left_rad_s, t.right_rad_s]) {
+                *r += (t - *r).clamp(-dmax * share, dmax * share);
+            }
+        };
+        let mut switched = false;
+        for &(tc, c) in self.cmd_queue.iter().take_while(|&&(tc, _)| tc < end - 1e-12) {
+            ramp_to(&mut self.ramp, target, (tc - from) / dt);
+            target = self.effects.wheel_targets_in(c, &self.nominal, &x);
+            from = tc;
+            switched = true;
         }
+        // Without a switch, the whole step (exactly: no rounding of `end - from`).
+        let share = if switched { (end - from) / dt } else { 1.0 };
+        ramp_to(&mut self.ramp, target, share);
+        self.input = x;
     }
 
     /// What the effects may read now (the physics' velocity, or the body stage's when it runs).

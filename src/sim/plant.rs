@@ -72,15 +72,88 @@ pub fn integrate_unicycle(pose: &mut Pose, v: BodyVelocity, dt_s: f64) {
     // The chord of the arc: length 2ρ sin(dψ/2) along the mid heading ψ + dψ/2 (one sin_cos
     // instead of two; this runs at every integration step of the kinematic models).
     let (s, c) = (yaw + 0.5 * dyaw).sin_cos();
-    let chord = if dyaw.abs() < 1e-9 {
-        v.vx_m_s * dt_s
-    } else {
-        2.0 * v.vx_m_s / v.wz_rad_s * (0.5 * dyaw).sin()
-    };
+    let chord = v.vx_m_s * dt_s * sinc(0.5 * dyaw);
     let (dx, dy) = (chord * c, chord * s);
     pose.x_m += dx;
     pose.y_m += dy;
     pose.yaw_rad = wrap_angle(yaw + dyaw);
+}
+
+/// A heading as its cosine and sine, advanced by small rotations: the kinematic models'
+/// integration step then costs no `sin_cos` (a fifth of a kinematic calibration's time), the
+/// rotation's own sine and cosine coming from their series. Built from the yaw at every reset,
+/// so rounding cannot accumulate beyond one step (about 1e-13 rad over 600 substeps).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Heading {
+    cos: f64,
+    sin: f64,
+}
+
+impl Heading {
+    /// The heading of `yaw_rad`.
+    pub fn of(yaw_rad: f64) -> Self {
+        let (sin, cos) = yaw_rad.sin_cos();
+        Self { cos, sin }
+    }
+
+    /// Cosine of the heading.
+    pub fn cos(self) -> f64 {
+        self.cos
+    }
+
+    /// Sine of the heading.
+    pub fn sin(self) -> f64 {
+        self.sin
+    }
+
+    /// This heading turned by `a` rad.
+    fn rotated(self, a: f64) -> Self {
+        let (sa, ca) = if a.abs() < 0.1 {
+            let a2 = a * a;
+            // cos: next term a^10 / 10! below 3e-17 here.
+            (
+                a * sinc(a),
+                1.0 - a2 / 2.0 * (1.0 - a2 / 12.0 * (1.0 - a2 / 30.0 * (1.0 - a2 / 56.0))),
+            )
+        } else {
+            a.sin_cos()
+        };
+        Self {
+            cos: self.cos * ca - self.sin * sa,
+            sin: self.sin * ca + self.cos * sa,
+        }
+    }
+}
+
+/// [`integrate_unicycle`] with the heading of `pose` kept in `heading` (which must be
+/// [`Heading::of`] the pose's yaw on entry, and is on return); returns the mid heading, the
+/// frame a lateral velocity moves the pose in.
+pub fn integrate_unicycle_with(
+    pose: &mut Pose,
+    heading: &mut Heading,
+    v: BodyVelocity,
+    dt_s: f64,
+) -> Heading {
+    let dyaw = v.wz_rad_s * dt_s;
+    let mid = heading.rotated(0.5 * dyaw);
+    let chord = v.vx_m_s * dt_s * sinc(0.5 * dyaw);
+    pose.x_m += chord * mid.cos;
+    pose.y_m += chord * mid.sin;
+    pose.yaw_rad = wrap_angle(pose.yaw_rad + dyaw);
+    *heading = mid.rotated(0.5 * dyaw);
+    mid
+}
+
+/// `sin(a) / a`: by its Taylor series for small `a` (the heading change of one integration
+/// step, where it is exact to rounding and a tenth of the cost of `sin`), else directly.
+fn sinc(a: f64) -> f64 {
+    if a.abs() < 0.1 {
+        // The next term, a^10 / 11!, is below 3e-18 here.
+        let a2 = a * a;
+        1.0 - a2 / 6.0 * (1.0 - a2 / 20.0 * (1.0 - a2 / 42.0 * (1.0 - a2 / 72.0)))
+    } else {
+        a.sin() / a
+    }
 }
 
 /// The measurement of a kinematic plant (no body dynamics): the given readings, an IMU whose
@@ -181,6 +254,48 @@ pub fn wrap_angle(a: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn kept_heading_integrates_as_the_direct_one() {
+        let v = BodyVelocity::new(1.7, 0.0, -0.9);
+        let (mut a, mut b) = (
+            Pose {
+                yaw_rad: 3.0,
+                ..Default::default()
+            },
+            Pose {
+                yaw_rad: 3.0,
+                ..Default::default()
+            },
+        );
+        let mut h = Heading::of(a.yaw_rad);
+        for _ in 0..600 {
+            integrate_unicycle(&mut a, v, 0.01);
+            integrate_unicycle_with(&mut b, &mut h, v, 0.01);
+        }
+        assert!(
+            (a.x_m - b.x_m).abs() < 1e-12 && (a.y_m - b.y_m).abs() < 1e-12,
+            "{a:?} {b:?}"
+        );
+        assert_eq!(a.yaw_rad, b.yaw_rad);
+        let direct = Heading::of(b.yaw_rad);
+        assert!((h.cos - direct.cos).abs() < 1e-13 && (h.sin - direct.sin).abs() < 1e-13);
+    }
+
+    #[test]
+    fn sinc_series_matches_the_quotient() {
+        for k in -200..=200 {
+            let a = k as f64 * 1e-3 + 1e-7;
+            let direct = a.sin() / a;
+            assert!(
+                (sinc(a) - direct).abs() <= 4.0 * f64::EPSILON,
+                "{a}: {} vs {direct}",
+                sinc(a)
+            );
+        }
+        assert_eq!(sinc(0.0), 1.0);
+        assert_eq!(sinc(0.5), 0.5f64.sin() / 0.5);
+    }
 
     #[test]
     fn ideal_plant_drives_a_circle() {

@@ -60,6 +60,17 @@ impl Candidate {
     }
 }
 
+/// Every pair of `top`, in order.
+pub fn pairs_of(top: &[&Candidate]) -> Vec<Candidate> {
+    let mut pairs = Vec::new();
+    for (i, a) in top.iter().enumerate() {
+        for b in &top[i + 1..] {
+            pairs.push(Candidate::pair(a, b));
+        }
+    }
+    pairs
+}
+
 /// Every registered effect `factory` can run, as candidates for a log commanding up to
 /// `reach`, optionally only those named in `only`; and the names of the registered effects
 /// left out because the model cannot run them.
@@ -194,6 +205,9 @@ pub struct CandidateEvidence {
     /// The model the evidence comes from (`kinematic` in screening, else the calibrated one).
     #[serde(default)]
     pub model: String,
+    /// Model evaluations the fit took (each one replay of the training steps).
+    #[serde(default)]
+    pub evaluations: u64,
 }
 
 /// Input of [`evaluate`].
@@ -285,6 +299,7 @@ pub fn evaluate(
                 fit_status: res.status,
                 identifiable,
                 model: factory.name(),
+                evaluations: res.evaluations,
             },
             model,
         ));

@@ -4,7 +4,9 @@
 //! pass that drops any effect whose removal does not hurt the validation score. Every choice is
 //! made on the validation steps; every fit on the training steps.
 
-use super::candidates::{bootstrap_reduction_se, evaluate, Candidate, CandidateEvidence, EvaluateInput};
+use super::candidates::{
+    bootstrap_reduction_se, evaluate, pairs_of, Candidate, CandidateEvidence, EvaluateInput,
+};
 use super::Context;
 use crate::calibration::fit::fit;
 use crate::calibration::metrics::{score, StepErrors};
@@ -52,6 +54,9 @@ pub struct SelectionInput {
     pub refit: Vec<ParamSpec>,
     /// Base parameters of the model (refit with the selected effects after each addition).
     pub base: Vec<ParamSpec>,
+    /// The pairs the first round tries, when a screening chose them (the simulator); else the
+    /// pairs of the round's own `pair_top` best.
+    pub pairs: Option<Vec<Candidate>>,
 }
 
 /// Output of [`run`].
@@ -130,16 +135,6 @@ fn joint_refit(ctx: &Context<'_>, st: &mut State, base: &[ParamSpec], label: &st
 }
 
 /// Every pair of `top`, each once.
-fn pairs_of(top: &[&Candidate]) -> Vec<Candidate> {
-    let mut pairs = Vec::new();
-    for (i, a) in top.iter().enumerate() {
-        for b in &top[i + 1..] {
-            pairs.push(Candidate::pair(a, b));
-        }
-    }
-    pairs
-}
-
 /// Runs forward selection, pairs and the backward pass.
 pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> {
     let opts = ctx.opts;
@@ -227,7 +222,10 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
                     c.warm_from(m)
                 })
                 .collect();
-            let tried = pairs_of(&warm.iter().collect::<Vec<_>>());
+            let tried = match &input.pairs {
+                Some(screened) => screened.clone(),
+                None => pairs_of(&warm.iter().collect::<Vec<_>>()),
+            };
             if let (false, Some((single, single_model))) = (tried.is_empty(), &best) {
                 let pairs_out = evaluate(
                     ctx,
