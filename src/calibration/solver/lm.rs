@@ -36,6 +36,23 @@ pub struct LmOptions {
     pub se_fraction: f64,
     /// Finite-difference step, per unit of the box (a parameter's resolution may enlarge it).
     pub fd_step: f64,
+    /// Converged when this many accepted steps in a row each lowered the log score by less
+    /// than `rtol` (a relative change of the score): a fit creeping along a flat valley (two
+    /// parameters that act alike, a limit the data barely reach) stops there instead of on
+    /// its budget; the covariance then says the valley's parameters are not identifiable.
+    #[serde(default = "default_rtol")]
+    pub rtol: f64,
+    /// See `rtol`.
+    #[serde(default = "default_rtol_steps")]
+    pub rtol_steps: usize,
+}
+
+fn default_rtol() -> f64 {
+    1e-5
+}
+
+fn default_rtol_steps() -> usize {
+    3
 }
 
 impl Default for LmOptions {
@@ -47,6 +64,8 @@ impl Default for LmOptions {
             xtol: 1e-7,
             se_fraction: 0.01,
             fd_step: 1e-3,
+            rtol: default_rtol(),
+            rtol_steps: default_rtol_steps(),
         }
     }
 }
@@ -209,6 +228,8 @@ pub fn minimize(
     // Forward differences while far from the optimum; central ones once a step has been
     // rejected (the forward difference's truncation error then matters).
     let mut central = false;
+    // Accepted steps in a row that lowered the log score by less than `rtol`.
+    let mut creeping = 0;
     let (mut jac, e) = jacobian(&s, &z, &r, opts, central);
     evaluations += e;
     let edge = 1e-12;
@@ -286,7 +307,9 @@ pub fn minimize(
                         lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
                         nu = 2.0;
                         z = z_new;
-                        f = layout.log_score(&rn);
+                        let f_new = layout.log_score(&rn);
+                        creeping = if f - f_new < opts.rtol { creeping + 1 } else { 0 };
+                        f = f_new;
                         r = rn;
                         phi = phi_new;
                         accepted = true;
@@ -304,6 +327,9 @@ pub fn minimize(
                 evaluations,
                 damping: lambda,
             });
+            if opts.rtol_steps > 0 && creeping >= opts.rtol_steps {
+                break 'outer Stop::Reduction;
+            }
             if tiny || (!accepted && central) {
                 // No step lowers the weighted cost: as converged as these weights allow.
                 if !moved || f_outer - f < opts.ftol {

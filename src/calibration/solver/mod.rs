@@ -155,8 +155,8 @@ pub trait LeastSquares: Sync {
 pub enum Stop {
     /// The projected gradient of the log score fell below its tolerance.
     Gradient,
-    /// The gain a full Gauss–Newton step predicts fell below its tolerance (relative reduction
-    /// of the score).
+    /// The score stopped falling: several accepted steps in a row each lowered it by less
+    /// than its relative tolerance (a flat valley).
     Reduction,
     /// The step fell below its tolerance, or the full Gauss–Newton step below a small
     /// fraction of every parameter's standard error.
@@ -187,7 +187,7 @@ impl Stop {
     pub fn describe(&self) -> &'static str {
         match self {
             Self::Gradient => "converged: projected gradient below tolerance",
-            Self::Reduction => "converged: predicted relative reduction below tolerance",
+            Self::Reduction => "converged: relative reduction of the score below tolerance",
             Self::StepSize => "converged: step below tolerance (1 % of the standard errors)",
             Self::Simplex => "converged: simplex spread below tolerance",
             Self::Budget => "not converged: iteration budget exhausted",
