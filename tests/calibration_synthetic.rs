@@ -185,14 +185,16 @@ fn nothing_injected_nothing_added() {
 }
 
 /// Every kinematic effect, injected alone and undeclared, over three seeds (60 steps, 18 held
-/// out; one seed of the saturation and the yaw-rate limit: see the ignored test below). Each
+/// out; one seed of the saturation: see the ignored test below). Each
 /// must be ranked first, its value recovered within the stated absolute tolerance,
 /// and the held-out score brought below the stated multiple of the noise floor (1 = at the
 /// floor; the floor is itself estimated from 60 steps).
 #[test]
 fn each_effect_over_three_seeds() {
-    // The command yaw-rate limit and the saturation on seed 23 are in
-    // `open_regressions_of_the_least_squares_pipeline` below.
+    // The saturation on seed 23 is in `open_regressions_of_the_least_squares_pipeline` below.
+    // The command yaw-rate limit was there too until limits got a multi-start
+    // (`calibration::fit`): started mid-box, above every commanded yaw rate, its fit stayed in
+    // the flat region and the controller's kinematics won as a stand-in.
     // (effect, injected value, candidate name, tolerance on the value, score bound)
     let cases: &[(&str, f64, &str, f64, f64)] = &[
         (
@@ -226,6 +228,13 @@ fn each_effect_over_three_seeds() {
             10.0,
             "controller_wheel_limit_rad_s",
             0.1,
+            1.5,
+        ),
+        (
+            "command_yaw_rate_limit_rad_s",
+            1.5,
+            "command_yaw_rate_limit_rad_s",
+            0.02,
             1.5,
         ),
     ];
@@ -262,31 +271,22 @@ fn check_cases(cases: &[(&str, f64, &str, f64, f64)], keep: impl Fn(&str, u64) -
     assert!(failures.is_empty(), "{failures:#?}");
 }
 
-/// Two cases the session-2 search (Nelder–Mead, greedy on held-out steps) passed and the
-/// least-squares pipeline does not, measured at the last run: a command yaw-rate limit of
-/// 1.5 rad/s loses to the controller's kinematics as a stand-in on all three seeds (test score
-/// 100–173), and a wheel-speed saturation of 10 rad/s on seed 23 is ranked first but not kept
-/// (test score 1428). Open: run with `--ignored` to see them.
+/// A case the session-2 search (Nelder–Mead, greedy on held-out steps) passed and the
+/// least-squares pipeline does not, measured at the last run: a wheel-speed saturation of
+/// 10 rad/s on seed 23 is ranked first and recovered (10.002 ± 0.001) but not kept: its
+/// validation reduction, 704 ± 450 (bootstrap over the 12 validation steps), does not pass the
+/// 2-SE rule (test score 1319). Open: run with `--ignored` to see it.
 #[test]
-#[ignore = "open regressions of the least-squares pipeline (see the doc comment)"]
+#[ignore = "open regression of the least-squares pipeline (see the doc comment)"]
 fn open_regressions_of_the_least_squares_pipeline() {
     check_cases(
-        &[
-            (
-                "command_yaw_rate_limit_rad_s",
-                1.5,
-                "command_yaw_rate_limit_rad_s",
-                0.02,
-                1.5,
-            ),
-            (
-                "wheel_speed_saturation_rad_s",
-                10.0,
-                "wheel_speed_saturation_rad_s",
-                0.1,
-                1.5,
-            ),
-        ],
-        |name, seed| name == "command_yaw_rate_limit_rad_s" || seed == 23,
+        &[(
+            "wheel_speed_saturation_rad_s",
+            10.0,
+            "wheel_speed_saturation_rad_s",
+            0.1,
+            1.5,
+        )],
+        |_, seed| seed == 23,
     );
 }

@@ -328,9 +328,69 @@ fn solve(
         };
     }
     match opts.optimizer {
-        Optimizer::LevenbergMarquardt => lm::minimize(problem, x0, &opts.lm, observe),
+        Optimizer::LevenbergMarquardt => {
+            let (x0, starts) = limit_starts(problem, x0);
+            let mut sol = lm::minimize(problem, &x0, &opts.lm, observe);
+            sol.evaluations += starts;
+            sol
+        }
         Optimizer::NelderMead => nelder_mead::minimize(problem, x0, &opts.nm, observe),
     }
+}
+
+/// Fractions of a limit's box tried as starts, besides the given one.
+const LIMIT_STARTS: [f64; 5] = [0.1, 0.3, 0.5, 0.7, 0.9];
+
+/// A start for each limit among the parameters: the given value or one of [`LIMIT_STARTS`]
+/// across its box, whichever scores best with the other parameters at `x0` (one limit after
+/// the other). Why: a limit clamps nothing above the log's commands, where the cost is flat
+/// and a gradient method stays where it starts; a command yaw-rate limit of 1.5 rad/s started
+/// mid-box (2.2 rad/s) stayed there with an infinite standard error, and its controller stand-in
+/// won. A multi-start, not a search: Levenberg–Marquardt refines from there. Returns the start
+/// and the model evaluations it cost.
+fn limit_starts(problem: &ReplayProblem<'_, '_>, x0: &[f64]) -> (Vec<f64>, usize) {
+    use rayon::prelude::*;
+    let mut x = x0.to_vec();
+    let mut evaluations = 0;
+    let score = |x: &[f64]| {
+        problem
+            .residuals(x)
+            .map(|r| problem.layout().log_score(&r))
+            .filter(|f| f.is_finite())
+    };
+    for (j, spec) in problem.specs.iter().enumerate() {
+        if !spec.param.is_limit() {
+            continue;
+        }
+        let mut tried: Vec<f64> = vec![x[j]];
+        tried.extend(
+            LIMIT_STARTS
+                .iter()
+                .map(|f| spec.lower + f * (spec.upper - spec.lower)),
+        );
+        let scores: Vec<Option<f64>> = tried
+            .par_iter()
+            .map(|&v| {
+                let mut xx = x.clone();
+                xx[j] = v;
+                score(&xx)
+            })
+            .collect();
+        evaluations += tried.len();
+        // The first of the best: the given start wins ties.
+        let mut best: Option<(usize, f64)> = None;
+        for (k, s) in scores.iter().enumerate() {
+            if let Some(s) = *s {
+                if best.is_none_or(|(_, b)| s < b) {
+                    best = Some((k, s));
+                }
+            }
+        }
+        if let Some((k, _)) = best {
+            x[j] = tried[k];
+        }
+    }
+    (x, evaluations)
 }
 
 /// Fits `specs` on the steps of `data`, starting from `base` (its own values inside the box,

@@ -97,6 +97,13 @@ impl Param {
         self.def().map(|d| d.neutral)
     }
 
+    /// A limit (a clamp that does nothing above what the log commands): its cost is flat
+    /// wherever it clamps nothing, so a local search needs a start where it does.
+    pub fn is_limit(&self) -> bool {
+        self.def()
+            .is_some_and(|d| d.kind == crate::effects::ParamKind::Limit)
+    }
+
     /// Smallest change that makes a difference (finite differences step no smaller).
     pub fn resolution(&self) -> Option<f64> {
         self.def().and_then(|d| d.resolution)
