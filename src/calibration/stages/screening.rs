@@ -51,7 +51,7 @@ const PAIRS_KEPT: usize = 2;
 /// Fits the kinematic model's base parameters, then each candidate it can represent with
 /// those refit beside it, and keeps the `screen_keep` best by validation reduction (any
 /// reduction: the two models differ, so the simulator judges) plus every contact effect.
-/// Then the pairs among its `pair_top` best, of which the [`PAIRS_KEPT`] best go on: the
+/// Then the pairs among its `pair_top` best, of which the best two (`PAIRS_KEPT`) go on: the
 /// simulator's first round tries those instead of every pair of its own top candidates (which
 /// cost it six simulator fits, most of its selection time on `warthog_gravel`). Pairs with a
 /// contact effect are not tried: the pairs are for effects that only pay together, such as a
