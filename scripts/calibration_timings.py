@@ -39,6 +39,21 @@ def run(bin_path, data, dataset, model, out, discovery):
     return wall, cpu, report, timings
 
 
+def effects(report):
+    """Each effect's fitted value with its interval (`calibration.json`'s `effects`)."""
+    out = []
+    for e in report["effects"]:
+        name = e["name"].removeprefix("effect.")
+        ci = e.get("ci95")
+        if ci:
+            out.append(f"{name} {e['value']:.3f} [{ci[0]:.3f}, {ci[1]:.3f}]")
+        elif e.get("at_bound"):
+            out.append(f"{name} {e['value']:.3f} (at a bound)")
+        else:
+            out.append(f"{name} {e['value']:.3f}")
+    return "; ".join(out) or "none"
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--bin", default="target/release/drive-sim")
@@ -50,8 +65,9 @@ def main():
     a = p.parse_args()
     load = os.getloadavg()[0]
     print(f"load average at start: {load:.2f} on {os.cpu_count()} cores", file=sys.stderr)
-    print("| dataset | model | wall s | CPU s | stages (s) | fits converged | test score |")
-    print("|---|---|---|---|---|---|---|")
+    print("| dataset | model | wall s | CPU s | stages (s) | fits converged | test score IDD / declared → "
+          "calibrated (reduction ± bootstrap SE) | effects (95 % interval) |")
+    print("|---|---|---|---|---|---|---|---|")
     for model in a.models.split(","):
         for dataset in a.datasets.split(","):
             wall, cpu, r, t = run(a.bin, a.data, dataset, model, a.out, a.discovery)
@@ -59,7 +75,8 @@ def main():
             conv = r.get("status", {}).get("converged")
             print(
                 f"| {dataset} | {model} | {wall:.1f} | {cpu:.1f} | {stages} | {conv} "
-                f"| {r['before']['score']:.1f} → {r['after']['score']:.2f} |",
+                f"| {r['idd']['score']:.1f} / {r['before']['score']:.1f} → {r['after']['score']:.2f} "
+                f"(−{r['total_reduction']:.1f} ± {r['total_reduction_se']:.1f}) | {effects(r)} |",
                 flush=True,
             )
 

@@ -47,6 +47,25 @@ impl Candidate {
         }
     }
 
+    /// The single effects of this candidate (itself when it is one), each with its own
+    /// parameters: a pair the screening proposed may hold an effect that is not among the
+    /// simulator's own candidates, so an added pair is split from itself, not from the pool.
+    pub fn members(&self) -> Vec<Candidate> {
+        self.effects
+            .iter()
+            .map(|&e| Candidate {
+                name: REGISTRY[e].name().to_string(),
+                effects: vec![e],
+                params: self
+                    .params
+                    .iter()
+                    .filter(|p| matches!(p.param, crate::calibration::params::Param::Effect { effect, .. } if effect == e))
+                    .copied()
+                    .collect(),
+            })
+            .collect()
+    }
+
     /// This candidate started from the values it has in `model` (a warm start).
     pub fn warm_from(&self, model: &ModelParams) -> Self {
         let mut c = self.clone();
@@ -311,6 +330,24 @@ pub fn evaluate(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A pair splits back into its two effects, each with its own parameters only (a pair
+    /// of a two-parameter effect and a one-parameter one).
+    #[test]
+    fn a_pair_splits_into_its_members() {
+        let reach = CommandReach {
+            wheel_rad_s: 10.0,
+            speed_m_s: 2.0,
+            yaw_rate_rad_s: 1.0,
+        };
+        let index = |name: &str| REGISTRY.iter().position(|e| e.name() == name).expect(name);
+        let a = Candidate::of_effect(index("controller_kinematics"), &reach);
+        let b = Candidate::of_effect(index("body_lag"), &reach);
+        assert_eq!(a.params.len(), 2);
+        let members = Candidate::pair(&a, &b).members();
+        assert_eq!(members, vec![a.clone(), b.clone()]);
+        assert_eq!(a.members(), vec![a]);
+    }
 
     /// A step whose 6 steady channels all have mean squared error `r` (floors 1, one window,
     /// no transient): its score is `r`, and a pooled score is the mean of the steps' `r`.

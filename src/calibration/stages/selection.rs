@@ -289,13 +289,12 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
         }
         let added = match best {
             Some((ev, model)) if ev.significant => {
-                let names: Vec<String> = match &pair_added {
-                    Some(p) => p.name.split('+').map(String::from).collect(),
-                    None => vec![ev.effect.clone()],
-                };
-                for name in names {
-                    if let Some(i) = pool.iter().position(|c| c.name == name) {
-                        st.selected.push(pool.remove(i).warm_from(&model));
+                match &pair_added {
+                    Some(p) => add_pair(&mut st.selected, &mut pool, p, &model),
+                    None => {
+                        if let Some(i) = pool.iter().position(|c| c.name == ev.effect) {
+                            st.selected.push(pool.remove(i).warm_from(&model));
+                        }
                     }
                 }
                 st.validation = ctx.validation.errors(ctx.factory, &model)?;
@@ -353,11 +352,7 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
                 ));
                 if ev.significant {
                     if let Some(c) = tried.iter().find(|c| c.name == ev.effect) {
-                        for name in c.name.split('+') {
-                            if let Some(k) = pool.iter().position(|p| p.name == name) {
-                                st.selected.push(pool.remove(k).warm_from(model));
-                            }
-                        }
+                        add_pair(&mut st.selected, &mut pool, c, model);
                     }
                     st.validation = ctx.validation.errors(ctx.factory, model)?;
                     st.current = model.clone();
@@ -384,6 +379,19 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
         converged: st.converged,
         refit_current: st.refit_current,
     })
+}
+
+/// Adds both effects of `pair` to `selected`, warm from `model`, and takes them out of `pool`
+/// where they are in it. Each is split from the pair itself: a pair the screening proposed may
+/// hold an effect the simulator's pool does not (its singles were not shortlisted), and that
+/// effect must still be refit and given an interval with the rest.
+fn add_pair(selected: &mut Vec<Candidate>, pool: &mut Vec<Candidate>, pair: &Candidate, model: &ModelParams) {
+    for member in pair.members() {
+        if let Some(i) = pool.iter().position(|c| c.name == member.name) {
+            pool.remove(i);
+        }
+        selected.push(member.warm_from(model));
+    }
 }
 
 /// The backward pass: each of `selected` out in turn, the others refit; dropped unless
