@@ -4,9 +4,16 @@
 Issue 13's table: for each measured run, the declared robot and terrain and a twin calibrated
 with the simulator model on the run's odd steps each run their own DRIVE (150 steps, seed 0),
 and `compare` judges both against the run's even steps, which the twin's calibration never saw.
+Then a twin calibrated on all the steps runs its DRIVE and is judged against the whole run,
+beside the declared model (the issue's first target; this twin has seen every step it is
+judged on).
 
     python3 scripts/twin_table.py [--bin target/release/drive-sim] [--out out/twin_table]
                                   [--datasets warthog_gravel,...] [--steps 150]
+                                  [--twin-all 'out/timings/{dataset}_simulator']
+
+`--twin-all` takes the all-steps twins from existing calibrations (a path with `{dataset}`)
+instead of calibrating again.
 
 Prints a Markdown table (one row per model and dataset) and writes it to OUT/table.md, with
 every command it ran in OUT/commands.txt. Each stage is skipped when its output exists, so an
@@ -46,6 +53,33 @@ def run(cmd, log):
     return time.time() - t0
 
 
+def run_sim(cmd, log, mcap):
+    """A DRIVE run; `None` when it ran, else the error drive-sim gave (a twin can fail in closed
+    loop where its replays passed: the table says so instead of stopping)."""
+    failed = mcap + ".failed"
+    if os.path.exists(mcap):
+        return None
+    if os.path.exists(failed):
+        with open(failed) as f:
+            return f.read()
+    log.write(" ".join(shlex.quote(c) for c in cmd) + "\n")
+    log.flush()
+    p = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    if p.returncode == 0:
+        return None
+    errors = [l for l in p.stderr.splitlines() if "error:" in l]
+    why = (errors[-1] if errors else p.stderr.strip().splitlines()[-1]).split("error: ", 1)[-1]
+    with open(failed, "w") as f:
+        f.write(why)
+    return why
+
+
+def failed_row(dataset, model, why):
+    why = why.split(" (robot stuck")[0]
+    short = why if len(why) < 160 else why[:157] + "…"
+    return f"| {dataset} | {model} | run failed: {short} | | | | | | |"
+
+
 def metric(sim, key):
     for m in sim["metrics"]:
         if m["metric"] == key:
@@ -66,13 +100,22 @@ def row(dataset, model, sim, real):
     area_w = metric(sim, "t_area_pct_wheels")
     slips = [m for m in sim["metrics"] if m["metric"].startswith("median_slip")]
     slips_sig = [m["metric"].replace("median_slip_", "") for m in slips if m["significant"]]
+    rho_sig = " (significant)" if rho["significant"] else ""
     tf = ", ".join(f"{t['ratio']:.2f}" for t in sim["transfer"])
     v = sim["verdict"]
-    verdict = "reproduces" if v["reproduces"] else "differs (" + ", ".join(
-        v["significant"] + v["areas_beyond_tolerance"] + v["tf_beyond_yardstick"]) + ")"
+    short = lambda k: k.replace("t_area_pct_", "T/U ").replace("median_", "").replace(
+        "slip_", "").replace("_m_s", "").replace("_rad_s", "")
+    parts = []
+    if v["significant"]:
+        parts.append("significant: " + ", ".join(short(k) for k in v["significant"]))
+    if v["areas_beyond_tolerance"]:
+        parts.append("area > 5 pp: " + ", ".join(short(k) for k in v["areas_beyond_tolerance"]))
+    if v["tf_beyond_yardstick"]:
+        parts.append("TF > 1.5×: " + ", ".join(short(k) for k in v["tf_beyond_yardstick"]))
+    verdict = "**reproduces**" if v["reproduces"] else "differs (" + "; ".join(parts) + ")"
     area = lambda m: f"{m['sim']:.1f} % ({m['difference']:+.1f} pp)" if m else "–"
     return (
-        f"| {dataset} | {model} | {rho['sim']:.3f} (real {rho['real']:.3f}) | {fmt_interval(rho)} | "
+        f"| {dataset} | {model} | {rho['sim']:.3f} (real {rho['real']:.3f}) | {fmt_interval(rho)}{rho_sig} | "
         f"{', '.join(slips_sig) or 'none'} | {area(area_b)} | {area(area_w)} | {tf} | {verdict} |"
     )
 
@@ -84,6 +127,8 @@ def main():
     ap.add_argument("--datasets", default=",".join(DATASETS))
     ap.add_argument("--steps", type=int, default=150)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--twin-all", default=None,
+                    help="existing all-steps calibrations, a path with {dataset}")
     args = ap.parse_args()
     if not os.path.exists(args.bin):
         sys.exit(f"error: no binary at {args.bin} (cargo build --release, or --bin PATH)")
@@ -106,25 +151,48 @@ def main():
         cmp_dir = os.path.join(args.out, "cmp_" + d)
         common = ["--steps", str(args.steps), "--seed", str(args.seed), "--out", sims, "--quiet"]
         if not os.path.exists(declared):
-            dt = run([args.bin, "run", "--robot", robot, "--terrain", terrain, *common,
-                      "--name", f"declared_{d}"], log)
-            print(f"{d}: declared run {dt:.0f} s", file=sys.stderr)
+            run([args.bin, "run", "--robot", robot, "--terrain", terrain, *common,
+                 "--name", f"declared_{d}"], log)
         if not os.path.exists(os.path.join(cal, "twin", "robot.toml")):
             dt = run([args.bin, "calibrate", csv, "--model", "simulator", "--use-steps", "odd",
                       "--out", cal], log)
             print(f"{d}: twin calibration (odd steps) {dt:.0f} s", file=sys.stderr)
-        if not os.path.exists(twin):
-            dt = run([args.bin, "run", "--robot", os.path.join(cal, "twin", "robot.toml"),
-                      "--terrain", os.path.join(cal, "twin", "terrain.toml"), *common,
-                      "--name", f"twin_{d}"], log)
-            print(f"{d}: twin run {dt:.0f} s", file=sys.stderr)
+        twin_failed = run_sim([args.bin, "run", "--robot", os.path.join(cal, "twin", "robot.toml"),
+                               "--terrain", os.path.join(cal, "twin", "terrain.toml"), *common,
+                               "--name", f"twin_{d}"], log, twin)
         if not os.path.exists(os.path.join(cmp_dir, "comparison.json")):
-            run([args.bin, "compare", csv, declared, twin, "--real-steps", "even",
-                 "--out", cmp_dir], log)
+            run([args.bin, "compare", csv, declared, *([] if twin_failed else [twin]),
+                 "--real-steps", "even", "--out", cmp_dir], log)
         with open(os.path.join(cmp_dir, "comparison.json")) as f:
             report = json.load(f)
-        for sim, model in zip(report["sims"], [f"declared {robot} + {terrain}", "twin (odd steps)"]):
+        for sim, model in zip(report["sims"], [f"declared {robot} + {terrain}, vs even steps",
+                                               "twin (odd steps), vs even steps"]):
             lines.append(row(d, model, sim, report["real"]))
+        if twin_failed:
+            lines.append(failed_row(d, "twin (odd steps)", twin_failed))
+        # The twin calibrated on every step, judged against the whole run.
+        cal_all = (args.twin_all.format(dataset=d) if args.twin_all
+                   else os.path.join(args.out, "cal_all_" + d))
+        if not os.path.exists(os.path.join(cal_all, "twin", "robot.toml")):
+            if args.twin_all:
+                sys.exit(f"error: no twin in {cal_all}")
+            dt = run([args.bin, "calibrate", csv, "--model", "simulator", "--out", cal_all], log)
+            print(f"{d}: twin calibration (all steps) {dt:.0f} s", file=sys.stderr)
+        twin_all = os.path.join(sims, f"twin_all_{d}.mcap")
+        all_failed = run_sim([args.bin, "run", "--robot", os.path.join(cal_all, "twin", "robot.toml"),
+                              "--terrain", os.path.join(cal_all, "twin", "terrain.toml"), *common,
+                              "--name", f"twin_all_{d}"], log, twin_all)
+        cmp_all = os.path.join(args.out, "cmp_all_" + d)
+        if not os.path.exists(os.path.join(cmp_all, "comparison.json")):
+            run([args.bin, "compare", csv, declared, *([] if all_failed else [twin_all]),
+                 "--out", cmp_all], log)
+        with open(os.path.join(cmp_all, "comparison.json")) as f:
+            report = json.load(f)
+        for sim, model in zip(report["sims"], [f"declared {robot} + {terrain}, vs all steps",
+                                               "twin (all steps), vs all steps"]):
+            lines.append(row(d, model, sim, report["real"]))
+        if all_failed:
+            lines.append(failed_row(d, "twin (all steps)", all_failed))
     table = "\n".join(lines)
     print(table)
     with open(os.path.join(args.out, "table.md"), "w") as f:
