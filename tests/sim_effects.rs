@@ -286,3 +286,35 @@ fn leaving_the_ground_for_good_is_a_divergence() {
         other => panic!("{other:?}"),
     }
 }
+
+/// Outside a DRIVE step (the operator's re-orientation) a term in the command change reads no
+/// change: driving straight after a hard-turning step, a yaw-rate term in `Δwz_cmd` adds nothing
+/// once the manoeuvre begins, where inside the step it adds its coefficient times the jump.
+#[test]
+fn a_command_change_term_is_neutral_in_a_manoeuvre() {
+    use drive_sim::effects::StepContext;
+    let straight = WheelSpeeds::new(8.0, 8.0);
+    // The previous step turned in place at 8 rad/s per wheel: its yaw rate command was
+    // 2 r ω / b, about 4.4 rad/s on the Warthog.
+    let turning = WheelSpeeds::new(-8.0, 8.0);
+    let yaw_rate = |manoeuvre: bool| {
+        let (_, mut s) = setup("warthog", "asphalt", &[("term_body_wz__dcmd_wz", -0.1)]);
+        s.begin_step(StepContext {
+            step: 3,
+            previous_cmd: turning,
+        });
+        if manoeuvre {
+            s.begin_manoeuvre();
+        }
+        let run = hold(&mut s, straight, 4.0);
+        mean_tail(&run, 20, |x| x.1.wz_rad_s)
+    };
+    let in_step = yaw_rate(false);
+    let in_manoeuvre = yaw_rate(true);
+    // In the step: −0.1 × (0 − 4.4 rad/s) ≈ +0.44 rad/s of yaw on a straight command.
+    assert!(in_step > 0.3, "the term acts inside a step: {in_step}");
+    assert!(
+        in_manoeuvre.abs() < 1e-3,
+        "and not in a manoeuvre: {in_manoeuvre}"
+    );
+}

@@ -380,6 +380,7 @@ impl Runner<'_> {
     /// side the command drives towards, the paper's rule).
     fn reorient(&mut self, step: u32, cmd: WheelSpeeds) -> Result<()> {
         let phase = Phase::Reorient { step };
+        self.plant.begin_manoeuvre();
         let max_wz = (0.5 * self.space.max_ang_rad_s).min(self.cfg.reorient_yaw_rate_rad_s);
         let mut t = self.plant.time_s();
         // Time since `t` (and `t` moved on), for the summary's breakdown.

@@ -230,6 +230,9 @@ pub struct Simulator {
     ctx: StepContext,
     /// Plant time at which it started, s.
     step_t0_s: f64,
+    /// Driven outside a DRIVE step ([`Plant::begin_manoeuvre`]): command-change features are
+    /// neutral.
+    manoeuvre: bool,
     /// What the effects read at the last physics step.
     input: TermInput,
     /// Whether any effect acts at the body stage (offsets, lag): see [`Simulator::body_stage`].
@@ -420,6 +423,7 @@ impl Simulator {
             stepping: Stepping::default(),
             ctx: StepContext::default(),
             step_t0_s: 0.0,
+            manoeuvre: false,
             input: TermInput::default(),
             on_body: effects_on_body,
             body_state: BodyVelocity::default(),
@@ -468,6 +472,7 @@ impl Simulator {
         // can reuse one world for many steps.
         self.time_s = 0.0;
         self.step_t0_s = 0.0;
+        self.manoeuvre = false;
         self.airborne_s = 0.0;
         self.accel_world = [0.0; 3];
         self.pose_history.clear();
@@ -560,7 +565,11 @@ impl Simulator {
         TermInput {
             cmd: self.cmd,
             cmd_body: self.nominal.body_from_wheels(self.cmd),
-            previous_cmd_body: self.nominal.body_from_wheels(self.ctx.previous_cmd),
+            previous_cmd_body: self.nominal.body_from_wheels(if self.manoeuvre {
+                self.cmd
+            } else {
+                self.ctx.previous_cmd
+            }),
             body: v,
             accel: [ax, self.yaw_accel_rad_s2],
             t_in_step_s: self.time_s - self.step_t0_s,
@@ -1037,6 +1046,12 @@ impl Plant for Simulator {
     fn begin_step(&mut self, ctx: StepContext) {
         self.ctx = ctx;
         self.step_t0_s = self.time_s;
+        self.manoeuvre = false;
+    }
+
+    fn begin_manoeuvre(&mut self) {
+        self.step_t0_s = self.time_s;
+        self.manoeuvre = true;
     }
 
     fn time_s(&self) -> f64 {

@@ -35,6 +35,14 @@ pub trait Plant {
     fn begin_step(&mut self, ctx: StepContext) {
         let _ = ctx;
     }
+    /// The protocol drives the robot outside a DRIVE step until the next
+    /// [`Plant::begin_step`] (the operator's re-orientation after an interruption). The
+    /// features that describe a step's command change are neutral there: the previous command
+    /// is the current one and time in the step counts from here. A term fitted on steps, where
+    /// `cmd − previous step's cmd` is one jump held for 6 s, would otherwise read the
+    /// manoeuvre's commands as that jump held for a minute (a discovered yaw-rate term in
+    /// `Δwz_cmd` made an ice twin circle instead of driving back to the centre).
+    fn begin_manoeuvre(&mut self) {}
 }
 
 /// A robot that follows the ideal differential drive exactly, with a first-order lag on the
