@@ -76,6 +76,11 @@ fn calibrated_twin_round_trips_runs_and_reproduces_its_score() {
         "{robot_toml}"
     );
 
+    // The twin was run in closed loop before it was written, and ran.
+    let check = &json["twin_check"];
+    assert_eq!(check["ran"], true, "{check}");
+    assert_eq!(check["steps_completed"], check["steps"], "{check}");
+
     // Load: the twin's effects and terrain are the fitted ones, value for value.
     let (robot, _) = Robot::resolve(d.join("cal/twin/robot.toml").to_str().unwrap()).unwrap();
     let (terrain, _) = Terrain::resolve(d.join("cal/twin/terrain.toml").to_str().unwrap()).unwrap();
@@ -169,4 +174,39 @@ fn bad_twin_effects_are_refused_with_a_suggestion() {
         assert_eq!(out.status.code(), Some(2), "{err}");
         assert!(err.contains(want) && err.contains(name), "{err}");
     }
+}
+
+/// A twin that cannot run its own DRIVE is reported, not hidden and not a crash: a body term
+/// that drifts forward at 2 m/s whatever the command leaves the safe area and never stops, so
+/// the operator's re-orientation cannot finish.
+#[test]
+fn a_twin_that_cannot_run_is_reported_by_its_check() {
+    use drive_sim::calibration::twin::{check_twin, TwinFiles};
+    let (robot, _) = Robot::resolve("warthog").unwrap();
+    let (terrain, _) = Terrain::resolve("asphalt").unwrap();
+    let ok_twin = TwinFiles {
+        robot: robot.clone(),
+        terrain: terrain.clone(),
+        robot_toml: String::new(),
+        terrain_toml: String::new(),
+    };
+    let good = check_twin(&ok_twin, 10, 1).unwrap();
+    assert!(good.ran && good.error.is_none(), "{good:?}");
+    assert_eq!(good.steps_completed, 10);
+
+    let mut drifting = robot;
+    drifting.effects.set("term_body_vx__1", 2.0).unwrap();
+    let bad = check_twin(
+        &TwinFiles {
+            robot: drifting,
+            ..ok_twin
+        },
+        10,
+        1,
+    )
+    .unwrap();
+    assert!(!bad.ran, "{bad:?}");
+    assert!(bad.steps_completed < 10, "{bad:?}");
+    let why = bad.error.as_deref().unwrap_or_default();
+    assert!(why.contains("re-orientation"), "{why}");
 }

@@ -22,7 +22,8 @@
 //! every fitted value and interval: training; `rounds`, `pairs`, `backward`, `screening`
 //! (their `heldout_*` fields) and whether a fit was kept: validation; `idd`, `before`,
 //! `after_terrain`, `after`, `table`, `step_scores`, `total_reduction`, the residual
-//! analyses: test.
+//! analyses: test. `twin_check` uses no step of the log: it is the twin's own closed-loop
+//! DRIVE run ([`twin::check_twin`]).
 
 pub mod data;
 pub mod diagnosis;
@@ -269,6 +270,10 @@ pub struct CalibrationReport {
     pub residual_after: ResidualAnalysis,
     /// A command line that reproduces this report.
     pub reproduce: String,
+    /// The twin's closed-loop check (simulator calibrations written by `calibrate`): a short
+    /// DRIVE run of the twin files ([`twin::check_twin`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub twin_check: Option<twin::TwinCheck>,
 }
 
 /// The robot and terrain a log declares: the robot file named by the log with the operators'

@@ -21,7 +21,7 @@ use crate::effects::{Effect, Effects};
 use crate::error::{Error, Result};
 use crate::robot::Robot;
 use crate::terrain::Terrain;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -309,6 +309,94 @@ pub fn twin_of_report(report: &CalibrationReport) -> Result<TwinFiles> {
         before: Some(report.model_before.clone()),
     };
     twin_files(&report.model_after, &prov)
+}
+
+/// Steps of the closed-loop check of a twin ([`check_twin`]): enough for a few interruptions and
+/// re-orientations (the failure it was written for came at step 3), a fraction of a second.
+pub const TWIN_CHECK_STEPS: u32 = 30;
+
+/// What a short DRIVE run of a twin showed (`calibration.json`'s `twin_check`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TwinCheck {
+    /// Steps asked for.
+    pub steps: u32,
+    /// Seed of the run (the sampler's and the simulator's).
+    pub seed: u64,
+    /// The run completed every step.
+    pub ran: bool,
+    /// Steps completed.
+    pub steps_completed: u32,
+    /// Interrupted attempts.
+    pub interruptions: u32,
+    /// Why it stopped, when it did not complete.
+    pub error: Option<String>,
+}
+
+/// Runs the DRIVE protocol in closed loop on the twin, as `drive-sim run --robot
+/// twin/robot.toml --terrain twin/terrain.toml --steps N --seed S` does, without a log.
+/// Calibration only replays the commands of the measured run; a fitted term can behave on
+/// those and misbehave on commands the run never gave (an operator's re-orientation), and only
+/// a closed loop shows it. A failure is the check's outcome, not an error.
+pub fn check_twin(twin: &TwinFiles, steps: u32, seed: u64) -> Result<TwinCheck> {
+    let protocol = crate::protocol::ProtocolConfig::for_run(&twin.robot, &twin.terrain, steps);
+    let mut sampler = crate::protocol::sampler::make_sampler_for("uniform-wheel", seed, &protocol)
+        .ok_or_else(|| Error::Analysis("the uniform-wheel sampler is not registered".into()))?;
+    let cfg = crate::sim::SimConfig {
+        seed,
+        ..Default::default()
+    };
+    let mut sim = crate::sim::Simulator::new(&twin.robot, &twin.terrain, cfg)?;
+    let mut sink = Discard::default();
+    let outcome = crate::protocol::run_drive(&mut sim, &twin.robot, sampler.as_mut(), &protocol, &mut sink);
+    Ok(match outcome {
+        Ok(summary) => TwinCheck {
+            steps,
+            seed,
+            ran: summary.steps_completed == steps,
+            steps_completed: summary.steps_completed,
+            interruptions: summary.interruptions,
+            error: None,
+        },
+        Err(e) => TwinCheck {
+            steps,
+            seed,
+            ran: false,
+            steps_completed: sink.completed,
+            interruptions: 0,
+            error: Some(e.to_string()),
+        },
+    })
+}
+
+/// The twin of a simulator calibration, checked in closed loop ([`check_twin`],
+/// [`TWIN_CHECK_STEPS`] steps, seed `seed`): the check goes into the report
+/// (`twin_check`, and a note in `status.notes` when the twin does not run).
+pub fn checked_twin(report: &mut CalibrationReport, seed: u64) -> Result<(TwinFiles, TwinCheck)> {
+    let twin = twin_of_report(report)?;
+    let check = check_twin(&twin, TWIN_CHECK_STEPS, seed)?;
+    if let Some(why) = &check.error {
+        report.status.notes.push(format!(
+            "twin check: a {}-step DRIVE of the twin stopped after {} steps: {why}",
+            check.steps, check.steps_completed
+        ));
+    }
+    report.twin_check = Some(check.clone());
+    Ok((twin, check))
+}
+
+/// A frame sink that keeps nothing but the count of completed steps.
+#[derive(Default)]
+struct Discard {
+    completed: u32,
+}
+
+impl crate::measurement::FrameSink for Discard {
+    fn frame(&mut self, _frame: &crate::measurement::Frame) -> Result<()> {
+        Ok(())
+    }
+    fn step_done(&mut self, completed: u32) {
+        self.completed = completed;
+    }
 }
 
 /// Writes `dir/robot.toml` and `dir/terrain.toml`; returns their paths.

@@ -237,6 +237,25 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
         args.use_steps.as_str(),
         args.out.display()
     );
+    // A simulator fit is a runnable twin: run it in closed loop before writing anything, so
+    // that the report says whether it runs.
+    let twin = match kind {
+        ModelKind::Simulator => {
+            let (twin, check) = calibration::twin::checked_twin(&mut report, args.seed)?;
+            match &check.error {
+                Some(why) => eprintln!(
+                    "drive-sim: warning: the twin does not run: a {}-step DRIVE stopped after {} steps: {why}",
+                    check.steps, check.steps_completed
+                ),
+                None => eprintln!(
+                    "drive-sim: twin check: a {}-step DRIVE of the twin ran ({} interruptions)",
+                    check.steps, check.interruptions
+                ),
+            }
+            Some(twin)
+        }
+        ModelKind::Kinematic => None,
+    };
     let mut files = calibration::write_report(&report, staged.path())?;
     files.push(calibration::write_timings(&timings, staged.path())?);
     crate::provenance::stamp_json_file(
@@ -260,10 +279,9 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
             }),
         ),
     )?;
-    // A simulator fit is a runnable twin; a kinematic fit's values are effective ones.
-    if kind == ModelKind::Simulator {
-        let twin = calibration::twin::twin_of_report(&report)?;
-        let paths = calibration::twin::write_twin(&twin, &staged.path().join("twin"))?;
+    // A kinematic fit's values are effective ones: no twin.
+    if let Some(twin) = &twin {
+        let paths = calibration::twin::write_twin(twin, &staged.path().join("twin"))?;
         files.extend(paths);
     }
     staged.commit()?;

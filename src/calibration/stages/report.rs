@@ -218,5 +218,6 @@ pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
         residual_before,
         residual_after,
         reproduce,
+        twin_check: None,
     })
 }
