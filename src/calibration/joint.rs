@@ -78,6 +78,10 @@ pub struct JointLogResult {
     pub terrain_params: Vec<FittedParam>,
     /// Its model at the joint solution.
     pub model: ModelParams,
+    /// The closed-loop check of this log's twin (the robot file with this log's terrain file),
+    /// simulator model only ([`check_joint_twin`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub twin_check: Option<twin::TwinCheck>,
 }
 
 /// Everything [`calibrate_joint`] found, serializable to JSON.
@@ -598,6 +602,7 @@ pub fn calibrate_joint(input: &JointInput<'_>, progress: &(dyn Fn(&str) + Sync))
             joint,
             terrain_params,
             model,
+            twin_check: None,
         });
     }
     Ok(JointReport {
@@ -666,6 +671,33 @@ pub fn joint_twin(report: &JointReport) -> Result<(String, Vec<(String, String)>
         terrains.push((l.terrain_file.clone(), files.terrain_toml));
     }
     Ok((robot_toml, terrains))
+}
+
+/// Runs each log's twin of a joint simulator calibration (the robot with that log's terrain) in
+/// closed loop ([`twin::check_twin`], seed `seed`), records it in the log's `twin_check` and
+/// names a twin that does not run in the report's notes. Returns the datasets whose twin did
+/// not run.
+pub fn check_joint_twin(report: &mut JointReport, seed: u64) -> Result<Vec<String>> {
+    let mut failed = Vec::new();
+    for l in &mut report.logs {
+        let (robot, terrain) = twin::twin_models(&l.model)?;
+        let files = twin::TwinFiles {
+            robot,
+            terrain,
+            robot_toml: String::new(),
+            terrain_toml: String::new(),
+        };
+        let check = twin::check_twin(&files, twin::TWIN_CHECK_STEPS, seed)?;
+        if let Some(why) = &check.error {
+            report.notes.push(format!(
+                "twin check ({}): a {}-step DRIVE of the twin stopped after {} steps: {why}",
+                l.dataset, check.steps, check.steps_completed
+            ));
+            failed.push(l.dataset.clone());
+        }
+        l.twin_check = Some(check);
+    }
+    Ok(failed)
 }
 
 /// Writes `dir/calibration.json` (the joint report), each log's own calibration in

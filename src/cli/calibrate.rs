@@ -370,6 +370,15 @@ fn calibrate_joint(args: &CalibrateArgs) -> anyhow::Result<()> {
         args.use_steps.as_str(),
         args.out.display()
     );
+    if report.model_kind == "simulator" {
+        let failed = calibration::joint::check_joint_twin(&mut report, args.seed)?;
+        if !failed.is_empty() {
+            eprintln!(
+                "drive-sim: warning: the twin does not run its own DRIVE with the terrain of {} (calibration.json, notes)",
+                failed.join(", ")
+            );
+        }
+    }
     let files = calibration::joint::write_joint(&report, staged.path())?;
     staged.commit()?;
     let mut out = std::io::stdout().lock();
