@@ -326,8 +326,8 @@ pub struct TwinCheck {
     pub ran: bool,
     /// Steps completed.
     pub steps_completed: u32,
-    /// Interrupted attempts.
-    pub interruptions: u32,
+    /// Interrupted attempts (unknown when the run stopped on an error).
+    pub interruptions: Option<u32>,
     /// Why it stopped, when it did not complete.
     pub error: Option<String>,
 }
@@ -354,7 +354,7 @@ pub fn check_twin(twin: &TwinFiles, steps: u32, seed: u64) -> Result<TwinCheck> 
             seed,
             ran: summary.steps_completed == steps,
             steps_completed: summary.steps_completed,
-            interruptions: summary.interruptions,
+            interruptions: Some(summary.interruptions),
             error: None,
         },
         Err(e) => TwinCheck {
@@ -362,7 +362,7 @@ pub fn check_twin(twin: &TwinFiles, steps: u32, seed: u64) -> Result<TwinCheck> 
             seed,
             ran: false,
             steps_completed: sink.completed,
-            interruptions: 0,
+            interruptions: None,
             error: Some(e.to_string()),
         },
     })

@@ -249,7 +249,8 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
                 ),
                 None => eprintln!(
                     "drive-sim: twin check: a {}-step DRIVE of the twin ran ({} interruptions)",
-                    check.steps, check.interruptions
+                    check.steps,
+                    check.interruptions.unwrap_or_default()
                 ),
             }
             Some(twin)
