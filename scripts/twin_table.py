@@ -94,7 +94,7 @@ def fmt_interval(m):
     return f"{m['difference']:+.3f} [{ci['lower']:+.3f}, {ci['upper']:+.3f}]"
 
 
-def row(dataset, model, sim, real):
+def row(dataset, model, sim):
     rho = metric(sim, "median_rho")
     area_b = metric(sim, "t_area_pct_body")
     area_w = metric(sim, "t_area_pct_wheels")
@@ -118,6 +118,36 @@ def row(dataset, model, sim, real):
         f"| {dataset} | {model} | {rho['sim']:.3f} (real {rho['real']:.3f}) | {fmt_interval(rho)}{rho_sig} | "
         f"{', '.join(slips_sig) or 'none'} | {area(area_b)} | {area(area_w)} | {tf} | {verdict} |"
     )
+
+
+def sim_options(args):
+    """The options of every simulated DRIVE of the table."""
+    sims = os.path.join(args.out, "sim")
+    return ["--steps", str(args.steps), "--seed", str(args.seed), "--out", sims, "--quiet"]
+
+
+def judge(args, log, dataset, csv, declared, cal, label, real_steps, robot, terrain):
+    """The twin in `cal/twin/` runs its own DRIVE; `compare` judges it and the declared run
+    against the real run's `real_steps` (even or all). Returns the two table rows (or the
+    declared row and the twin's failure)."""
+    tag = "" if real_steps == "even" else "_all"
+    twin = os.path.join(args.out, "sim", f"twin{tag}_{dataset}.mcap")
+    failed = run_sim([args.bin, "run", "--robot", os.path.join(cal, "twin", "robot.toml"),
+                      "--terrain", os.path.join(cal, "twin", "terrain.toml"), *sim_options(args),
+                      "--name", f"twin{tag}_{dataset}"], log, twin)
+    cmp_dir = os.path.join(args.out, f"cmp{tag}_{dataset}")
+    if not os.path.exists(os.path.join(cmp_dir, "comparison.json")):
+        run([args.bin, "compare", csv, declared, *([] if failed else [twin]),
+             *(["--real-steps", real_steps] if real_steps != "all" else []),
+             "--out", cmp_dir], log)
+    with open(os.path.join(cmp_dir, "comparison.json")) as f:
+        report = json.load(f)
+    judged = f"vs {real_steps} steps"
+    models = [f"declared {robot} + {terrain}, {judged}", f"twin ({label}), {judged}"]
+    rows = [row(dataset, model, sim) for sim, model in zip(report["sims"], models)]
+    if failed:
+        rows.append(failed_row(dataset, f"twin ({label})", failed))
+    return rows
 
 
 def main():
@@ -147,29 +177,14 @@ def main():
         sims = os.path.join(args.out, "sim")
         cal = os.path.join(args.out, "cal_odd_" + d)
         declared = os.path.join(sims, f"declared_{d}.mcap")
-        twin = os.path.join(sims, f"twin_{d}.mcap")
-        cmp_dir = os.path.join(args.out, "cmp_" + d)
-        common = ["--steps", str(args.steps), "--seed", str(args.seed), "--out", sims, "--quiet"]
         if not os.path.exists(declared):
-            run([args.bin, "run", "--robot", robot, "--terrain", terrain, *common,
+            run([args.bin, "run", "--robot", robot, "--terrain", terrain, *sim_options(args),
                  "--name", f"declared_{d}"], log)
         if not os.path.exists(os.path.join(cal, "twin", "robot.toml")):
             dt = run([args.bin, "calibrate", csv, "--model", "simulator", "--use-steps", "odd",
                       "--out", cal], log)
             print(f"{d}: twin calibration (odd steps) {dt:.0f} s", file=sys.stderr)
-        twin_failed = run_sim([args.bin, "run", "--robot", os.path.join(cal, "twin", "robot.toml"),
-                               "--terrain", os.path.join(cal, "twin", "terrain.toml"), *common,
-                               "--name", f"twin_{d}"], log, twin)
-        if not os.path.exists(os.path.join(cmp_dir, "comparison.json")):
-            run([args.bin, "compare", csv, declared, *([] if twin_failed else [twin]),
-                 "--real-steps", "even", "--out", cmp_dir], log)
-        with open(os.path.join(cmp_dir, "comparison.json")) as f:
-            report = json.load(f)
-        for sim, model in zip(report["sims"], [f"declared {robot} + {terrain}, vs even steps",
-                                               "twin (odd steps), vs even steps"]):
-            lines.append(row(d, model, sim, report["real"]))
-        if twin_failed:
-            lines.append(failed_row(d, "twin (odd steps)", twin_failed))
+        lines += judge(args, log, d, csv, declared, cal, "odd steps", "even", robot, terrain)
         # The twin calibrated on every step, judged against the whole run.
         cal_all = (args.twin_all.format(dataset=d) if args.twin_all
                    else os.path.join(args.out, "cal_all_" + d))
@@ -178,21 +193,7 @@ def main():
                 sys.exit(f"error: no twin in {cal_all}")
             dt = run([args.bin, "calibrate", csv, "--model", "simulator", "--out", cal_all], log)
             print(f"{d}: twin calibration (all steps) {dt:.0f} s", file=sys.stderr)
-        twin_all = os.path.join(sims, f"twin_all_{d}.mcap")
-        all_failed = run_sim([args.bin, "run", "--robot", os.path.join(cal_all, "twin", "robot.toml"),
-                              "--terrain", os.path.join(cal_all, "twin", "terrain.toml"), *common,
-                              "--name", f"twin_all_{d}"], log, twin_all)
-        cmp_all = os.path.join(args.out, "cmp_all_" + d)
-        if not os.path.exists(os.path.join(cmp_all, "comparison.json")):
-            run([args.bin, "compare", csv, declared, *([] if all_failed else [twin_all]),
-                 "--out", cmp_all], log)
-        with open(os.path.join(cmp_all, "comparison.json")) as f:
-            report = json.load(f)
-        for sim, model in zip(report["sims"], [f"declared {robot} + {terrain}, vs all steps",
-                                               "twin (all steps), vs all steps"]):
-            lines.append(row(d, model, sim, report["real"]))
-        if all_failed:
-            lines.append(failed_row(d, "twin (all steps)", all_failed))
+        lines += judge(args, log, d, csv, declared, cal_all, "all steps", "all", robot, terrain)
     table = "\n".join(lines)
     print(table)
     with open(os.path.join(args.out, "table.md"), "w") as f:

@@ -181,30 +181,16 @@ fn bad_twin_effects_are_refused_with_a_suggestion() {
 /// the operator's re-orientation cannot finish.
 #[test]
 fn a_twin_that_cannot_run_is_reported_by_its_check() {
-    use drive_sim::calibration::twin::{check_twin, TwinFiles};
+    use drive_sim::calibration::twin::check_twin;
     let (robot, _) = Robot::resolve("warthog").unwrap();
     let (terrain, _) = Terrain::resolve("asphalt").unwrap();
-    let ok_twin = TwinFiles {
-        robot: robot.clone(),
-        terrain: terrain.clone(),
-        robot_toml: String::new(),
-        terrain_toml: String::new(),
-    };
-    let good = check_twin(&ok_twin, 10, 1).unwrap();
+    let good = check_twin(&robot, &terrain, 10, 1).unwrap();
     assert!(good.ran && good.error.is_none(), "{good:?}");
     assert_eq!(good.steps_completed, 10);
 
     let mut drifting = robot;
     drifting.effects.set("term_body_vx__1", 2.0).unwrap();
-    let bad = check_twin(
-        &TwinFiles {
-            robot: drifting,
-            ..ok_twin
-        },
-        10,
-        1,
-    )
-    .unwrap();
+    let bad = check_twin(&drifting, &terrain, 10, 1).unwrap();
     assert!(!bad.ran, "{bad:?}");
     assert!(bad.steps_completed < 10, "{bad:?}");
     let why = bad.error.as_deref().unwrap_or_default();

@@ -681,18 +681,9 @@ pub fn check_joint_twin(report: &mut JointReport, seed: u64) -> Result<Vec<Strin
     let mut failed = Vec::new();
     for l in &mut report.logs {
         let (robot, terrain) = twin::twin_models(&l.model)?;
-        let files = twin::TwinFiles {
-            robot,
-            terrain,
-            robot_toml: String::new(),
-            terrain_toml: String::new(),
-        };
-        let check = twin::check_twin(&files, twin::TWIN_CHECK_STEPS, seed)?;
-        if let Some(why) = &check.error {
-            report.notes.push(format!(
-                "twin check ({}): a {}-step DRIVE of the twin stopped after {} steps: {why}",
-                l.dataset, check.steps, check.steps_completed
-            ));
+        let check = twin::check_twin(&robot, &terrain, twin::TWIN_CHECK_STEPS, seed)?;
+        if let Some(note) = check.failure_note() {
+            report.notes.push(format!("twin check ({}): {note}", l.dataset));
             failed.push(l.dataset.clone());
         }
         l.twin_check = Some(check);

@@ -332,22 +332,34 @@ pub struct TwinCheck {
     pub error: Option<String>,
 }
 
+impl TwinCheck {
+    /// The note a report carries when the twin did not run (`None` when it ran).
+    pub fn failure_note(&self) -> Option<String> {
+        self.error.as_ref().map(|why| {
+            format!(
+                "a {}-step DRIVE of the twin stopped after {} steps: {why}",
+                self.steps, self.steps_completed
+            )
+        })
+    }
+}
+
 /// Runs the DRIVE protocol in closed loop on the twin, as `drive-sim run --robot
 /// twin/robot.toml --terrain twin/terrain.toml --steps N --seed S` does, without a log.
 /// Calibration only replays the commands of the measured run; a fitted term can behave on
 /// those and misbehave on commands the run never gave (an operator's re-orientation), and only
 /// a closed loop shows it. A failure is the check's outcome, not an error.
-pub fn check_twin(twin: &TwinFiles, steps: u32, seed: u64) -> Result<TwinCheck> {
-    let protocol = crate::protocol::ProtocolConfig::for_run(&twin.robot, &twin.terrain, steps);
+pub fn check_twin(robot: &Robot, terrain: &Terrain, steps: u32, seed: u64) -> Result<TwinCheck> {
+    let protocol = crate::protocol::ProtocolConfig::for_run(robot, terrain, steps);
     let mut sampler = crate::protocol::sampler::make_sampler_for("uniform-wheel", seed, &protocol)
         .ok_or_else(|| Error::Analysis("the uniform-wheel sampler is not registered".into()))?;
     let cfg = crate::sim::SimConfig {
         seed,
         ..Default::default()
     };
-    let mut sim = crate::sim::Simulator::new(&twin.robot, &twin.terrain, cfg)?;
+    let mut sim = crate::sim::Simulator::new(robot, terrain, cfg)?;
     let mut sink = Discard::default();
-    let outcome = crate::protocol::run_drive(&mut sim, &twin.robot, sampler.as_mut(), &protocol, &mut sink);
+    let outcome = crate::protocol::run_drive(&mut sim, robot, sampler.as_mut(), &protocol, &mut sink);
     Ok(match outcome {
         Ok(summary) => TwinCheck {
             steps,
@@ -373,12 +385,9 @@ pub fn check_twin(twin: &TwinFiles, steps: u32, seed: u64) -> Result<TwinCheck> 
 /// (`twin_check`, and a note in `status.notes` when the twin does not run).
 pub fn checked_twin(report: &mut CalibrationReport, seed: u64) -> Result<(TwinFiles, TwinCheck)> {
     let twin = twin_of_report(report)?;
-    let check = check_twin(&twin, TWIN_CHECK_STEPS, seed)?;
-    if let Some(why) = &check.error {
-        report.status.notes.push(format!(
-            "twin check: a {}-step DRIVE of the twin stopped after {} steps: {why}",
-            check.steps, check.steps_completed
-        ));
+    let check = check_twin(&twin.robot, &twin.terrain, TWIN_CHECK_STEPS, seed)?;
+    if let Some(note) = check.failure_note() {
+        report.status.notes.push(format!("twin check: {note}"));
     }
     report.twin_check = Some(check.clone());
     Ok((twin, check))

@@ -242,11 +242,8 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
     let twin = match kind {
         ModelKind::Simulator => {
             let (twin, check) = calibration::twin::checked_twin(&mut report, args.seed)?;
-            match &check.error {
-                Some(why) => eprintln!(
-                    "drive-sim: warning: the twin does not run: a {}-step DRIVE stopped after {} steps: {why}",
-                    check.steps, check.steps_completed
-                ),
+            match check.failure_note() {
+                Some(note) => eprintln!("drive-sim: warning: the twin does not run: {note}"),
                 None => eprintln!(
                     "drive-sim: twin check: a {}-step DRIVE of the twin ran ({} interruptions)",
                     check.steps,
