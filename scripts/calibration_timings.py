@@ -40,17 +40,31 @@ def run(bin_path, data, dataset, model, out, discovery):
 
 
 def effects(report):
-    """Each effect's fitted value with its interval (`calibration.json`'s `effects`)."""
+    """Each effect's fitted value with its interval (`calibration.json`'s `effects`); an effect
+    the robot or terrain file declared is marked with its verdict (`declared_effects`)."""
+    verdicts = {}
+    for d in report.get("declared_effects", []):
+        v = "confirmed" if d["confirmed"] else ("contradicted, off" if d.get("contradicted") else "not confirmed")
+        for p in d["params"]:
+            verdicts[p["name"]] = v
+        if d.get("contradicted"):
+            verdicts.setdefault(d["effect"], v)
     out = []
     for e in report["effects"]:
         name = e["name"].removeprefix("effect.")
         ci = e.get("ci95")
         if ci:
-            out.append(f"{name} {e['value']:.3f} [{ci[0]:.3f}, {ci[1]:.3f}]")
+            text = f"{name} {e['value']:.3f} [{ci[0]:.3f}, {ci[1]:.3f}]"
         elif e.get("at_bound"):
-            out.append(f"{name} {e['value']:.3f} (at a bound)")
+            text = f"{name} {e['value']:.3f} (at a bound)"
         else:
-            out.append(f"{name} {e['value']:.3f}")
+            text = f"{name} {e['value']:.3f}"
+        if e["name"] in verdicts:
+            text += f" (declared, {verdicts[e['name']]})"
+        out.append(text)
+    for d in report.get("declared_effects", []):
+        if d.get("contradicted"):
+            out.append(f"{d['effect']} (declared, contradicted: switched off)")
     return "; ".join(out) or "none"
 
 

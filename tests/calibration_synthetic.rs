@@ -19,9 +19,17 @@ mod common;
 
 const STEPS: u32 = 30;
 
+/// The Warthog's geometry and powertrain without the effects its file declares: the cases
+/// here inject their own truth and start the calibration from a model that declares nothing.
+fn bare_warthog() -> Robot {
+    let (mut robot, _) = Robot::resolve("warthog").unwrap();
+    robot.effects = Effects::default();
+    robot
+}
+
 /// A DRIVE run of the warthog with `effects` set (`name`, value) but not declared.
 fn synthetic_log(effects: &[(&str, f64)], seed: u64, steps: u32) -> (DriveLog, Robot) {
-    let (robot, _) = Robot::resolve("warthog").unwrap();
+    let robot = bare_warthog();
     let mut e = Effects::default();
     for (n, v) in effects {
         e.set(n, *v).unwrap();
@@ -182,6 +190,59 @@ fn nothing_injected_nothing_added() {
     assert!(r.rounds[0].added.is_none());
     // The declared model is already at the floor.
     assert!(r.before.score < 2.0, "{}", r.before.score);
+}
+
+/// A declared effect (in the robot file, as the Warthog's measured wheel-speed limit) is a
+/// base parameter: refit on every log and judged by switching it off on the test steps, never
+/// proposed as a candidate. Truth at 11 rad/s, declared at 12.7: refit to the truth and
+/// confirmed. Null case, no limit in the data: contradicted and switched off, nothing added.
+#[test]
+fn a_declared_limit_is_refit_and_judged() {
+    let declare = |robot: &mut Robot| {
+        robot.effects.set("wheel_speed_saturation_rad_s", 12.7).unwrap();
+    };
+    let calibrate = |truth: &[(&str, f64)], seed: u64| {
+        let (log, mut robot) = synthetic_log(truth, seed, 80);
+        declare(&mut robot);
+        let (terrain, _) = Terrain::resolve("asphalt").unwrap();
+        calibrate_timed(&log, &robot, &terrain, &KinematicFactory, &options(), &|_| {})
+            .unwrap()
+            .0
+    };
+    let not_a_candidate = |r: &CalibrationReport| {
+        assert!(!r
+            .rounds
+            .iter()
+            .flat_map(|round| &round.ranking)
+            .any(|c| c.effect.contains("wheel_speed_saturation")));
+    };
+
+    let r = calibrate(&[("wheel_speed_saturation_rad_s", 11.0)], 21);
+    let d = &r.declared_effects;
+    assert_eq!(d.len(), 1, "{d:?}");
+    assert_eq!(d[0].effect, "wheel_speed_saturation_rad_s");
+    assert!(d[0].confirmed, "{}", d[0].verdict);
+    let p = &d[0].params[0];
+    assert!((p.value - 11.0).abs() < 0.2, "{p:?}");
+    let ci = p.ci95.expect("a refit declared parameter has an interval");
+    assert!(ci[0] < p.value && p.value < ci[1], "{p:?}");
+    not_a_candidate(&r);
+    assert!(r.after.score < 2.0, "{}", r.after.score);
+
+    let r = calibrate(&[], 22);
+    let d = &r.declared_effects;
+    assert_eq!(d.len(), 1, "{d:?}");
+    assert!(!d[0].confirmed, "{}", d[0].verdict);
+    not_a_candidate(&r);
+    // The log commands beyond the declared limit and its wheels follow: the declaration is
+    // contradicted and switched off, so the final model clips nothing; nothing else is added.
+    assert!(d[0].contradicted, "{}", d[0].verdict);
+    assert!(r.effects.is_empty(), "{:?}", r.effects);
+    assert_eq!(
+        r.model_after.effects.get("wheel_speed_saturation_rad_s"),
+        Some(f64::INFINITY)
+    );
+    assert!(r.after.score < 2.0, "{}", r.after.score);
 }
 
 /// Every kinematic effect, injected alone and undeclared, over three seeds (60 steps, 18 held

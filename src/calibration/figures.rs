@@ -203,6 +203,16 @@ pub fn write_html(
             .collect::<Vec<_>>()
             .join(", ")
     };
+    let declared: Vec<String> = report
+        .declared_effects
+        .iter()
+        .map(|d| {
+            format!(
+                "Declared effect `{}` (robot or terrain file), refit on this log — {}.",
+                d.effect, d.verdict
+            )
+        })
+        .collect();
     let lacks = super::diagnosis::lacks_summary(report);
     if !lacks.is_empty() {
         let section = h.section("What the model lacks");
@@ -244,9 +254,15 @@ pub fn write_html(
                     ),
                     "",
                 ),
-                KeyFigure::new("effects found", effects, ""),
+                KeyFigure::new("effects in the model", effects, ""),
             ],
         );
+    if !declared.is_empty() {
+        let section = h.section("Declared effects");
+        for line in declared {
+            section.paragraph(line);
+        }
+    }
     let rows: Vec<KeyFigure> = report
         .table
         .iter()

@@ -146,6 +146,31 @@ impl Default for CalibrationOptions {
     }
 }
 
+/// How a declared effect (one the starting model's robot or terrain file has, such as the
+/// Warthog's measured wheel-speed limit) fares on this log: refit as a base parameter, then
+/// judged on the validation steps by switching it off in the final model (the test steps stay
+/// for the report's scores).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DeclaredEffectCheck {
+    /// Registry name of the effect.
+    pub effect: String,
+    /// Its parameters: declared value, refit value and interval (`effect.<parameter>`).
+    pub params: Vec<FittedParam>,
+    /// Validation score of the final model with this effect switched off minus with it: what
+    /// the effect buys on steps no fit saw (positive: the log needs it).
+    pub removal_increase: f64,
+    /// Bootstrap standard error of `removal_increase` (validation steps resampled, paired).
+    pub removal_increase_se: f64,
+    /// `removal_increase` beyond the selection's `k_se` standard errors.
+    pub confirmed: bool,
+    /// `removal_increase` below minus `k_se` standard errors: the log contradicts the
+    /// declaration, and the effect is switched off in this log's final model.
+    #[serde(default)]
+    pub contradicted: bool,
+    /// In words.
+    pub verdict: String,
+}
+
 /// One row of the before/after table (test steps).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TableRow {
@@ -258,6 +283,9 @@ pub struct CalibrationReport {
     pub diagnosis_after: Option<diagnosis::Diagnosis>,
     /// Effects in the final model with their fitted values (`effect.<name>`) and intervals.
     pub effects: Vec<FittedParam>,
+    /// The effects the starting model declared (robot and terrain files), refit and judged.
+    #[serde(default)]
+    pub declared_effects: Vec<DeclaredEffectCheck>,
     /// Registered effects this model cannot run (contact effects for the kinematic model).
     pub not_evaluated: Vec<String>,
     /// Model before.
@@ -417,7 +445,10 @@ pub fn calibrate_timed(
     };
     // A robot or terrain file's own effects (a twin's) are the starting model's effects.
     let declared = twin::lift_effects(robot, terrain)?;
-    let (pool, not_evaluated) = candidates::candidates_for(factory, &reach, opts.candidates.as_deref());
+    let (mut pool, not_evaluated) = candidates::candidates_for(factory, &reach, opts.candidates.as_deref());
+    // A declared effect is refit as a base parameter and judged, not proposed again.
+    let declared_on = candidates::declared_effects(&declared);
+    pool.retain(|c| !c.effects.iter().any(|e| declared_on.contains(e)));
     if let Some(only) = &opts.candidates {
         for n in only {
             if crate::effects::effect(n).is_none() {
@@ -454,9 +485,16 @@ pub fn calibrate_timed(
         ctx.split.test.len(),
         opts.seed
     ));
-    let base_specs = factory.base_params(&declared);
+    let mut base_specs = factory.base_params(&declared);
+    base_specs.extend(candidates::declared_specs(&declared, &reach));
     let baseline = timings.time("baseline", || {
-        baseline::run(&ctx, baseline::BaselineInput { declared: &declared })
+        baseline::run(
+            &ctx,
+            baseline::BaselineInput {
+                declared: &declared,
+                specs: &base_specs,
+            },
+        )
     })?;
     // The kinematic model is cheap enough to refit the base parameters beside every
     // candidate; the simulator screens with it and fits effects with the time constant only,

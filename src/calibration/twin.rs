@@ -430,7 +430,8 @@ mod tests {
     fn model() -> ModelParams {
         let (robot, _) = Robot::resolve("warthog").unwrap();
         let (terrain, _) = Terrain::resolve("gravel").unwrap();
-        let mut m = ModelParams::new(robot, terrain);
+        // As calibration sees a model: the files' own effects lifted out of them.
+        let mut m = lift_effects(&robot, &terrain).unwrap();
         m.terrain.friction.peak_lateral = 0.912_345_678_901_234_5;
         m.effects.set("wheel_speed_saturation_rad_s", 12.6).unwrap();
         m.effects.set("turning_resistance_scale", 1.37).unwrap();

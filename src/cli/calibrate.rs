@@ -560,8 +560,16 @@ fn print_report(r: &CalibrationReport) -> Result<(), std::io::Error> {
         writeln!(out, "effects added: none")?;
     } else {
         for e in &r.effects {
-            writeln!(out, "effect added: {} = {}", e.name, with_interval(e))?;
+            let declared = r
+                .declared_effects
+                .iter()
+                .any(|d| d.params.iter().any(|p| p.name == e.name));
+            let how = if declared { "declared, refit" } else { "added" };
+            writeln!(out, "effect {how}: {} = {}", e.name, with_interval(e))?;
         }
+    }
+    for d in &r.declared_effects {
+        writeln!(out, "declared effect {}: {}", d.effect, d.verdict)?;
     }
     for s in &r.stand_ins {
         writeln!(out, "stand-in: {s} ended on a bound of its box")?;

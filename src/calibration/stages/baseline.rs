@@ -10,6 +10,10 @@ use crate::error::Result;
 pub struct BaselineInput<'m> {
     /// The model the calibration starts from.
     pub declared: &'m ModelParams,
+    /// The base parameters: the plant's own ([`crate::calibration::model::PlantFactory::base_params`])
+    /// and those of the effects the starting model declares
+    /// ([`super::candidates::declared_specs`]).
+    pub specs: &'m [crate::calibration::params::ParamSpec],
 }
 
 /// Output of [`run`].
@@ -46,7 +50,7 @@ pub fn run(ctx: &Context<'_>, input: BaselineInput<'_>) -> Result<BaselineOutput
         ctx.validation.len()
     ));
     let mut notes = Vec::new();
-    let specs = f.base_params(declared);
+    let specs = input.specs;
     if specs.is_empty() {
         notes.push(format!(
             "the {} model exposes no base parameter: base fit skipped",
@@ -66,7 +70,7 @@ pub fn run(ctx: &Context<'_>, input: BaselineInput<'_>) -> Result<BaselineOutput
         &ctx.train,
         f,
         declared,
-        &specs,
+        specs,
         &ctx.floor,
         &ctx.opts.fit,
         &mut |_| {},

@@ -79,6 +79,46 @@ impl Candidate {
     }
 }
 
+/// The registry indices of the effects switched on in `model` (a robot or terrain file's own
+/// `[effects]`, lifted into the starting model).
+pub fn declared_effects(model: &ModelParams) -> Vec<usize> {
+    model
+        .effects
+        .active()
+        .filter_map(|e| REGISTRY.iter().position(|r| r.name() == e.name()))
+        .collect()
+}
+
+/// The parameters of the effects the starting model already has, as base parameters: a
+/// declared effect (the Warthog's measured wheel-speed limit) is refit on every log, given an
+/// interval, and judged ([`crate::calibration::DeclaredEffectCheck`]), not proposed again as a
+/// candidate. Only the declared parameters (away from their neutral value) are refit; on/off
+/// parameters (a sign flip) stay as declared. Each box is the registry's
+/// search box for this log's reach, widened to hold the declared value, which is where the
+/// search starts.
+pub fn declared_specs(model: &ModelParams, reach: &CommandReach) -> Vec<ParamSpec> {
+    let mut out = Vec::new();
+    for i in declared_effects(model) {
+        for (j, def) in REGISTRY[i].params().iter().enumerate() {
+            if def.kind == crate::effects::ParamKind::Flag {
+                continue;
+            }
+            let mut spec = ParamSpec::for_effect(i, j, reach);
+            let v = spec.param.get(model);
+            if def.is_neutral(v) || !v.is_finite() {
+                // Not declared (a discovered term's unused coefficients, the other side of a
+                // one-sided gain): nothing to refit.
+                continue;
+            }
+            spec.lower = spec.lower.min(v);
+            spec.upper = spec.upper.max(v);
+            spec.start = v;
+            out.push(spec);
+        }
+    }
+    out
+}
+
 /// Every pair of `top`, in order.
 pub fn pairs_of(top: &[&Candidate]) -> Vec<Candidate> {
     let mut pairs = Vec::new();

@@ -11,7 +11,7 @@ use crate::calibration::metrics::{step_features, ErrorSummary, StepFeatures};
 use crate::calibration::model::ModelParams;
 use crate::calibration::replay::replay_map;
 use crate::calibration::residual::{self, ResidualAnalysis};
-use crate::calibration::{CalibrationReport, CalibrationStatus, StepScores, TableRow};
+use crate::calibration::{CalibrationReport, CalibrationStatus, DeclaredEffectCheck, StepScores, TableRow};
 use crate::error::Result;
 use crate::log::Origin;
 
@@ -60,6 +60,136 @@ fn replayed_features(ctx: &Context<'_>, m: &ModelParams) -> Result<Vec<StepFeatu
     })
 }
 
+/// Judges each effect the starting model declared, on the validation steps (a model choice,
+/// like the backward pass; the test steps stay for the report): the final model's errors
+/// against those of the final model with that effect switched off, with a paired bootstrap
+/// standard error over the steps. Confirmed: switching it off costs more than `k_se` standard
+/// errors, or costs at all while the log constrains it (every refit parameter identifiable,
+/// its interval excluding the neutral value: the selection's own identifiability rule; a limit
+/// that clips only a few fast steps has a tight interval and a noisy score change).
+/// Contradicted: switching it off helps by more than that, or a limit's refit rose to
+/// the top of its box (the largest training command: it clips nothing the log commanded); the
+/// effect is then switched off in the returned model (a twin of this log must not carry it).
+/// Otherwise it is kept as declared (refit). `fits` are the fits that refit its parameters, latest first.
+fn judge_declared(
+    ctx: &Context<'_>,
+    model: ModelParams,
+    fits: &[Option<&crate::calibration::FitResult>],
+) -> Result<(ModelParams, Vec<DeclaredEffectCheck>)> {
+    let floor = &ctx.floor;
+    let k = ctx.opts.rule.k_se;
+    let mut model = model;
+    let mut out = Vec::new();
+    for i in super::candidates::declared_effects(&ctx.declared) {
+        let e = crate::effects::REGISTRY[i];
+        let mut without = model.clone();
+        for d in e.params() {
+            without.effects.set(d.key, d.neutral)?;
+        }
+        let with_val = ctx.validation.errors(ctx.factory, &model)?;
+        let without_val = ctx.validation.errors(ctx.factory, &without)?;
+        let increase = crate::calibration::metrics::score(&without_val, floor)
+            - crate::calibration::metrics::score(&with_val, floor);
+        let se = bootstrap_reduction_se(
+            &without_val,
+            &with_val,
+            floor,
+            ctx.opts.rule.bootstrap_samples,
+            ctx.opts.seed,
+        );
+        let params: Vec<FittedParam> = e
+            .params()
+            .iter()
+            .filter_map(|d| {
+                let name = format!("effect.{}", d.key);
+                let declared = ctx.declared.effects.get(d.key)?;
+                if d.is_neutral(declared) {
+                    return None;
+                }
+                let value = model.effects.get(d.key)?;
+                let fitted = fits.iter().flatten().find_map(|f| f.param(&name)).cloned();
+                Some(match fitted {
+                    Some(mut p) => {
+                        p.initial = Some(declared);
+                        p.value = value;
+                        p
+                    }
+                    None => {
+                        let spec = crate::calibration::params::ParamSpec::for_effect(
+                            i,
+                            e.params().iter().position(|q| q.key == d.key).unwrap_or(0),
+                            &ctx.reach,
+                        );
+                        FittedParam::of(&spec, Some(declared), value)
+                    }
+                })
+            })
+            .collect();
+        let values = params
+            .iter()
+            .map(|p| {
+                let ci = match (p.ci95, p.at_bound) {
+                    (Some([a, b]), _) => format!(" [{a:.4}, {b:.4}]"),
+                    (None, true) => " (at a bound of its box, no interval)".into(),
+                    (None, false) => " (no interval)".into(),
+                };
+                format!(
+                    "{} declared {} → refit {:.4}{ci} {}",
+                    p.name,
+                    p.initial.unwrap_or(f64::NAN),
+                    p.value,
+                    p.unit
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; ");
+        // A limit refit to the top of its box (the largest training command) clips nothing
+        // the training steps commanded: the log shows no limit where it was declared.
+        let risen = params.iter().any(|p| {
+            let limit =
+                crate::effects::param_owner(p.name.trim_start_matches("effect.")).is_some_and(|(i, j)| {
+                    crate::effects::REGISTRY[i].params()[j].kind == crate::effects::ParamKind::Limit
+                });
+            limit && p.at_bound && p.value > 0.5 * (p.lower + p.upper)
+        });
+        // The log constrains it: every refit parameter identifiable, with an interval that
+        // excludes its neutral value (for a limit: below the largest training command).
+        let constrained = !params.is_empty()
+            && params
+                .iter()
+                .all(|p| p.identifiable == Some(true) && p.neutral_in_interval == Some(false));
+        let contradicted = risen || increase < -k * se;
+        let confirmed = !contradicted && (increase > k * se || (constrained && increase > 0.0));
+        let verdict = format!(
+            "{}: switching it off changes the validation score by {increase:+.3} ± {se:.3} (bootstrap SE by step); {values}",
+            if confirmed && increase > k * se {
+                format!("confirmed (switching it off costs beyond {k} SE)")
+            } else if confirmed {
+                format!("confirmed (its refit interval excludes the neutral value; switching it off costs, within {k} SE)")
+            } else if risen {
+                "contradicted (its limit rose to the largest training command: no limit below the commands): switched off in this log's model".to_string()
+            } else if contradicted {
+                format!("contradicted (switching it off helps beyond {k} SE): switched off in this log's model")
+            } else {
+                format!("not confirmed by this log (within {k} SE), kept as declared")
+            }
+        );
+        if contradicted {
+            model = without;
+        }
+        out.push(DeclaredEffectCheck {
+            effect: e.name().to_string(),
+            params,
+            removal_increase: increase,
+            removal_increase_se: se,
+            confirmed,
+            contradicted,
+            verdict,
+        });
+    }
+    Ok((model, out))
+}
+
 /// Scores every model on the test steps and assembles the report.
 pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
     let ReportInput {
@@ -71,7 +201,17 @@ pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
         mut notes,
     } = input;
     let floor = &ctx.floor;
-    let model_after = final_fit.model.clone();
+    let (model_after, declared_effects) = judge_declared(
+        ctx,
+        final_fit.model.clone(),
+        &[final_fit.fit.as_ref(), baseline.base_fit.as_ref()],
+    )?;
+    for d in &declared_effects {
+        (ctx.progress)(&format!("declared {}: {}", d.effect, d.verdict));
+        if d.contradicted {
+            notes.push(format!("declared {}: {}", d.effect, d.verdict));
+        }
+    }
     let after_base_test = ctx.test.errors(ctx.factory, &baseline.current)?;
     let after_test = ctx.test.errors(ctx.factory, &model_after)?;
     let idd = ErrorSummary::pool(&baseline.idd_test, floor);
@@ -212,6 +352,7 @@ pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
         diagnosis_before: None,
         diagnosis_after: None,
         effects,
+        declared_effects,
         not_evaluated,
         model_before: ctx.declared.clone(),
         model_after,
