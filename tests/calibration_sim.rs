@@ -22,9 +22,12 @@ mod common;
 
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured");
 
-/// A simulated DRIVE run on asphalt with `effects` injected but not declared.
+/// A simulated DRIVE run on asphalt with `effects` injected but not declared, by the
+/// Warthog without the effects its file declares (the cases inject their own truth and start
+/// the calibration from a model that declares nothing).
 fn synthetic_log(effects: &[(&str, f64)], steps: u32, seed: u64) -> (DriveLog, Robot, Terrain) {
-    let (robot, _) = Robot::resolve("warthog").unwrap();
+    let (mut robot, _) = Robot::resolve("warthog").unwrap();
+    robot.effects = Effects::default();
     let (terrain, _) = Terrain::resolve("asphalt").unwrap();
     let mut e = Effects::default();
     for (n, v) in effects {
@@ -195,6 +198,21 @@ fn assert_known_warthog_findings(r: &CalibrationReport, must_converge: bool) {
         .unwrap_or_else(|| panic!("no wheel-speed limit: {:?}", r.effects));
     let ci = sat.ci95.unwrap_or_else(|| panic!("no interval: {sat:?}"));
     assert!(ci[0] > 12.0 && ci[1] < 13.3, "{sat:?}");
+    // The Warthog file declares the measured limit: this log must confirm it (switching it
+    // off costs beyond the selection's standard errors on the test steps), not find it again.
+    let declared = r
+        .declared_effects
+        .iter()
+        .find(|d| d.effect == "wheel_speed_saturation_rad_s")
+        .unwrap_or_else(|| panic!("the declared limit was not judged: {:?}", r.declared_effects));
+    assert!(declared.confirmed, "{}", declared.verdict);
+    assert!(
+        !r.rounds
+            .iter()
+            .flat_map(|round| &round.ranking)
+            .any(|c| c.effect.contains("wheel_speed_saturation_rad_s")),
+        "a declared effect is not a candidate"
+    );
     assert!(
         r.after.score < r.before.score,
         "{} -> {}",

@@ -152,7 +152,9 @@ fn calibrated_twin_round_trips_runs_and_reproduces_its_score() {
 fn bad_twin_effects_are_refused_with_a_suggestion() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let base = drive_sim::robot::BUILTIN_ROBOTS[1].1;
+    // The Warthog file without its own `[effects]` table (it declares the measured limit).
+    let full = drive_sim::robot::BUILTIN_ROBOTS[1].1;
+    let base = &full[..full.find("\n[effects]").unwrap_or(full.len())];
     for (name, table, want) in [
         (
             "typo.toml",

@@ -251,7 +251,10 @@ pub fn drive_log_with(
 ) -> (drive_sim::log::DriveLog, drive_sim::robot::Robot) {
     use drive_sim::protocol::sampler::UniformWheel;
     use drive_sim::protocol::{run_drive, ProtocolConfig};
-    let (robot, _) = drive_sim::robot::Robot::resolve("warthog").unwrap();
+    // The Warthog's geometry and command space; its file's declared effects (the measured
+    // wheel-speed limit) are not this generator's truth, so the log declares none.
+    let (mut robot, _) = drive_sim::robot::Robot::resolve("warthog").unwrap();
+    robot.effects = Default::default();
     let cfg = ProtocolConfig {
         steps,
         ..ProtocolConfig::default()
