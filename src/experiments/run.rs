@@ -264,11 +264,12 @@ fn record(
 pub fn describe(r: &RunReport) -> String {
     let s = &r.summary;
     format!(
-        "{} steps, {} interruptions ({} commands abandoned), time efficiency {:.1} %; simulated {:.0} s in {:.2} s wall ({:.0}x real time); log {} ({:.1} MB)",
+        "{} steps, {} interruptions ({} commands abandoned), time efficiency {:.1} % (data gathering as the paper counts it {:.1} %); simulated {:.0} s in {:.2} s wall ({:.0}x real time); log {} ({:.1} MB)",
         s.steps_completed,
         s.interruptions,
         s.abandoned_commands,
         100.0 * s.time_efficiency,
+        100.0 * s.data_gathering_fraction,
         s.total_time_s,
         r.wall_s,
         r.real_time_factor,
