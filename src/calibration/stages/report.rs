@@ -107,11 +107,23 @@ fn judge_declared(
                     return None;
                 }
                 let value = model.effects.get(d.key)?;
-                let fitted = fits.iter().flatten().find_map(|f| f.param(&name)).cloned();
+                // The interval of a fit at the model's value, or within half a standard error
+                // of it (the final fit's covariance is computed where that fit ended, a hair
+                // from the selected model it did not replace); a discarded fit that ended
+                // farther away (a base fit that did not lower the validation score) has an
+                // interval of its own point, not of this model's.
+                let fitted = fits
+                    .iter()
+                    .flatten()
+                    .filter_map(|f| f.param(&name))
+                    .find(|p| {
+                        let d = (p.value - value).abs();
+                        d <= 1e-9 * value.abs().max(1.0) || p.se.is_some_and(|se| d <= 0.5 * se)
+                    })
+                    .cloned();
                 Some(match fitted {
                     Some(mut p) => {
                         p.initial = Some(declared);
-                        p.value = value;
                         p
                     }
                     None => {
