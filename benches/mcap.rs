@@ -1,10 +1,12 @@
 //! MCAP log throughput: writing and reading 36000 frames (30 min of DRIVE at 20 Hz) of the
-//! ideal Husky, and the file size per simulated second (printed once).
+//! ideal Husky, and the file size per simulated second (printed once). Encoding is measured
+//! with both container writers side by side: ours (`Container::Chunked`, what logs use) and the
+//! `mcap` crate's (`Container::Crate`), same frames, same records.
 //!
 //! `cargo bench --bench mcap`
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use drive_sim::log::mcap::{read_mcap, write_mcap};
+use drive_sim::log::mcap::{encode_mcap_with, read_mcap, write_mcap, Container};
 use drive_sim::log::{Frame, LogMeta, Nominal, Origin};
 use drive_sim::protocol::{run_drive, sampler::UniformWheel, ProtocolConfig};
 use drive_sim::robot::Robot;
@@ -69,6 +71,11 @@ fn bench(c: &mut Criterion) {
         b.iter(|| write_mcap(&path, &meta, black_box(&frames)).unwrap())
     });
     write_mcap(&path, &meta, &frames).unwrap();
+    for (name, container) in [("chunked", Container::Chunked), ("crate", Container::Crate)] {
+        g.bench_function(format!("encode_36000_frames_{name}"), |b| {
+            b.iter(|| encode_mcap_with(container, &meta, black_box(&frames), &path).unwrap())
+        });
+    }
     g.bench_function("read_36000_frames", |b| {
         b.iter(|| read_mcap(black_box(&path)).unwrap())
     });

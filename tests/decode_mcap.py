@@ -97,7 +97,8 @@ def fields(topic, schema, m):
 def main(path):
     out = {"metadata": {}, "topics": {}}
     with open(path, "rb") as stream:
-        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        # validate_crcs: the chunk, data-section and summary CRCs our container writes are checked.
+        reader = make_reader(stream, validate_crcs=True, decoder_factories=[DecoderFactory()])
         header = reader.get_header()
         out["profile"] = header.profile
         out["library"] = header.library

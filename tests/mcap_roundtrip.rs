@@ -3,8 +3,8 @@
 
 use drive_sim::kinematics::BodyVelocity;
 use drive_sim::log::mcap::{
-    decode_mcap, encode_mcap, partial_path, read_mcap, read_mcap_frames, write_mcap, McapWriter,
-    TOPIC_ICP_ODOM, TOPIC_IMU, TOPIC_MARKER, TOPIC_TRUTH_JOINTS, TOPIC_TRUTH_ODOM,
+    decode_mcap, encode_mcap, encode_mcap_with, partial_path, read_mcap, read_mcap_frames, write_mcap,
+    Container, McapWriter, TOPIC_ICP_ODOM, TOPIC_IMU, TOPIC_MARKER, TOPIC_TRUTH_JOINTS, TOPIC_TRUTH_ODOM,
 };
 use drive_sim::log::{DriveLog, Frame, LogMeta, Nominal, Origin, Phase, Pose};
 use drive_sim::protocol::{run_drive, sampler::UniformWheel, ProtocolConfig, RunSummary};
@@ -177,6 +177,134 @@ fn measured_like_frames_without_truth_and_with_a_reference_round_trip() {
     let s = write_mcap(dir.path().join("m.mcap"), &meta, &frames).unwrap();
     assert!(!s.messages_per_topic.contains_key(TOPIC_TRUTH_ODOM));
     assert_eq!(s.messages_per_topic.len(), 7);
+}
+
+/// Our container writer (whole records into the chunk, one zstd call per chunk) against the
+/// `mcap` crate's writer on the same frames: the same records (schemas, channels, statistics,
+/// chunk boundaries and sizes, message indexes, metadata), the same messages, the same frames
+/// decoded, and every CRC valid (the crate's reader checks them all). The ground-truth
+/// channels appear mid-run, inside a chunk, as they do when a log starts without them.
+#[test]
+fn our_container_writes_the_records_the_mcap_crate_writes() {
+    let mut frames = Vec::new();
+    // About 2.3 kB per frame: 1800 frames span four 1 MiB chunks.
+    run(16, 3, &mut frames);
+    assert!(frames.len() >= 1800, "{} frames", frames.len());
+    for f in frames.iter_mut().take(700) {
+        f.m.truth = None;
+    }
+    let meta = meta(&husky(), 3);
+    let ours = encode_mcap_with(Container::Chunked, &meta, &frames, Path::new("ours")).unwrap();
+    let theirs = encode_mcap_with(Container::Crate, &meta, &frames, Path::new("crate")).unwrap();
+
+    let a = mcap::Summary::read(&ours)
+        .unwrap()
+        .expect("our file has a summary");
+    let b = mcap::Summary::read(&theirs)
+        .unwrap()
+        .expect("the crate's file has a summary");
+    assert_eq!(a.stats, b.stats);
+    assert!(a.stats.as_ref().unwrap().chunk_count >= 4);
+    let channels = |s: &mcap::Summary| {
+        let mut v: Vec<_> = s
+            .channels
+            .values()
+            .map(|c| {
+                let schema = c.schema.as_ref().expect("every channel has a schema");
+                (
+                    c.id,
+                    c.topic.clone(),
+                    c.message_encoding.clone(),
+                    c.metadata.clone(),
+                    schema.name.clone(),
+                    schema.encoding.clone(),
+                    schema.data.to_vec(),
+                )
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(channels(&a), channels(&b));
+    assert_eq!(a.schemas.len(), b.schemas.len());
+    let chunks = |s: &mcap::Summary| -> Vec<_> {
+        s.chunk_indexes
+            .iter()
+            .map(|c| {
+                (
+                    c.message_start_time,
+                    c.message_end_time,
+                    c.uncompressed_size,
+                    c.compression.clone(),
+                    c.message_index_offsets.keys().copied().collect::<Vec<_>>(),
+                )
+            })
+            .collect()
+    };
+    assert_eq!(chunks(&a), chunks(&b));
+    let metadata =
+        |s: &mcap::Summary| -> Vec<_> { s.metadata_indexes.iter().map(|m| m.name.clone()).collect() };
+    assert_eq!(metadata(&a), metadata(&b));
+
+    // The message indexes of each chunk point at the same messages.
+    for (ca, cb) in a.chunk_indexes.iter().zip(&b.chunk_indexes) {
+        let ia = a.read_message_indexes(&ours, ca).unwrap();
+        let ib = b.read_message_indexes(&theirs, cb).unwrap();
+        type Indexes<'a> = std::collections::HashMap<
+            std::sync::Arc<mcap::Channel<'a>>,
+            Vec<mcap::records::MessageIndexEntry>,
+        >;
+        let entries = |m: &Indexes| {
+            let mut v: Vec<_> = m
+                .iter()
+                .map(|(c, e)| (c.id, e.iter().map(|x| x.log_time).collect::<Vec<_>>()))
+                .collect();
+            v.sort();
+            v
+        };
+        assert_eq!(entries(&ia), entries(&ib));
+        for (c, e) in &ia {
+            for entry in e {
+                let m = a.seek_message(&ours, ca, entry).unwrap();
+                assert_eq!(m.channel.topic, c.topic);
+                assert_eq!(m.log_time, entry.log_time);
+            }
+        }
+    }
+
+    let messages = |bytes: &[u8]| -> Vec<_> {
+        mcap::MessageStream::new(bytes)
+            .unwrap()
+            .map(|m| {
+                let m = m.unwrap();
+                (
+                    m.channel.topic.clone(),
+                    m.sequence,
+                    m.log_time,
+                    m.publish_time,
+                    m.data.to_vec(),
+                )
+            })
+            .collect()
+    };
+    assert_eq!(messages(&ours), messages(&theirs));
+    let (ma, fa) = decode_mcap(&ours, Path::new("ours")).unwrap();
+    let (mb, fb) = decode_mcap(&theirs, Path::new("crate")).unwrap();
+    assert_eq!((ma, fa), (mb, fb));
+
+    // An empty log too: a header, the metadata, one chunk of schemas and channels, the summary.
+    let ours = encode_mcap_with(Container::Chunked, &meta, &[], Path::new("ours")).unwrap();
+    let theirs = encode_mcap_with(Container::Crate, &meta, &[], Path::new("crate")).unwrap();
+    let a = mcap::Summary::read(&ours).unwrap().unwrap();
+    let b = mcap::Summary::read(&theirs).unwrap().unwrap();
+    assert_eq!(a.stats, b.stats);
+    assert_eq!(channels(&a), channels(&b));
+    // Our reader reads both alike (and refuses a log without messages, naming why).
+    let message = |bytes: &[u8]| match decode_mcap(bytes, Path::new("log")) {
+        Err(Error::Log { message, .. }) => message,
+        other => panic!("an empty log must be refused: {other:?}"),
+    };
+    assert_eq!(message(&ours), message(&theirs));
 }
 
 #[test]

@@ -42,23 +42,29 @@
 //! # File
 //! Chunked (1 MiB chunks), zstd-compressed (the `mcap` crate's default codec; Foxglove, the Go
 //! CLI and the Python `mcap` package all read it, the latter through its `zstandard`
-//! dependency), with chunk and message indexes and a summary, so readers can seek. Output is a
+//! dependency), with chunk and message indexes, CRCs and a summary, so readers can seek and
+//! check. [`container`] writes the records (one zstd call per chunk instead of the crate's
+//! seven streaming calls per message); they are the records the crate's writer produces,
+//! which `tests/mcap_roundtrip.rs` checks record by record. Output is a
 //! deterministic function of the frames: no clock, no hash ordering, single-threaded zstd.
 //! The writer writes `<path>.partial` and renames it to `<path>` only in
 //! [`McapWriter::finish`]: a crashed or failed run leaves no complete-looking log behind.
 
 //!
 //! # Code
-//! [`write`](mod@write) turns frames into messages and the file, [`read`] decodes the file back, and
+//! [`write`](mod@write) turns frames into messages, [`container`] writes them as the file,
+//! [`read`] decodes the file back, and
 //! [`convert`] holds the one mapping between the domain types and the ROS messages, used both
 //! ways.
 
+pub mod container;
 pub mod convert;
 pub mod read;
 pub mod write;
 
+pub use container::Container;
 pub use read::{decode_mcap, read_mcap, read_mcap_frames};
-pub use write::{encode_mcap, interrupted_path, partial_path, write_mcap, McapWriter};
+pub use write::{encode_mcap, encode_mcap_with, interrupted_path, partial_path, write_mcap, McapWriter};
 
 use crate::error::Error;
 #[cfg(doc)]
