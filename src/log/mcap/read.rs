@@ -3,9 +3,10 @@
 use super::convert::{msg_loc, phase_of, pose_of, velocity_of, wheels_of};
 use super::*;
 use crate::error::Result;
+use crate::kinematics::{BodyVelocity, WheelSpeeds};
 use crate::log::cdr::CdrError;
 use crate::log::ros_msgs::{DriveMarker, Imu, JointState, Odometry, RosMessage};
-use crate::log::{DriveLog, Frame, GroundTruth, ImuReading, LogMeta, Measurement};
+use crate::log::{DriveLog, Frame, GroundTruth, ImuReading, LogMeta, Measurement, Phase, Pose};
 
 /// Reads a drive-sim MCAP log into the common [`DriveLog`].
 pub fn read_mcap(path: impl AsRef<Path>) -> Result<DriveLog> {
@@ -13,25 +14,32 @@ pub fn read_mcap(path: impl AsRef<Path>) -> Result<DriveLog> {
     Ok(DriveLog::from_frames(meta, &frames))
 }
 
-/// Reads a drive-sim MCAP log into its metadata and frames.
+/// Reads a drive-sim MCAP log into its metadata and frames, streaming the file (one chunk in
+/// memory at a time).
 pub fn read_mcap_frames(path: impl AsRef<Path>) -> Result<(LogMeta, Vec<Frame>)> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    decode_mcap(&bytes, path)
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    decode_from(std::io::BufReader::with_capacity(1 << 20, file), path)
 }
 
 /// Messages of one topic, by log time; the value keeps the message index for errors.
 type ByTime<T> = BTreeMap<u64, (u64, T)>;
 
+/// The messages of a log, each turned into the domain value its frame needs as soon as it is
+/// decoded (and checked there, its error naming the message): a ROS message is 10–20 times the
+/// size of what the frame keeps of it (an odometry message carries two 36-element covariances),
+/// and a 300-step log has 70000 frames of seven messages each.
 #[derive(Default)]
 struct Decoded {
-    marker: ByTime<DriveMarker>,
-    wheel_cmd: ByTime<JointState>,
-    joint_states: ByTime<JointState>,
-    icp_odom: ByTime<Odometry>,
-    imu: ByTime<Imu>,
-    truth_odom: ByTime<Odometry>,
-    truth_joints: ByTime<JointState>,
+    /// Phase and exact stamp, s.
+    marker: ByTime<(Phase, f64)>,
+    wheel_cmd: ByTime<WheelSpeeds>,
+    joint_states: ByTime<WheelSpeeds>,
+    /// Lidar pose and, when the source has one, its body-velocity estimate.
+    icp_odom: ByTime<(Pose, Option<BodyVelocity>)>,
+    imu: ByTime<ImuReading>,
+    truth_odom: ByTime<(Pose, BodyVelocity)>,
+    truth_joints: ByTime<WheelSpeeds>,
 }
 
 /// The topics the reader needs and their types; `/cmd_vel` and `/tf` are derived and ignored,
@@ -149,8 +157,12 @@ pub fn is_drive_sim_mcap(path: &Path) -> Result<bool> {
 
 /// Decodes an in-memory drive-sim MCAP log; `file` names it in errors.
 pub fn decode_mcap(bytes: &[u8], file: &Path) -> Result<(LogMeta, Vec<Frame>)> {
+    decode_from(bytes, file)
+}
+
+/// Decodes a drive-sim MCAP log from `src`; `file` names it in errors.
+fn decode_from(src: impl std::io::Read, file: &Path) -> Result<(LogMeta, Vec<Frame>)> {
     use mcap::records::Record;
-    let reader = Records::new(bytes);
     // schema id -> (name, encoding)
     let mut schemas: BTreeMap<u16, (String, String)> = BTreeMap::new();
     // channel id -> index in READ_TOPICS, or None for topics the reader ignores
@@ -160,9 +172,10 @@ pub fn decode_mcap(bytes: &[u8], file: &Path) -> Result<(LogMeta, Vec<Frame>)> {
     let mut d = Decoded::default();
     let mut profile_seen = false;
     let mut messages = 0u64;
-    for (i, rec) in reader.enumerate() {
-        let rec =
-            rec.map_err(|e| mcap_err(file, &format!("MCAP record {i} (after {messages} messages)"), e))?;
+    let mut records = 0u64;
+    let mut failed = None;
+    let mut on_record = |rec: Record<'_>| -> Result<()> {
+        records += 1;
         match rec {
             Record::Header(h) => {
                 if h.profile != "ros2" {
@@ -208,7 +221,7 @@ pub fn decode_mcap(bytes: &[u8], file: &Path) -> Result<(LogMeta, Vec<Frame>)> {
                         format!("on unknown channel {}", header.channel_id),
                     ));
                 };
-                let Some(k) = *known else { continue };
+                let Some(k) = *known else { return Ok(()) };
                 let idx = per_topic[k];
                 per_topic[k] += 1;
                 let topic = READ_TOPICS[k].0;
@@ -216,27 +229,65 @@ pub fn decode_mcap(bytes: &[u8], file: &Path) -> Result<(LogMeta, Vec<Frame>)> {
                 let loc = || msg_loc(topic, idx, t);
                 let de = |e: CdrError| Error::log(file, loc(), format!("does not decode: {e}"));
                 let dup = || Error::log(file, loc(), "a second message at the same log time");
+                // Decodes the message as `$ty`, turns it into what the frame keeps with `$keep`,
+                // and files it under its log time.
                 macro_rules! store {
-                    ($map:expr, $ty:ty) => {{
+                    ($map:expr, $ty:ty, $keep:expr) => {{
                         let m = <$ty>::from_cdr(&data).map_err(de)?;
-                        if $map.insert(t, (idx, m)).is_some() {
+                        let keep = $keep;
+                        if $map.insert(t, (idx, keep(&m)?)).is_some() {
                             return Err(dup());
                         }
                     }};
                 }
+                let wheels = |j: &JointState| wheels_of(j, file, topic, idx, t);
                 match topic {
-                    TOPIC_MARKER => store!(d.marker, DriveMarker),
-                    TOPIC_WHEEL_CMD => store!(d.wheel_cmd, JointState),
-                    TOPIC_JOINT_STATES => store!(d.joint_states, JointState),
-                    TOPIC_ICP_ODOM => store!(d.icp_odom, Odometry),
-                    TOPIC_IMU => store!(d.imu, Imu),
-                    TOPIC_TRUTH_ODOM => store!(d.truth_odom, Odometry),
-                    _ => store!(d.truth_joints, JointState),
+                    TOPIC_MARKER => store!(d.marker, DriveMarker, |mk: &DriveMarker| {
+                        phase_of(mk, t).map_err(|m| Error::log(file, loc(), m))
+                    }),
+                    TOPIC_WHEEL_CMD => store!(d.wheel_cmd, JointState, wheels),
+                    TOPIC_JOINT_STATES => store!(d.joint_states, JointState, wheels),
+                    TOPIC_ICP_ODOM => store!(d.icp_odom, Odometry, |o: &Odometry| -> Result<_> {
+                        let pose = pose_of(o, file, topic, idx, t)?;
+                        // A source without a velocity estimate says so in the covariance.
+                        let reference = if o.twist.covariance[0] == -1.0 {
+                            None
+                        } else {
+                            Some(velocity_of(&o.twist.twist, file, topic, idx, t)?)
+                        };
+                        Ok((pose, reference))
+                    }),
+                    TOPIC_IMU => store!(d.imu, Imu, |i: &Imu| imu_of(i, file, idx, t)),
+                    TOPIC_TRUTH_ODOM => store!(d.truth_odom, Odometry, |o: &Odometry| -> Result<_> {
+                        Ok((
+                            pose_of(o, file, topic, idx, t)?,
+                            velocity_of(&o.twist.twist, file, topic, idx, t)?,
+                        ))
+                    }),
+                    _ => store!(d.truth_joints, JointState, wheels),
                 }
             }
             _ => {}
         }
+        Ok(())
+    };
+    let read = for_each_record(src, &mut |rec| match on_record(rec) {
+        Ok(()) => true,
+        Err(e) => {
+            failed = Some(e);
+            false
+        }
+    });
+    if let Some(e) = failed {
+        return Err(e);
     }
+    read.map_err(|e| {
+        mcap_err(
+            file,
+            &format!("MCAP record {records} (after {messages} messages)"),
+            e,
+        )
+    })?;
     if !profile_seen {
         return Err(Error::log(file, "header", "no MCAP header record"));
     }
@@ -290,7 +341,7 @@ fn assemble(d: &Decoded, file: &Path) -> Result<Vec<Frame>> {
         ));
     }
     let mut frames = Vec::with_capacity(d.marker.len());
-    for (&t, (idx, mk)) in &d.marker {
+    for (&t, (idx, (phase, stamp_s))) in &d.marker {
         let loc = msg_loc(TOPIC_MARKER, *idx, t);
         let cmd = at(&d.wheel_cmd, t, TOPIC_WHEEL_CMD, &loc, file)?;
         let enc = at(&d.joint_states, t, TOPIC_JOINT_STATES, &loc, file)?;
@@ -298,10 +349,10 @@ fn assemble(d: &Decoded, file: &Path) -> Result<Vec<Frame>> {
         let imu = at(&d.imu, t, TOPIC_IMU, &loc, file)?;
         let truth = match (d.truth_odom.get(&t), d.truth_joints.get(&t)) {
             (None, None) => None,
-            (Some(o), Some(j)) => Some(GroundTruth {
-                pose: pose_of(&o.1, file, TOPIC_TRUTH_ODOM, o.0, t)?,
-                velocity: velocity_of(&o.1.twist.twist, file, TOPIC_TRUTH_ODOM, o.0, t)?,
-                wheels: wheels_of(&j.1, file, TOPIC_TRUTH_JOINTS, j.0, t)?,
+            (Some((_, (pose, velocity))), Some((_, wheels))) => Some(GroundTruth {
+                pose: *pose,
+                velocity: *velocity,
+                wheels: *wheels,
             }),
             (o, _) => {
                 let missing = if o.is_none() {
@@ -319,43 +370,19 @@ fn assemble(d: &Decoded, file: &Path) -> Result<Vec<Frame>> {
                 ));
             }
         };
-        let reference = if icp.1.twist.covariance[0] == -1.0 {
-            None
-        } else {
-            Some(velocity_of(&icp.1.twist.twist, file, TOPIC_ICP_ODOM, icp.0, t)?)
-        };
-        let i = &imu.1;
-        let imu_reading = ImuReading {
-            wz_rad_s: i.angular_velocity.z,
-            ax_m_s2: i.linear_acceleration.x,
-            ay_m_s2: i.linear_acceleration.y,
-            az_m_s2: i.linear_acceleration.z,
-        };
-        let finite = [
-            imu_reading.wz_rad_s,
-            imu_reading.ax_m_s2,
-            imu_reading.ay_m_s2,
-            imu_reading.az_m_s2,
-        ]
-        .iter()
-        .all(|v| v.is_finite());
-        if !finite {
-            return Err(Error::log(
-                file,
-                msg_loc(TOPIC_IMU, imu.0, t),
-                format!("non-finite reading {imu_reading:?}"),
-            ));
-        }
         let m = Measurement {
-            cmd: wheels_of(&cmd.1, file, TOPIC_WHEEL_CMD, cmd.0, t)?,
-            enc: wheels_of(&enc.1, file, TOPIC_JOINT_STATES, enc.0, t)?,
-            pose: pose_of(&icp.1, file, TOPIC_ICP_ODOM, icp.0, t)?,
-            imu: imu_reading,
-            reference,
+            cmd: cmd.1,
+            enc: enc.1,
+            pose: icp.1 .0,
+            imu: imu.1,
+            reference: icp.1 .1,
             truth,
         };
-        let (phase, stamp_s) = phase_of(mk, t).map_err(|m| Error::log(file, &loc, m))?;
-        frames.push(Frame { stamp_s, phase, m });
+        frames.push(Frame {
+            stamp_s: *stamp_s,
+            phase: *phase,
+            m,
+        });
     }
     // Messages that no marker claims mean a damaged or hand-edited file.
     let orphan = |topic: &str, keys: &mut dyn Iterator<Item = (&u64, &u64)>| {
@@ -383,6 +410,28 @@ fn assemble(d: &Decoded, file: &Path) -> Result<Vec<Frame>> {
         &mut d.truth_joints.iter().map(|(t, v)| (t, &v.0)),
     )?;
     Ok(frames)
+}
+
+/// The IMU reading of a message; every value must be finite.
+fn imu_of(i: &Imu, file: &Path, idx: u64, t: u64) -> Result<ImuReading> {
+    let r = ImuReading {
+        wz_rad_s: i.angular_velocity.z,
+        ax_m_s2: i.linear_acceleration.x,
+        ay_m_s2: i.linear_acceleration.y,
+        az_m_s2: i.linear_acceleration.z,
+    };
+    if [r.wz_rad_s, r.ax_m_s2, r.ay_m_s2, r.az_m_s2]
+        .iter()
+        .all(|v| v.is_finite())
+    {
+        Ok(r)
+    } else {
+        Err(Error::log(
+            file,
+            msg_loc(TOPIC_IMU, idx, t),
+            format!("non-finite reading {r:?}"),
+        ))
+    }
 }
 
 /// The message of `topic` at log time `t`, or an error naming the marker that needs it.
