@@ -36,13 +36,18 @@ DATASETS = ["warthog_asphalt", "warthog_gravel", "warthog_ice", "husky_2023"]
 
 def declared_models(dataset):
     """The robot and terrain the CSV's metadata names (an unlabelled run starts from asphalt,
-    as `calibrate` does)."""
+    as `calibrate` does), and whether the robot is a deployment file: `robots/<dataset>.toml`,
+    when there is one, describes the robot as that run configured it (robots/husky_2023.toml)
+    and is the declared robot of that run, the one its twins are calibrated from."""
     with open(os.path.join(DATA, dataset + ".json")) as f:
         meta = json.load(f)
     terrain = meta.get("terrain") or "asphalt"
     if terrain == "unlabelled":
         terrain = "asphalt"
-    return meta["robot"], terrain
+    deployment = os.path.join(REPO, "robots", dataset + ".toml")
+    if os.path.exists(deployment):
+        return os.path.relpath(deployment, REPO), terrain, True
+    return meta["robot"], terrain, False
 
 
 def run(cmd, log):
@@ -173,7 +178,9 @@ def main():
         csv = os.path.join(DATA, d + ".csv")
         if not os.path.exists(csv):
             sys.exit(f"error: no measured dataset {csv}")
-        robot, terrain = declared_models(d)
+        robot, terrain, deployment = declared_models(d)
+        # A deployment file is where calibrations start (its effects refit and judged there).
+        start = ["--robot", robot] if deployment else []
         sims = os.path.join(args.out, "sim")
         cal = os.path.join(args.out, "cal_odd_" + d)
         declared = os.path.join(sims, f"declared_{d}.mcap")
@@ -182,7 +189,7 @@ def main():
                  "--name", f"declared_{d}"], log)
         if not os.path.exists(os.path.join(cal, "twin", "robot.toml")):
             dt = run([args.bin, "calibrate", csv, "--model", "simulator", "--use-steps", "odd",
-                      "--out", cal], log)
+                      *start, "--out", cal], log)
             print(f"{d}: twin calibration (odd steps) {dt:.0f} s", file=sys.stderr)
         lines += judge(args, log, d, csv, declared, cal, "odd steps", "even", robot, terrain)
         # The twin calibrated on every step, judged against the whole run.
@@ -191,7 +198,8 @@ def main():
         if not os.path.exists(os.path.join(cal_all, "twin", "robot.toml")):
             if args.twin_all:
                 sys.exit(f"error: no twin in {cal_all}")
-            dt = run([args.bin, "calibrate", csv, "--model", "simulator", "--out", cal_all], log)
+            dt = run([args.bin, "calibrate", csv, "--model", "simulator", *start, "--no-discovery",
+                      "--out", cal_all], log)
             print(f"{d}: twin calibration (all steps) {dt:.0f} s", file=sys.stderr)
         lines += judge(args, log, d, csv, declared, cal_all, "all steps", "all", robot, terrain)
     table = "\n".join(lines)

@@ -313,6 +313,22 @@ mod tests {
         }
     }
 
+    /// Every file of `robots/`, built in or not (a deployment file such as `husky_2023.toml`
+    /// is only read from there), loads, validates and runs its effects' checks.
+    #[test]
+    fn every_robot_file_of_the_repository_loads() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("robots");
+        let mut n = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|x| x == "toml") {
+                Robot::resolve(path.to_str().unwrap()).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                n += 1;
+            }
+        }
+        assert!(n > BUILTIN_ROBOTS.len(), "{n} files in {}", dir.display());
+    }
+
     #[test]
     fn warthog_inertia_by_hand() {
         let (r, _) = Robot::resolve("warthog").unwrap();
