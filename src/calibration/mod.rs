@@ -40,6 +40,7 @@ pub mod solver;
 pub mod stages;
 pub mod steps;
 pub mod surrogate;
+pub mod to_dir;
 pub mod twin;
 
 pub use data::{split_steps, Split, StepSet};
@@ -59,6 +60,10 @@ pub use stages::candidates::{Candidate, CandidateEvidence, SelectionRule};
 pub use stages::screening::ScreeningReport;
 pub use stages::selection::{BackwardStep, SelectionRound};
 pub use stages::{StageTiming, Timings};
+pub use to_dir::{
+    calibrate_into, replay_into, CalibrateOutcome, CalibrateRequest, ReplayOutcome, ReplayRequest,
+    StartingModels,
+};
 
 use crate::effects::CommandReach;
 use crate::error::{Error, Result};

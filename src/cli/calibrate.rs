@@ -3,7 +3,6 @@
 
 use crate::calibration::{self, CalibrationOptions, CalibrationReport, ModelKind};
 use crate::error::Result;
-use crate::log::{mcap::write_mcap, Origin};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -98,9 +97,12 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
         args.model
     );
     // `--robot` / `--terrain` (names or files, e.g. a twin) choose the model replayed.
-    let (robot, terrain, notes) =
-        calibration::models_for(&log, args.input.robot.as_deref(), args.input.terrain.as_deref())?;
-    for n in &notes {
+    let models = calibration::StartingModels::resolve(
+        &log,
+        args.input.robot.as_deref(),
+        args.input.terrain.as_deref(),
+    )?;
+    for n in &models.notes {
         eprintln!("drive-sim: {n}");
     }
     let score = match &args.score_like {
@@ -110,42 +112,24 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let params = calibration::twin::lift_effects(&robot, &terrain)?;
-    let cmp = calibration::replay_model_and_compare(&log, &params, kind, score.as_ref())?;
     let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
-    let dir = staged.path();
-    // The replay as a log of its own, readable by `analyze` and Foxglove.
-    let mut meta = cmp.replayed.meta.clone();
-    meta.name = format!("{}_replay", log.meta.name);
-    if let Origin::Replayed {
-        robot_file,
-        terrain_file,
-        ..
-    } = &mut meta.origin
-    {
-        robot_file.clone_from(&args.input.robot.clone().unwrap_or_else(|| robot.name.clone()));
-        terrain_file.clone_from(&args.input.terrain.clone().unwrap_or_else(|| terrain.name.clone()));
-    }
-    let frames: Vec<_> = cmp.replayed.samples.iter().map(|s| s.to_frame()).collect();
-    let mcap = args.out.join(format!("{}.mcap", meta.name));
-    write_mcap(dir.join(format!("{}.mcap", meta.name)), &meta, &frames)?;
-    super::run::write_json(
-        &dir.join("replay.json"),
-        &serde_json::json!({
-            "model": cmp.model,
-            "idd": cmp.idd,
-            "floor": cmp.floor,
-            "test": cmp.test,
-            "provenance": provenance(&args.log, &robot, &terrain, &args.input, serde_json::json!({
-                "model": args.model,
-                "robot": args.input.robot,
-                "terrain": args.input.terrain,
-                "roles": args.input.roles,
-                "score_like": args.score_like,
-            })),
+    let request = calibration::ReplayRequest {
+        log: &log,
+        log_file: &args.log,
+        models: &models,
+        kind,
+        score: score.as_ref(),
+        provenance_options: serde_json::json!({
+            "model": args.model,
+            "robot": args.input.robot,
+            "terrain": args.input.terrain,
+            "roles": args.input.roles,
+            "score_like": args.score_like,
         }),
-    )?;
+    };
+    let outcome = calibration::replay_into(&request, staged.path())?;
     staged.commit()?;
+    let cmp = &outcome.comparison;
     let mut out = std::io::stdout().lock();
     writeln!(
         out,
@@ -170,10 +154,12 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
             t.score
         )?;
     }
+    // The files as they are named after the staged directory was committed.
+    let committed = |p: &std::path::Path| args.out.join(p.file_name().unwrap_or_default());
     eprintln!(
         "drive-sim: wrote {} and {}",
-        mcap.display(),
-        args.out.join("replay.json").display()
+        committed(&outcome.mcap).display(),
+        committed(&outcome.json).display()
     );
     Ok(())
 }
@@ -208,89 +194,73 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
     let log = args
         .use_steps
         .select(&super::input::open_log(log_path, &args.input)?);
-    let (robot, terrain, notes) =
-        calibration::models_for(&log, args.input.robot.as_deref(), args.input.terrain.as_deref())?;
+    let models = calibration::StartingModels::resolve(
+        &log,
+        args.input.robot.as_deref(),
+        args.input.terrain.as_deref(),
+    )?;
     let opts = args.options(optimizer);
     eprintln!(
         "drive-sim: calibrating the {} model of {} on {} ({} steps: fit on {:.0} %, choose on {:.0} %, report on the rest), {}",
         args.model,
-        robot.name,
-        terrain.name,
+        models.robot.name,
+        models.terrain.name,
         log.steps().len(),
         100.0 * opts.train_fraction,
         100.0 * opts.validation_fraction,
         args.optimizer
     );
-    let t0 = std::time::Instant::now();
-    let (mut report, timings) =
-        calibration::calibrate_timed(&log, &robot, &terrain, kind.factory().as_ref(), &opts, &|line| {
-            eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64())
-        })?;
-    report.status.notes.splice(0..0, notes);
-    report.reproduce = format!(
-        "drive-sim calibrate {} --model {} --seed {} --max-effects {} --optimizer {} --use-steps {} --out {}",
-        log_path.display(),
-        args.model,
-        args.seed,
-        args.max_effects,
-        args.optimizer,
-        args.use_steps.as_str(),
-        args.out.display()
-    );
-    // A simulator fit is a runnable twin: run it in closed loop before writing anything, so
-    // that the report says whether it runs.
-    let twin = match kind {
-        ModelKind::Simulator => {
-            let (twin, check) = calibration::twin::checked_twin(&mut report, args.seed)?;
-            match check.failure_note() {
-                Some(note) => eprintln!("drive-sim: warning: the twin does not run: {note}"),
-                None => eprintln!(
-                    "drive-sim: twin check: a {}-step DRIVE of the twin ran ({} interruptions)",
-                    check.steps,
-                    check.interruptions.unwrap_or_default()
-                ),
-            }
-            Some(twin)
-        }
-        ModelKind::Kinematic => None,
-    };
-    let mut files = calibration::write_report(&report, staged.path())?;
-    files.push(calibration::write_timings(&timings, staged.path())?);
-    crate::provenance::stamp_json_file(
-        &staged.path().join("calibration.json"),
-        &provenance(
-            log_path,
-            &robot,
-            &terrain,
-            &args.input,
-            serde_json::json!({
-                "model": args.model,
-                "seed": args.seed,
-                "max_effects": args.max_effects,
-                "max_fit_steps": args.max_fit_steps,
-                "optimizer": args.optimizer,
-                "candidates": args.candidates,
-                "use_steps": args.use_steps.as_str(),
-                "robot": args.input.robot,
-                "terrain": args.input.terrain,
-                "roles": args.input.roles,
-            }),
+    let request = calibration::CalibrateRequest {
+        log: &log,
+        log_file: log_path,
+        models: &models,
+        kind,
+        opts: &opts,
+        reproduce: format!(
+            "drive-sim calibrate {} --model {} --seed {} --max-effects {} --optimizer {} --use-steps {} --out {}",
+            log_path.display(),
+            args.model,
+            args.seed,
+            args.max_effects,
+            args.optimizer,
+            args.use_steps.as_str(),
+            args.out.display()
         ),
-    )?;
-    // A kinematic fit's values are effective ones: no twin.
-    if let Some(twin) = &twin {
-        let paths = calibration::twin::write_twin(twin, &staged.path().join("twin"))?;
-        files.extend(paths);
-    }
+        provenance_options: serde_json::json!({
+            "model": args.model,
+            "seed": args.seed,
+            "max_effects": args.max_effects,
+            "max_fit_steps": args.max_fit_steps,
+            "optimizer": args.optimizer,
+            "candidates": args.candidates,
+            "use_steps": args.use_steps.as_str(),
+            "robot": args.input.robot,
+            "terrain": args.input.terrain,
+            "roles": args.input.roles,
+        }),
+    };
+    let t0 = std::time::Instant::now();
+    let outcome = calibration::calibrate_into(&request, staged.path(), &|line| {
+        eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64())
+    })?;
     staged.commit()?;
-    if kind == ModelKind::Simulator {
+    let (report, timings, files) = (&outcome.report, &outcome.timings, &outcome.files);
+    if let Some(check) = &report.twin_check {
+        match check.failure_note() {
+            Some(note) => eprintln!("drive-sim: warning: the twin does not run: {note}"),
+            None => eprintln!(
+                "drive-sim: twin check: a {}-step DRIVE of the twin ran ({} interruptions)",
+                check.steps,
+                check.interruptions.unwrap_or_default()
+            ),
+        }
         eprintln!(
             "drive-sim: twin: drive-sim run --robot {} --terrain {}",
             args.out.join("twin/robot.toml").display(),
             args.out.join("twin/terrain.toml").display()
         );
     }
-    print_report(&report)?;
+    print_report(report)?;
     eprintln!("drive-sim: time per stage:");
     for line in timings.lines() {
         eprintln!("drive-sim:   {line}");
@@ -584,32 +554,4 @@ fn print_report(r: &CalibrationReport) -> Result<(), std::io::Error> {
         writeln!(out, "  note: {n}")?;
     }
     Ok(())
-}
-
-/// Provenance of a replay or calibration output: the hashes of the log and of the robot and
-/// terrain files the model started from, and the options.
-fn provenance(
-    log: &std::path::Path,
-    robot: &crate::robot::Robot,
-    terrain: &crate::terrain::Terrain,
-    input: &super::input::InputArgs,
-    options: serde_json::Value,
-) -> crate::provenance::Provenance {
-    use crate::provenance::InputFile;
-    let mut inputs = vec![InputFile::of_file("log", log)];
-    // The same names or files the model was resolved from (the log's robot and terrain unless
-    // --robot / --terrain said otherwise); resolution already succeeded once.
-    let robot_name = input.robot.clone().unwrap_or_else(|| robot.name.clone());
-    if let Ok((_, path)) = crate::robot::Robot::resolve(&robot_name) {
-        inputs.push(InputFile::of_model("robot", &path, crate::robot::BUILTIN_ROBOTS));
-    }
-    let terrain_name = input.terrain.clone().unwrap_or_else(|| terrain.name.clone());
-    if let Ok((_, path)) = crate::terrain::Terrain::resolve(&terrain_name) {
-        inputs.push(InputFile::of_model(
-            "terrain",
-            &path,
-            crate::terrain::BUILTIN_TERRAINS,
-        ));
-    }
-    crate::provenance::Provenance::new(inputs, options)
 }

@@ -4,7 +4,6 @@ use crate::effects::Effects;
 use crate::error::{Error, Result};
 pub use crate::experiments::run::{describe, RunReport};
 use crate::experiments::run::{record_run, RunEvent, RunRequest};
-pub use crate::experiments::write_json;
 use crate::sim::{SensorNoise, SimConfig};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;

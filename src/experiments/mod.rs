@@ -14,12 +14,3 @@ pub mod simulate;
 pub mod sweep;
 
 pub use simulate::{simulate, simulate_with, unknown_sampler, SimulatedRun};
-
-use crate::error::Result;
-use serde::Serialize;
-use std::path::Path;
-
-/// Writes pretty JSON atomically (see [`crate::output`]), naming the file on failure.
-pub fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
-    crate::output::write_json_atomic(path, value)
-}

@@ -2,10 +2,10 @@
 //! run` and the demo do): the log streams to `<out>/<name>.mcap.partial`, renamed when the run
 //! completes, and a `<name>.run.json` summary is written beside it.
 
-use super::write_json;
 use crate::error::{Error, Result};
 use crate::log::mcap::{McapSummary, McapWriter};
 use crate::log::{DriveLog, Frame, LogMeta, Nominal, Origin};
+use crate::output::write_json_atomic as write_json;
 use crate::protocol::sampler::make_sampler_for;
 use crate::protocol::{run_drive, FrameSink, ProtocolConfig, RunSummary};
 use crate::provenance::{InputFile, Provenance};

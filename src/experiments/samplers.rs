@@ -391,7 +391,7 @@ fn error_figure(
 /// Writes `samplers.json`, the figures and `report.html` into `dir`.
 pub fn write_outputs(report: &SamplersReport, dir: &Path) -> Result<PathBuf> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    super::write_json(&dir.join("samplers.json"), report)?;
+    crate::output::write_json_atomic(&dir.join("samplers.json"), report)?;
     let mut html = HtmlReport::new(format!(
         "Sampling strategies: {} on {}, {} steps",
         report.robot, report.terrain, report.steps

@@ -9,10 +9,10 @@
 //! braking assumption does not follow the terrain unless the matrix sets it.
 
 use super::simulate::{analysis_params_without_smoother, simulate_into, simulated_meta, unknown_sampler};
-use super::write_json;
 use crate::analysis::analyze;
 use crate::error::{Error, Result};
 use crate::log::mcap::McapWriter;
+use crate::output::write_json_atomic as write_json;
 use crate::protocol::sampler::make_sampler_for;
 use crate::protocol::FrameSink;
 use crate::provenance::{InputFile, Provenance};

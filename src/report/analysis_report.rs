@@ -81,12 +81,6 @@ struct DatasetSummary<'a> {
     rows: &'a [crate::analysis::SummaryRow],
 }
 
-fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
-    let text =
-        serde_json::to_string_pretty(value).map_err(|e| Error::Report(format!("{}: {e}", path.display())))?;
-    std::fs::write(path, text).map_err(|e| Error::io(path, e))
-}
-
 fn steady(a: &Analysis, f: impl Fn(&StepResult) -> f64) -> Vec<f64> {
     a.steps.iter().map(f).collect()
 }
@@ -194,7 +188,7 @@ pub fn write_analysis_report_of(
         }
     }
     let summary_path = dir.join("summary.json");
-    write_json(
+    crate::output::write_json_atomic(
         &summary_path,
         &Summary {
             tool: format!("drive-sim {}", env!("CARGO_PKG_VERSION")),
@@ -204,7 +198,7 @@ pub fn write_analysis_report_of(
     )?;
     let tf: Vec<_> = analyses.iter().map(|a| (&a.dataset, &a.transfer)).collect();
     let tf_path = dir.join("transfer_functions.json");
-    write_json(&tf_path, &tf)?;
+    crate::output::write_json_atomic(&tf_path, &tf)?;
 
     // Figures.
     let mut figures = Vec::new();

@@ -2,6 +2,7 @@
 
 use super::matrix::{RunSpec, Shard, SweepMatrix};
 use crate::error::{Error, Result};
+use crate::output::write_json_atomic;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -222,12 +223,7 @@ where
         spec: spec.clone(),
         result,
     };
+    // Atomic: a killed sweep leaves either no marker or a whole one.
     write_json_atomic(&dir.join(DONE_FILE), &rec)?;
     Ok(RunOutcome::Done(rec))
-}
-
-/// Writes JSON to `path` through a temporary file and a rename, so a reader never sees half a
-/// file (a killed sweep leaves either no marker or a whole one).
-fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> Result<()> {
-    crate::output::write_json_atomic(path, value)
 }
