@@ -70,6 +70,24 @@ pub struct CalibrateArgs {
 }
 
 impl CalibrateArgs {
+    /// The command line that reproduces this calibration (`calibration.json` → `reproduce`).
+    fn reproduce(&self) -> String {
+        format!(
+            "drive-sim calibrate {} --model {} --seed {} --max-effects {} --optimizer {} --use-steps {} --out {}",
+            self.logs
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(" "),
+            self.model,
+            self.seed,
+            self.max_effects,
+            self.optimizer,
+            self.use_steps.as_str(),
+            self.out.display()
+        )
+    }
+
     /// The calibration's options from the command line, with the parsed local solver.
     fn options(&self, optimizer: calibration::Optimizer) -> CalibrationOptions {
         let mut opts = CalibrationOptions {
@@ -216,16 +234,7 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
         models: &models,
         kind,
         opts: &opts,
-        reproduce: format!(
-            "drive-sim calibrate {} --model {} --seed {} --max-effects {} --optimizer {} --use-steps {} --out {}",
-            log_path.display(),
-            args.model,
-            args.seed,
-            args.max_effects,
-            args.optimizer,
-            args.use_steps.as_str(),
-            args.out.display()
-        ),
+        reproduce: args.reproduce(),
         provenance_options: serde_json::json!({
             "model": args.model,
             "seed": args.seed,
@@ -324,20 +333,7 @@ fn calibrate_joint(args: &CalibrateArgs) -> anyhow::Result<()> {
     let mut report = calibration::joint::calibrate_joint(&input, &|line| {
         eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64())
     })?;
-    report.reproduce = format!(
-        "drive-sim calibrate {} --model {} --seed {} --max-effects {} --optimizer {} --use-steps {} --out {}",
-        args.logs
-            .iter()
-            .map(|p| p.display().to_string())
-            .collect::<Vec<_>>()
-            .join(" "),
-        args.model,
-        args.seed,
-        args.max_effects,
-        args.optimizer,
-        args.use_steps.as_str(),
-        args.out.display()
-    );
+    report.reproduce = args.reproduce();
     if report.model_kind == "simulator" {
         let failed = calibration::joint::check_joint_twin(&mut report, args.seed)?;
         if !failed.is_empty() {
