@@ -80,13 +80,14 @@ fn judge_declared(
     let k = ctx.opts.rule.k_se;
     let mut model = model;
     let mut out = Vec::new();
+    // The model's validation errors, replayed again only when a contradicted effect changes it.
+    let mut with_val = ctx.validation.errors(ctx.factory, &model)?;
     for i in super::candidates::declared_effects(&ctx.declared) {
         let e = crate::effects::REGISTRY[i];
         let mut without = model.clone();
         for d in e.params() {
             without.effects.set(d.key, d.neutral)?;
         }
-        let with_val = ctx.validation.errors(ctx.factory, &model)?;
         let without_val = ctx.validation.errors(ctx.factory, &without)?;
         let increase = crate::calibration::metrics::score(&without_val, floor)
             - crate::calibration::metrics::score(&with_val, floor);
@@ -97,10 +98,12 @@ fn judge_declared(
             ctx.opts.rule.bootstrap_samples,
             ctx.opts.seed,
         );
-        let params: Vec<FittedParam> = e
+        // Each refit parameter with its kind (a limit's refit is read below).
+        let (params, kinds): (Vec<FittedParam>, Vec<crate::effects::ParamKind>) = e
             .params()
             .iter()
-            .filter_map(|d| {
+            .enumerate()
+            .filter_map(|(j, d)| {
                 let name = format!("effect.{}", d.key);
                 let declared = ctx.declared.effects.get(d.key)?;
                 if d.is_neutral(declared) {
@@ -121,22 +124,19 @@ fn judge_declared(
                         d <= 1e-9 * value.abs().max(1.0) || p.se.is_some_and(|se| d <= 0.5 * se)
                     })
                     .cloned();
-                Some(match fitted {
+                let param = match fitted {
                     Some(mut p) => {
                         p.initial = Some(declared);
                         p
                     }
                     None => {
-                        let spec = crate::calibration::params::ParamSpec::for_effect(
-                            i,
-                            e.params().iter().position(|q| q.key == d.key).unwrap_or(0),
-                            &ctx.reach,
-                        );
+                        let spec = crate::calibration::params::ParamSpec::for_effect(i, j, &ctx.reach);
                         FittedParam::of(&spec, Some(declared), value)
                     }
-                })
+                };
+                Some((param, d.kind))
             })
-            .collect();
+            .unzip();
         let values = params
             .iter()
             .map(|p| {
@@ -157,12 +157,8 @@ fn judge_declared(
             .join("; ");
         // A limit refit to the top of its box (the largest training command) clips nothing
         // the training steps commanded: the log shows no limit where it was declared.
-        let risen = params.iter().any(|p| {
-            let limit =
-                crate::effects::param_owner(p.name.trim_start_matches("effect.")).is_some_and(|(i, j)| {
-                    crate::effects::REGISTRY[i].params()[j].kind == crate::effects::ParamKind::Limit
-                });
-            limit && p.at_bound && p.value > 0.5 * (p.lower + p.upper)
+        let risen = params.iter().zip(&kinds).any(|(p, kind)| {
+            *kind == crate::effects::ParamKind::Limit && p.at_bound && p.value > 0.5 * (p.lower + p.upper)
         });
         // The log constrains it: every refit parameter identifiable, with an interval that
         // excludes its neutral value (for a limit: below the largest training command).
@@ -188,6 +184,7 @@ fn judge_declared(
         );
         if contradicted {
             model = without;
+            with_val = without_val;
         }
         out.push(DeclaredEffectCheck {
             effect: e.name().to_string(),

@@ -148,6 +148,8 @@ pub(super) struct ChunkWriter<W: Write + Seek> {
     channels: Vec<ChannelRec>,
     chunk_indexes: Vec<ChunkIndex>,
     metadata_indexes: Vec<MetadataIndex>,
+    /// Messages: count, time span, count per channel (the statistics record's other counts are
+    /// those of `schemas`, `channels`, `metadata_indexes`, `chunk_indexes`).
     stats: Statistics,
 }
 
@@ -254,7 +256,6 @@ impl<W: Write + Seek> ChunkWriter<W> {
             compressed_size: self.compressed.len() as u64,
             uncompressed_size: self.chunk.len() as u64,
         });
-        self.stats.chunk_count += 1;
         self.chunk.clear();
         Ok(())
     }
@@ -288,11 +289,12 @@ impl<W: Write + Seek> ChunkWriter<W> {
             let s = &self.stats;
             record(b, op::STATISTICS, |b| {
                 put_u64(b, s.message_count);
-                put_u16(b, s.schema_count);
-                put_u32(b, s.channel_count);
-                put_u32(b, s.attachment_count);
-                put_u32(b, s.metadata_count);
-                put_u32(b, s.chunk_count);
+                // The counts of what the writer holds (ids fit u16, so the counts fit too).
+                put_u16(b, self.schemas.len() as u16);
+                put_u32(b, self.channels.len() as u32);
+                put_u32(b, 0); // attachments: drive-sim writes none
+                put_u32(b, self.metadata_indexes.len() as u32);
+                put_u32(b, self.chunk_indexes.len() as u32);
                 put_u64(b, s.message_start_time);
                 put_u64(b, s.message_end_time);
                 put_u32(b, (s.channel_message_counts.len() * 10) as u32);
@@ -354,7 +356,6 @@ impl<W: Write + Seek> ChunkWriter<W> {
         };
         schema_record(&mut self.chunk, &s);
         self.schemas.push(s);
-        self.stats.schema_count += 1;
         Ok(id)
     }
 
@@ -380,7 +381,6 @@ impl<W: Write + Seek> ChunkWriter<W> {
         };
         channel_record(&mut self.chunk, &c);
         self.channels.push(c);
-        self.stats.channel_count += 1;
         Ok(id)
     }
 
@@ -402,7 +402,6 @@ impl<W: Write + Seek> ChunkWriter<W> {
             name: metadata.name.clone(),
         });
         self.rec = rec;
-        self.stats.metadata_count += 1;
         Ok(())
     }
 

@@ -59,16 +59,6 @@ const READ_TOPICS: [(&str, &crate::log::ros_msgs::MsgDef); 7] = [
 /// make the reader allocate more than this.
 pub(crate) const RECORD_LENGTH_LIMIT: usize = 64 << 20;
 
-/// Every record of an MCAP file in order, chunks unpacked, with every CRC checked.
-///
-/// The `mcap` crate's `ChunkFlattener` does the same without a record length limit, so a
-/// flipped bit in a chunk header makes it allocate exabytes and abort; this drives the crate's
-/// sans-IO reader with the limit set.
-pub(crate) struct Records<'a> {
-    buf: &'a [u8],
-    reader: mcap::sans_io::LinearReader,
-}
-
 fn checked_reader() -> mcap::sans_io::LinearReader {
     let opts = mcap::sans_io::LinearReaderOptions::default()
         .with_validate_chunk_crcs(true)
@@ -79,18 +69,13 @@ fn checked_reader() -> mcap::sans_io::LinearReader {
     mcap::sans_io::LinearReader::new_with_options(opts)
 }
 
-impl<'a> Records<'a> {
-    pub(crate) fn new(buf: &'a [u8]) -> Self {
-        Self {
-            buf,
-            reader: checked_reader(),
-        }
-    }
-}
-
-/// Streams every record of an MCAP source to `f` (same checks as [`Records`]), borrowing each
-/// record instead of copying it, so skipped messages (point clouds) cost no copy; reading stops
-/// when `f` returns `false`.
+/// Streams every record of an MCAP source to `f` in order, chunks unpacked, with every CRC
+/// checked, borrowing each record instead of copying it, so skipped messages (point clouds) cost
+/// no copy; reading stops when `f` returns `false`.
+///
+/// The `mcap` crate's `ChunkFlattener` does the same without a record length limit, so a
+/// flipped bit in a chunk header makes it allocate exabytes and abort; this drives the crate's
+/// sans-IO reader with the limit set.
 pub(crate) fn for_each_record<R: std::io::Read>(
     mut src: R,
     f: &mut dyn FnMut(mcap::records::Record<'_>) -> bool,
@@ -113,29 +98,6 @@ pub(crate) fn for_each_record<R: std::io::Read>(
     Ok(())
 }
 
-impl Iterator for Records<'_> {
-    type Item = mcap::McapResult<mcap::records::Record<'static>>;
-
-    fn next(&mut self) -> Option<Self::Item> {
-        use mcap::sans_io::LinearReadEvent;
-        while let Some(event) = self.reader.next_event() {
-            match event {
-                Ok(LinearReadEvent::ReadRequest(need)) => {
-                    let len = need.min(self.buf.len());
-                    self.reader.insert(len).copy_from_slice(&self.buf[..len]);
-                    self.reader.notify_read(len);
-                    self.buf = &self.buf[len..];
-                }
-                Ok(LinearReadEvent::Record { data, opcode }) => {
-                    return Some(mcap::read::parse_record(opcode, data).map(|r| r.into_owned()))
-                }
-                Err(e) => return Some(Err(e)),
-            }
-        }
-        None
-    }
-}
-
 /// Whether `path` is a drive-sim log rather than another ROS 2 MCAP file (a rosbag2 bag): the
 /// writer puts its metadata record before any message, so the file's head tells.
 pub fn is_drive_sim_mcap(path: &Path) -> Result<bool> {
@@ -145,14 +107,17 @@ pub fn is_drive_sim_mcap(path: &Path) -> Result<bool> {
     std::fs::File::open(path)
         .and_then(|f| f.take(4 << 20).read_to_end(&mut head))
         .map_err(|e| Error::io(path, e))?;
-    for rec in Records::new(&head) {
-        match rec {
-            Ok(Record::Metadata(m)) if m.name == METADATA_NAME => return Ok(true),
-            Ok(Record::Message { .. }) | Err(_) => return Ok(false),
-            Ok(_) => {}
+    let mut found = false;
+    // A message before the metadata, or a head that does not parse: not a drive-sim log.
+    let _ = for_each_record(&head[..], &mut |rec| match rec {
+        Record::Metadata(m) if m.name == METADATA_NAME => {
+            found = true;
+            false
         }
-    }
-    Ok(false)
+        Record::Message { .. } => false,
+        _ => true,
+    });
+    Ok(found)
 }
 
 /// Decodes an in-memory drive-sim MCAP log; `file` names it in errors.
