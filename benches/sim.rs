@@ -1,8 +1,9 @@
 //! Speed of the simulator with MCAP logging: a Warthog DRIVE on gravel written to an MCAP file,
-//! as `drive-sim run` does, in three configurations of the same code, each the one before a
+//! as `drive-sim run` does, in four configurations of the same code, each the one before a
 //! speed-up: the reference physics step with the `mcap` crate's container writer (before
-//! session 7), the fast step with the crate's writer (before our container writer), and the
-//! fast step with ours (what `drive-sim run` does now).
+//! session 7), the Newton step with the crate's writer (before our container writer), the
+//! Newton step with ours at zstd level 1 (session 9), and the fast step (predicted start,
+//! chord iterations, ray lookup) with ours at level -1 (what `drive-sim run` does now).
 //!
 //! Before criterion, a side-by-side table on the issue's workload (300 steps): each
 //! configuration timed on the same run (best of 3, interleaved), with the real-time factor
@@ -56,12 +57,13 @@ fn drive(c: &mut Criterion) {
     let robot = Robot::resolve("warthog").unwrap().0;
     let terrain = Terrain::resolve("gravel").unwrap().0;
     let dir = tempfile::tempdir().unwrap();
-    let configs: [Config; 3] = [
+    let configs: [Config; 4] = [
         (Stepping::Reference, Container::Crate),
-        (Stepping::Fast, Container::Crate),
+        (Stepping::Newton, Container::Crate),
+        (Stepping::Newton, Container::ChunkedZstd(1)),
         (Stepping::Fast, Container::Chunked),
     ];
-    let mut best = [(); 3].map(|_| (RunSummary::default(), f64::INFINITY));
+    let mut best = [(); 4].map(|_| (RunSummary::default(), f64::INFINITY));
     for _ in 0..3 {
         for (k, c) in configs.iter().enumerate() {
             let r = logged_run(&robot, &terrain, *c, TABLE_STEPS, dir.path());
@@ -72,13 +74,13 @@ fn drive(c: &mut Criterion) {
     }
     println!("warthog on gravel, {TABLE_STEPS}-step DRIVE with MCAP logging, best of 3 (one core):");
     println!(
-        "{:<10} {:<9} {:>8} {:>12} {:>10} {:>14} {:>12}",
+        "{:<10} {:<15} {:>8} {:>12} {:>10} {:>14} {:>12}",
         "stepping", "container", "wall_s", "simulated_s", "time_eff", "x_productive", "x_all_time"
     );
     for (k, (s, c)) in configs.iter().enumerate() {
         let (sum, wall) = &best[k];
         println!(
-            "{:<10} {:<9} {:>8.3} {:>12.1} {:>10.3} {:>14.0} {:>12.0}",
+            "{:<10} {:<15} {:>8.3} {:>12.1} {:>10.3} {:>14.0} {:>12.0}",
             format!("{s:?}"),
             format!("{c:?}"),
             wall,
@@ -92,11 +94,12 @@ fn drive(c: &mut Criterion) {
     // runs diverge from the fast one's after the first steps) do not bias the ratios.
     let per_sim_s = |k: usize| best[k].1 / best[k].0.total_time_s;
     println!(
-        "speed per simulated second: fast step / reference {:.2}x; our container / the crate's {:.2}x; \
-         now / reference with the crate's {:.2}x",
+        "speed per simulated second: Newton step / reference {:.2}x; our container / the crate's {:.2}x; \
+         now (fast step, level -1) / session 9 (Newton step, level 1) {:.2}x; now / reference with the crate's {:.2}x",
         per_sim_s(0) / per_sim_s(1),
         per_sim_s(1) / per_sim_s(2),
-        per_sim_s(0) / per_sim_s(2)
+        per_sim_s(2) / per_sim_s(3),
+        per_sim_s(0) / per_sim_s(3)
     );
 
     let mut group = c.benchmark_group("sim");

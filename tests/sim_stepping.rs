@@ -1,6 +1,8 @@
-//! The fast physics step (exact tyre-solve Jacobian, chassis integrated directly) against the
-//! reference step (finite-difference Jacobian, rapier's pipeline): the same robot, terrain and
-//! command sequence must give the same motion, to far below what the analysis resolves.
+//! The fast physics step (predicted start, chord iterations on the exact tyre-solve Jacobian,
+//! ray lookup, chassis integrated directly) and the Newton step (session 9's fast step) against
+//! the reference step (finite-difference Jacobian, parry's ray casts, rapier's pipeline): the
+//! same robot, terrain and command sequence must give the same motion, to far below what the
+//! analysis resolves.
 
 use drive_sim::kinematics::{BodyVelocity, WheelSpeeds};
 use drive_sim::robot::Robot;
@@ -44,7 +46,13 @@ fn trace(robot: &str, terrain: &str, stepping: Stepping) -> Vec<[f64; 8]> {
 }
 
 fn compare(robot: &str, terrain: &str) {
-    let fast = trace(robot, terrain, Stepping::Fast);
+    for stepping in [Stepping::Fast, Stepping::Newton] {
+        compare_with_reference(robot, terrain, stepping);
+    }
+}
+
+fn compare_with_reference(robot: &str, terrain: &str, stepping: Stepping) {
+    let fast = trace(robot, terrain, stepping);
     let reference = trace(robot, terrain, Stepping::Reference);
     assert_eq!(fast.len(), reference.len());
     // Velocities within 5 mm/s (rad/s), poses within 2 cm over 8 s: the analysis's steady
@@ -59,7 +67,7 @@ fn compare(robot: &str, terrain: &str) {
     for k in 0..8 {
         assert!(
             worst[k] <= tol[k],
-            "{robot} on {terrain}: channel {k} differs by {} (tolerance {}); worst {worst:?}",
+            "{stepping:?} step, {robot} on {terrain}: channel {k} differs by {} (tolerance {}); worst {worst:?}",
             worst[k],
             tol[k]
         );

@@ -157,6 +157,7 @@ impl Simulator {
             applied: WheelSpeeds::default(),
             ramp: [0.0; 2],
             omega: [0.0; 2],
+            last_change: [0.0; 5],
             deflection: vec![0.0; n_wheels],
             contacts: vec![Contact::default(); n_wheels],
             forces: vec![ContactForce::default(); n_wheels],

@@ -64,15 +64,22 @@ impl Default for SimConfig {
     }
 }
 
-/// How a physics step is computed. Both give the same physics (the tests hold either to the
-/// same tolerances); `Reference` is the original, slower code path, kept callable so that the
-/// benchmark can time both in one run and a test can check that they agree.
+/// How a physics step is computed. All give the same physics (the tests hold each to the
+/// same tolerances); `Reference` and `Newton` are the earlier, slower code paths, kept
+/// callable so that the benchmark can time them side by side in one run and a test can check
+/// that they agree.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Stepping {
-    /// Exact Jacobian in the implicit tyre solve; the chassis integrated directly
-    /// (rapier's free-body scheme, without the pipeline around it).
+    /// The tyre solve started at a prediction (the last step's change) with its Jacobian kept
+    /// while it contracts; suspension rays by direct lookup on the ground's triangles; the
+    /// chassis integrated directly (rapier's free-body scheme, without the pipeline around it).
     #[default]
     Fast,
-    /// Finite-difference Jacobian; the chassis integrated by rapier's `PhysicsPipeline::step`.
+    /// The fast step as it was before the prediction, the chord iterations and the ray lookup
+    /// (session 9): exact Jacobian refreshed at every Newton iterate, started at the state,
+    /// rays cast by parry.
+    Newton,
+    /// Finite-difference Jacobian, rays cast by parry, the chassis integrated by rapier's
+    /// `PhysicsPipeline::step`.
     Reference,
 }

@@ -147,6 +147,9 @@ pub struct Simulator {
     ramp: [f64; 2],
     /// Side wheel spins, rad/s.
     omega: [f64; 2],
+    /// The last physics step's change of (vx, vy, wz, omega_left, omega_right): the predictor
+    /// of the next step's solve (see [`solve::SolveCtx::guess`]).
+    last_change: [f64; 5],
     /// Tyre lateral deflection angles (torsion effect), tan of the angle.
     deflection: Vec<f64>,
     contacts: Vec<Contact>,
@@ -159,7 +162,7 @@ pub struct Simulator {
     airborne_s: f64,
     /// World-frame acceleration of the centre of mass over the last physics step.
     accel_world: [f64; 3],
-    pose_history: VecDeque<(f64, Pose)>,
+    pose_history: VecDeque<(f64, rapier3d::parry::math::Pose)>,
     /// Principal moments of inertia of the chassis (body axes), kg·m².
     inertia_kg_m2: [f64; 3],
     stepping: Stepping,
@@ -283,7 +286,7 @@ impl Simulator {
             .rev()
             .find(|&&(ts, _)| ts <= t + 1e-9)
             .or(self.pose_history.front())
-            .map_or_else(|| self.true_pose(), |&(_, p)| p)
+            .map_or_else(|| self.true_pose(), |(_, p)| pose_of(p))
     }
 }
 
@@ -374,17 +377,7 @@ impl Plant for Simulator {
     }
 
     fn true_pose(&self) -> Pose {
-        let rb = &self.bodies[self.body];
-        let p = rb.translation();
-        let (yaw, pitch, roll) = rb.position().rotation.to_euler(rapier3d::glamx::EulerRot::ZYX);
-        Pose {
-            x_m: p.x as f64,
-            y_m: p.y as f64,
-            z_m: p.z as f64,
-            roll_rad: roll as f64,
-            pitch_rad: pitch as f64,
-            yaw_rad: yaw as f64,
-        }
+        pose_of(self.bodies[self.body].position())
     }
 
     fn true_velocity(&self) -> BodyVelocity {
@@ -406,5 +399,20 @@ impl Plant for Simulator {
 
     fn time_s(&self) -> f64 {
         self.time_s
+    }
+}
+
+/// The pose (ZYX Euler angles) of a rigid-body position. Kept out of the physics step: the
+/// step records positions, and the angles (three atan2) are computed only where read.
+fn pose_of(position: &rapier3d::parry::math::Pose) -> Pose {
+    let p = position.translation;
+    let (yaw, pitch, roll) = position.rotation.to_euler(rapier3d::glamx::EulerRot::ZYX);
+    Pose {
+        x_m: p.x as f64,
+        y_m: p.y as f64,
+        z_m: p.z as f64,
+        roll_rad: roll as f64,
+        pitch_rad: pitch as f64,
+        yaw_rad: yaw as f64,
     }
 }

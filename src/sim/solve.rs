@@ -24,6 +24,11 @@ pub(super) struct SolveCtx {
     pub u0: [f64; 5],
     /// Wheel spins that the unsaturated controller reaches at the end of the step.
     pub target: [f64; 2],
+    /// Where [`solve`] starts its iterations: a prediction of the end of the step (the state
+    /// plus the last step's change). Velocities change smoothly over a 10 ms step, so the
+    /// prediction is often within Newton's final tolerance after one iteration; the reference
+    /// solve starts at `u0`.
+    pub guess: [f64; 5],
     /// Suspension torsion length of the tyre-deflection effect, m (0: off).
     pub torsion_m: f64,
 }
@@ -232,9 +237,95 @@ fn residual_and_jacobian(
     (r, jac)
 }
 
-/// Newton iterations with the exact Jacobian and a backtracking line search; writes the
-/// contact forces of the accepted state into `forces`.
+/// Newton iterations with the exact Jacobian, kept while it contracts (a chord method), and a
+/// backtracking line search; writes the contact forces of the accepted state into `forces`.
+///
+/// Within one 10 ms step the Jacobian barely changes: refactoring it at every iterate costs a
+/// tyre-Jacobian evaluation and an LU per iteration for a convergence that the first one's
+/// already gives. The Jacobian is refreshed only when an iteration contracts the residual by
+/// less than [`CHORD_CONTRACTION`] (near a friction peak, at a saturation switch), so the
+/// solve keeps Newton's robustness and stops at the same tolerance.
 pub(super) fn solve(
+    ctx: &SolveCtx,
+    tyre: &TyreParams,
+    wheels: &[WheelGeom],
+    contacts: &[Contact],
+    deflection: &[f64],
+    saturated: [f64; 2],
+    forces: &mut [ContactForce],
+) -> [f64; 5] {
+    let residual_only = |u: &V5, forces: &mut [ContactForce]| {
+        residual(ctx, tyre, wheels, contacts, deflection, saturated, u, forces)
+    };
+    let with_jacobian = |u: &V5, forces: &mut [ContactForce]| {
+        residual_and_jacobian(ctx, tyre, wheels, contacts, deflection, saturated, u, forces)
+    };
+    let mut u = V5::from_row_slice(&ctx.guess);
+    for s in 0..2 {
+        if saturated[s] == 0.0 {
+            u[3 + s] = ctx.target[s];
+        }
+    }
+    let (mut r, jac) = with_jacobian(&u, forces);
+    let mut lu = jac.lu();
+    let mut fresh = true;
+    let scale = V5::new(ctx.mass, ctx.mass, ctx.izz, ctx.side_inertia, ctx.side_inertia);
+    let norm = |r: &V5| r.component_div(&scale).amax();
+    let mut scratch_buf = [ContactForce::default(); MAX_WHEELS];
+    let scratch = &mut scratch_buf[..forces.len()];
+    for _ in 0..12 {
+        let n0 = norm(&r);
+        if n0 < 1e-10 {
+            break;
+        }
+        let Some(delta) = lu.solve(&(-r)) else {
+            break;
+        };
+        let mut step = 1.0;
+        let mut accepted = false;
+        for _ in 0..6 {
+            let trial = u + delta * step;
+            let rt = residual_only(&trial, scratch);
+            if norm(&rt) < n0 || step < 0.05 {
+                u = trial;
+                r = rt;
+                forces.copy_from_slice(scratch);
+                accepted = true;
+                break;
+            }
+            if !fresh {
+                // A stale Jacobian that does not descend: refresh it before backtracking.
+                break;
+            }
+            step *= 0.5;
+        }
+        if accepted && (delta * step).amax() < 1e-12 {
+            break;
+        }
+        if !accepted && fresh {
+            break;
+        }
+        // Refresh the Jacobian when the chord step contracted too little (or failed).
+        if !accepted || norm(&r) > CHORD_CONTRACTION * n0 {
+            let (rj, jac) = with_jacobian(&u, scratch);
+            r = rj;
+            lu = jac.lu();
+            fresh = true;
+        } else {
+            fresh = false;
+        }
+    }
+    [u[0], u[1], u[2], u[3], u[4]]
+}
+
+/// The residual contraction an iteration must reach to keep its Jacobian for the next one.
+const CHORD_CONTRACTION: f64 = 0.05;
+
+/// Newton iterations with the exact Jacobian refreshed at every iterate, started at the state
+/// at the start of the step, and a backtracking line search; writes the contact forces of the
+/// accepted state into `forces`. The fast solve before [`solve`]'s prediction and chord
+/// iterations, kept for [`super::Stepping::Newton`].
+pub(super) fn solve_newton(
     ctx: &SolveCtx,
     tyre: &TyreParams,
     wheels: &[WheelGeom],

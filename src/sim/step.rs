@@ -163,7 +163,14 @@ impl Simulator {
             let hp64 = to64(hp);
             let c = &mut self.contacts[i];
             *c = Contact::default();
-            let Some(hit) = self.ground.cast(&self.colliders, hp64, down, self.ray_length_m) else {
+            let hit = match self.stepping {
+                Stepping::Fast => self.ground.cast(&self.colliders, hp64, down, self.ray_length_m),
+                Stepping::Newton | Stepping::Reference => {
+                    self.ground
+                        .cast_parry(&self.colliders, hp64, down, self.ray_length_m)
+                }
+            };
+            let Some(hit) = hit else {
                 continue;
             };
             let compression = self.free_length_m - self.sinkage_m - hit.distance_m;
@@ -216,6 +223,10 @@ impl Simulator {
             (self.omega[1] + dt / tc * self.ramp[1]) / (1.0 + dt / tc),
         ];
         let torsion = self.mods.relaxation_length_m;
+        let mut guess = [0.0; 5];
+        for k in 0..5 {
+            guess[k] = u0[k] + self.last_change[k];
+        }
         let ctx = SolveCtx {
             dt,
             mass: self.mass_kg,
@@ -225,10 +236,12 @@ impl Simulator {
             ext: [fx_ext, fy_ext, mz_ext],
             u0,
             target,
+            guess,
             torsion_m: torsion,
         };
         let solve = match self.stepping {
             Stepping::Fast => solve::solve,
+            Stepping::Newton => solve::solve_newton,
             Stepping::Reference => solve::solve_reference,
         };
         let mut saturated = [0.0f64; 2];
@@ -256,6 +269,7 @@ impl Simulator {
             }
         }
         if any_sat {
+            let ctx = SolveCtx { guess: u, ..ctx };
             u = solve(
                 &ctx,
                 &self.tyre,
@@ -267,6 +281,9 @@ impl Simulator {
             );
         }
         self.omega = [u[3], u[4]];
+        for k in 0..5 {
+            self.last_change[k] = u[k] - u0[k];
+        }
         let mut react = [0.0; 2];
         for (wg, f) in self.wheels.iter().zip(&self.forces) {
             react[wg.side] += f.reaction_nm;
@@ -297,7 +314,7 @@ impl Simulator {
         // Apply the forces and integrate the chassis.
         let v_before = v64;
         match self.stepping {
-            Stepping::Fast => {
+            Stepping::Fast | Stepping::Newton => {
                 let mut wrench = body::Wrench {
                     force_n: [0.0, 0.0, -GRAVITY_M_S2 * self.mass_kg],
                     ..Default::default()
@@ -331,8 +348,8 @@ impl Simulator {
             self.body_stage(dt);
         }
         self.check(u)?;
-        let pose = self.true_pose();
-        self.pose_history.push_back((self.time_s, pose));
+        let position = *self.bodies[self.body].position();
+        self.pose_history.push_back((self.time_s, position));
         let keep = self.mods.pose_latency_s + 0.5;
         while self
             .pose_history
