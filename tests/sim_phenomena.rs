@@ -281,14 +281,24 @@ fn full_speed_straight_on_every_terrain() {
 
 #[test]
 fn bad_files_and_settings_name_the_field() {
-    let bad_terrain = drive_sim::terrain::BUILTIN_TERRAINS[0]
-        .1
-        .replace("peak_longitudinal = 0.85", "peak_longitudinal = -0.85");
+    // The built-in asphalt file with one key's value replaced (whatever the file declares).
+    let with_value = |key: &str, value: &str| {
+        let file = drive_sim::terrain::BUILTIN_TERRAINS[0].1;
+        let out: Vec<String> = file
+            .lines()
+            .map(|l| match l.strip_prefix(key) {
+                Some(rest) if rest.trim_start().starts_with('=') => format!("{key} = {value}"),
+                _ => l.to_string(),
+            })
+            .collect();
+        let out = out.join("\n");
+        assert_ne!(out.trim_end(), file.trim_end(), "no `{key}` line in the built-in terrain");
+        out
+    };
+    let bad_terrain = with_value("peak_longitudinal", "-0.85");
     let e = drive_sim::config::parse_toml::<Terrain>(&bad_terrain, "t.toml".as_ref()).unwrap_err();
     assert!(e.to_string().contains("friction.peak_longitudinal"), "{e}");
-    let bad_terrain = drive_sim::terrain::BUILTIN_TERRAINS[0]
-        .1
-        .replace("rolling_coefficient = 0.015", "rolling_coefficient = nan");
+    let bad_terrain = with_value("rolling_coefficient", "nan");
     let e = drive_sim::config::parse_toml::<Terrain>(&bad_terrain, "t.toml".as_ref()).unwrap_err();
     assert!(e.to_string().contains("resistance.rolling_coefficient"), "{e}");
 
