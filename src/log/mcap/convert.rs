@@ -5,7 +5,7 @@ use crate::error::Error;
 use crate::error::Result;
 use crate::kinematics::{BodyVelocity, WheelSpeeds};
 use crate::log::ros_msgs::{
-    DriveMarker, Header, JointState, Odometry, Point, Pose as RosPose, Quaternion, Twist, Vector3,
+    DriveMarker, JointState, Odometry, Point, Pose as RosPose, Quaternion, Twist, Vector3,
 };
 use crate::log::{Frame, Phase, Pose};
 
@@ -58,8 +58,12 @@ pub(crate) fn check_frame(f: &Frame) -> std::result::Result<(), String> {
     }
 }
 
-pub(crate) fn marker_msg(header: Header, f: &Frame) -> DriveMarker {
-    let mut m = DriveMarker {
+/// Sets `m` to frame `f`'s protocol phase (all but its header), reusing its phase string.
+pub(crate) fn set_marker(m: &mut DriveMarker, f: &Frame) {
+    let header = std::mem::take(&mut m.header);
+    let mut phase = std::mem::take(&mut m.phase);
+    phase.clear();
+    *m = DriveMarker {
         header,
         stamp: f.stamp_s,
         ..Default::default()
@@ -72,7 +76,7 @@ pub(crate) fn marker_msg(header: Header, f: &Frame) -> DriveMarker {
             k,
             t_in_step_s,
         } => {
-            m.phase = "step".into();
+            phase.push_str("step");
             m.step = step;
             m.attempt = attempt;
             m.window = window;
@@ -80,12 +84,12 @@ pub(crate) fn marker_msg(header: Header, f: &Frame) -> DriveMarker {
             m.t_in_step = t_in_step_s;
         }
         Phase::Reorient { step } => {
-            m.phase = "reorient".into();
+            phase.push_str("reorient");
             m.step = step;
         }
-        Phase::Idle => m.phase = "idle".into(),
+        Phase::Idle => phase.push_str("idle"),
     }
-    m
+    m.phase = phase;
 }
 
 pub(crate) fn body_twist(v: BodyVelocity) -> Twist {
@@ -103,14 +107,10 @@ pub(crate) fn body_twist(v: BodyVelocity) -> Twist {
     }
 }
 
-pub(crate) fn wheels_msg(header: Header, w: WheelSpeeds) -> JointState {
-    JointState {
-        header,
-        name: vec![JOINT_LEFT.into(), JOINT_RIGHT.into()],
-        position: Vec::new(),
-        velocity: vec![w.left_rad_s, w.right_rad_s],
-        effort: Vec::new(),
-    }
+/// Sets the wheel speeds of a `JointState` built with the two wheel joints' names.
+pub(crate) fn set_wheels(m: &mut JointState, w: WheelSpeeds) {
+    m.velocity.clear();
+    m.velocity.extend([w.left_rad_s, w.right_rad_s]);
 }
 
 pub(crate) fn ros_pose(p: Pose) -> RosPose {

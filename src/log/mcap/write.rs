@@ -1,13 +1,14 @@
 //! Frames to a ROS 2 MCAP file.
 
 use super::container::{Container, ContainerWriter};
-use super::convert::{body_twist, check_frame, marker_msg, ros_pose, stamp_to_ns, wheels_msg};
+use super::convert::{body_twist, check_frame, ros_pose, set_marker, set_wheels, stamp_to_ns};
 use super::*;
 use crate::error::Result;
 use crate::kinematics::IdealDiffDrive;
 use crate::log::ros_msgs::{
-    DriveMarker, Header, Imu, JointState, Odometry, PoseWithCovariance, Quaternion, RosMessage, TfMessage,
-    Time, Transform, TransformStamped, Twist, TwistStamped, TwistWithCovariance, Vector3,
+    DriveMarker, Header, Imu, JointState, Odometry, Pose as RosPose, PoseWithCovariance, Quaternion,
+    RosMessage, TfMessage, Time, Transform, TransformStamped, Twist, TwistStamped, TwistWithCovariance,
+    Vector3,
 };
 use crate::log::{Frame, FrameSink, LogMeta, Pose};
 use crate::provenance::Provenance;
@@ -43,8 +44,137 @@ struct FrameEncoder<W: Write + Seek> {
     last_ns: Option<u64>,
     frames: u64,
     buf: Vec<u8>,
+    /// The messages of a frame, kept from one frame to the next (see [`FrameMessages`]).
+    msgs: Option<Box<FrameMessages>>,
     /// Names the log in errors.
     file: PathBuf,
+}
+
+/// The messages of one frame, built once and updated in place: a frame writes nine messages
+/// every 50 ms of simulated time, and building them anew (their frame ids, joint names and
+/// vectors, about twenty allocations) cost more than encoding them.
+struct FrameMessages {
+    marker: DriveMarker,
+    cmd_vel: TwistStamped,
+    wheel_cmd: JointState,
+    joint_states: JointState,
+    icp_odom: Odometry,
+    imu: Imu,
+    tf: TfMessage,
+    truth_odom: Odometry,
+    truth_joints: JointState,
+}
+
+impl Default for FrameMessages {
+    fn default() -> Self {
+        let header = |frame_id: &str| Header {
+            stamp: Time::default(),
+            frame_id: frame_id.to_string(),
+        };
+        let odometry = || Odometry {
+            header: header(FRAME_ODOM),
+            child_frame_id: FRAME_BASE.into(),
+            pose: PoseWithCovariance {
+                pose: ros_pose(Pose::default()),
+                covariance: [0.0; 36],
+            },
+            twist: TwistWithCovariance {
+                twist: Twist::default(),
+                covariance: [0.0; 36],
+            },
+        };
+        let wheels = || JointState {
+            header: header(""),
+            name: vec![JOINT_LEFT.into(), JOINT_RIGHT.into()],
+            position: Vec::new(),
+            velocity: vec![0.0; 2],
+            effort: Vec::new(),
+        };
+        let mut orientation_covariance = [0.0; 9];
+        orientation_covariance[0] = -1.0;
+        Self {
+            marker: DriveMarker {
+                header: header(""),
+                ..Default::default()
+            },
+            cmd_vel: TwistStamped {
+                header: header(FRAME_BASE),
+                twist: Twist::default(),
+            },
+            wheel_cmd: wheels(),
+            joint_states: wheels(),
+            icp_odom: odometry(),
+            imu: Imu {
+                header: header(FRAME_BASE),
+                orientation: Quaternion::default(),
+                orientation_covariance,
+                angular_velocity: Vector3::default(),
+                angular_velocity_covariance: [0.0; 9],
+                linear_acceleration: Vector3::default(),
+                linear_acceleration_covariance: [0.0; 9],
+            },
+            tf: TfMessage {
+                transforms: Vec::new(),
+            },
+            truth_odom: odometry(),
+            truth_joints: wheels(),
+        }
+    }
+}
+
+impl FrameMessages {
+    /// Stamps every header (the transforms' are stamped by [`Self::set_transforms`]).
+    fn set_stamp(&mut self, stamp: Time) {
+        for h in [
+            &mut self.marker.header,
+            &mut self.cmd_vel.header,
+            &mut self.wheel_cmd.header,
+            &mut self.joint_states.header,
+            &mut self.icp_odom.header,
+            &mut self.imu.header,
+            &mut self.truth_odom.header,
+            &mut self.truth_joints.header,
+        ] {
+            h.stamp = stamp;
+        }
+    }
+
+    /// The `/tf` message: odom → base_link at `pose`, and odom → the ground truth's frame at
+    /// `truth` when the frame has one.
+    fn set_transforms(&mut self, stamp: Time, pose: RosPose, truth: Option<RosPose>) {
+        let wanted = [Some((FRAME_BASE, pose)), truth.map(|p| (FRAME_BASE_TRUTH, p))];
+        let t = &mut self.tf.transforms;
+        let mut n = 0;
+        for (k, (child, p)) in wanted.into_iter().flatten().enumerate() {
+            n = k + 1;
+            let transform = Transform {
+                translation: Vector3 {
+                    x: p.position.x,
+                    y: p.position.y,
+                    z: p.position.z,
+                },
+                rotation: p.orientation,
+            };
+            match t.get_mut(k) {
+                Some(ts) if ts.child_frame_id == child => {
+                    ts.header.stamp = stamp;
+                    ts.transform = transform;
+                }
+                _ => {
+                    t.truncate(k);
+                    t.push(TransformStamped {
+                        header: Header {
+                            stamp,
+                            frame_id: FRAME_ODOM.to_string(),
+                        },
+                        child_frame_id: child.into(),
+                        transform,
+                    });
+                }
+            }
+        }
+        t.truncate(n);
+    }
 }
 
 impl<W: Write + Seek> FrameEncoder<W> {
@@ -99,6 +229,7 @@ impl<W: Write + Seek> FrameEncoder<W> {
             last_ns: None,
             frames: 0,
             buf: Vec::with_capacity(1024),
+            msgs: None,
             file: file.to_path_buf(),
         })
     }
@@ -145,25 +276,21 @@ impl<W: Write + Seek> FrameEncoder<W> {
             }
         }
         let stamp = Time::from_ns(ns).ok_or_else(|| Error::log(&self.file, loc(), "stamp beyond 2038"))?;
-        let header = |frame_id: &str| Header {
-            stamp,
-            frame_id: frame_id.to_string(),
-        };
         let m = &f.m;
+        // Taken out while its messages are written (`put` borrows the encoder); an error drops
+        // it and the next frame builds it again.
+        let mut msgs: Box<FrameMessages> = self.msgs.take().unwrap_or_default();
+        msgs.set_stamp(stamp);
 
         let ch = self.ch;
-        self.put(ch.marker, ns, &marker_msg(header(""), f))?;
-        let body = self.idd.body_from_wheels(m.cmd);
-        self.put(
-            ch.cmd_vel,
-            ns,
-            &TwistStamped {
-                header: header(FRAME_BASE),
-                twist: body_twist(body),
-            },
-        )?;
-        self.put(ch.wheel_cmd, ns, &wheels_msg(header(""), m.cmd))?;
-        self.put(ch.joint_states, ns, &wheels_msg(header(""), m.enc))?;
+        set_marker(&mut msgs.marker, f);
+        self.put(ch.marker, ns, &msgs.marker)?;
+        msgs.cmd_vel.twist = body_twist(self.idd.body_from_wheels(m.cmd));
+        self.put(ch.cmd_vel, ns, &msgs.cmd_vel)?;
+        set_wheels(&mut msgs.wheel_cmd, m.cmd);
+        self.put(ch.wheel_cmd, ns, &msgs.wheel_cmd)?;
+        set_wheels(&mut msgs.joint_states, m.enc);
+        self.put(ch.joint_states, ns, &msgs.joint_states)?;
         let (twist, twist_covariance) = match m.reference {
             Some(v) => (body_twist(v), [0.0; 36]),
             None => {
@@ -187,66 +314,24 @@ impl<W: Write + Seek> FrameEncoder<W> {
                 )
             }
         };
-        self.put(
-            ch.icp_odom,
-            ns,
-            &Odometry {
-                header: header(FRAME_ODOM),
-                child_frame_id: FRAME_BASE.into(),
-                pose: PoseWithCovariance {
-                    pose: ros_pose(m.pose),
-                    covariance: [0.0; 36],
-                },
-                twist: TwistWithCovariance {
-                    twist,
-                    covariance: twist_covariance,
-                },
-            },
-        )?;
-        let mut orientation_covariance = [0.0; 9];
-        orientation_covariance[0] = -1.0;
-        self.put(
-            ch.imu,
-            ns,
-            &Imu {
-                header: header(FRAME_BASE),
-                orientation: Quaternion::default(),
-                orientation_covariance,
-                angular_velocity: Vector3 {
-                    x: 0.0,
-                    y: 0.0,
-                    z: m.imu.wz_rad_s,
-                },
-                angular_velocity_covariance: [0.0; 9],
-                linear_acceleration: Vector3 {
-                    x: m.imu.ax_m_s2,
-                    y: m.imu.ay_m_s2,
-                    z: m.imu.az_m_s2,
-                },
-                linear_acceleration_covariance: [0.0; 9],
-            },
-        )?;
-        let transform = |child: &str, p: Pose| {
-            let rp = ros_pose(p);
-            TransformStamped {
-                header: header(FRAME_ODOM),
-                child_frame_id: child.into(),
-                transform: Transform {
-                    translation: Vector3 {
-                        x: rp.position.x,
-                        y: rp.position.y,
-                        z: rp.position.z,
-                    },
-                    rotation: rp.orientation,
-                },
-            }
+        let pose = ros_pose(m.pose);
+        msgs.icp_odom.pose.pose = pose;
+        msgs.icp_odom.twist = TwistWithCovariance {
+            twist,
+            covariance: twist_covariance,
         };
-        let mut transforms = vec![transform(FRAME_BASE, m.pose)];
-        if let Some(t) = m.truth {
-            transforms.push(transform(FRAME_BASE_TRUTH, t.pose));
-        }
-        self.put(ch.tf, ns, &TfMessage { transforms })?;
-        if let Some(t) = m.truth {
+        self.put(ch.icp_odom, ns, &msgs.icp_odom)?;
+        msgs.imu.angular_velocity.z = m.imu.wz_rad_s;
+        msgs.imu.linear_acceleration = Vector3 {
+            x: m.imu.ax_m_s2,
+            y: m.imu.ay_m_s2,
+            z: m.imu.az_m_s2,
+        };
+        self.put(ch.imu, ns, &msgs.imu)?;
+        let truth_pose = m.truth.map(|t| ros_pose(t.pose));
+        msgs.set_transforms(stamp, pose, truth_pose);
+        self.put(ch.tf, ns, &msgs.tf)?;
+        if let (Some(t), Some(truth_pose)) = (m.truth, truth_pose) {
             let (odom, joints) = match self.truth_ch {
                 Some(c) => c,
                 None => {
@@ -259,24 +344,13 @@ impl<W: Write + Seek> FrameEncoder<W> {
                     (o, j)
                 }
             };
-            self.put(
-                odom,
-                ns,
-                &Odometry {
-                    header: header(FRAME_ODOM),
-                    child_frame_id: FRAME_BASE.into(),
-                    pose: PoseWithCovariance {
-                        pose: ros_pose(t.pose),
-                        covariance: [0.0; 36],
-                    },
-                    twist: TwistWithCovariance {
-                        twist: body_twist(t.velocity),
-                        covariance: [0.0; 36],
-                    },
-                },
-            )?;
-            self.put(joints, ns, &wheels_msg(header(""), t.wheels))?;
+            msgs.truth_odom.pose.pose = truth_pose;
+            msgs.truth_odom.twist.twist = body_twist(t.velocity);
+            self.put(odom, ns, &msgs.truth_odom)?;
+            set_wheels(&mut msgs.truth_joints, t.wheels);
+            self.put(joints, ns, &msgs.truth_joints)?;
         }
+        self.msgs = Some(msgs);
         self.last_ns = Some(ns);
         self.frames += 1;
         Ok(())
