@@ -292,7 +292,11 @@ fn bad_files_and_settings_name_the_field() {
             })
             .collect();
         let out = out.join("\n");
-        assert_ne!(out.trim_end(), file.trim_end(), "no `{key}` line in the built-in terrain");
+        assert_ne!(
+            out.trim_end(),
+            file.trim_end(),
+            "no `{key}` line in the built-in terrain"
+        );
         out
     };
     let bad_terrain = with_value("peak_longitudinal", "-0.85");

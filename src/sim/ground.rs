@@ -260,8 +260,8 @@ fn height_grid(std_m: f64, corr_m: f64, extent_m: f64, seed: u64) -> (Array2<f32
         for i in 0..n {
             // Row i is at local z = coord[i], i.e. world y = -coord[i].
             let (c_y, s_y) = (cy[i], -sy[i]);
-            // Zipped slices, not indices: no bounds checks, so the loop vectorises (the grid
-            // of a 100 m field is 160 000 nodes x 48 modes).
+            // Zipped slices, not indices: no bounds checks in the loop that runs once per node
+            // and mode (a 110 m field at 0.25 m is 194 000 nodes x 48 modes).
             let row = &mut h[i * n..(i + 1) * n];
             for ((r, c), s) in row.iter_mut().zip(&cx).zip(&sx) {
                 *r += amp * (c * c_y - s * s_y);

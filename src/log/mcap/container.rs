@@ -18,8 +18,8 @@ use std::collections::BTreeMap;
 use std::io::{Seek, Write};
 
 /// The zstd level of drive-sim's chunks. Level -1 (zstd's first "fast" level) compresses the
-/// chunks of a 300-step Warthog DRIVE log 1.41x faster than level 1 for a file 2 % larger
-/// (10.0x instead of 10.2x; README, "Speed"); compression was 17 % of such a run's
+/// chunks of a 300-step Warthog DRIVE log 1.37x faster than level 1 for a file 2 % larger
+/// (`scripts/chunk_compression.py`; README, "Speed"); compression was 17 % of such a run's
 /// instructions at level 1. Readers need nothing new: the level is not in the format.
 pub const ZSTD_LEVEL: i32 = -1;
 
