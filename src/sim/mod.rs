@@ -3,10 +3,11 @@
 //!
 //! Design (see also the report in the repository's history):
 //! - The chassis is one rapier rigid body (6 DoF, box inertia, gravity), integrated with
-//!   rapier's free-body scheme ([`Stepping::Fast`], `body.rs`; `PhysicsPipeline::step` with
-//!   [`Stepping::Reference`]).
+//!   rapier's free-body scheme ([`Stepping::Fast`] and [`Stepping::Newton`], `body.rs`;
+//!   `PhysicsPipeline::step` with [`Stepping::Reference`]).
 //!   Wheels are not rigid bodies: each wheel is a ray cast from its suspension hard point to
-//!   the ground collider (flat half-space or seeded height field), which gives the spring-damper
+//!   the ground (flat half-space or seeded height field; read directly on parry's triangles by
+//!   the fast step, cast by parry by the others, `ground.rs`), which gives the spring-damper
 //!   normal load, as in rapier's ray-cast vehicle controller. This avoids the twitching and
 //!   creeping of jointed wheels on rigid contacts (dimforge/rapier#432).
 //! - The wheel-terrain forces come from an explicit model ([`tyre`]): combined-slip friction,
@@ -18,8 +19,8 @@
 //! - Friction is stiff at low slip speed (a wheel of 1.2 kg m² against 1000 N of grip relaxes
 //!   in 0.1 ms). Instead of sub-stepping, each physics step solves the planar chassis velocity
 //!   (vx, vy, wz) and the wheel spins of saturated sides by backward Euler (Newton on a 5x5
-//!   system with the tyre model's exact Jacobian, `solve.rs`); the resulting forces drive the
-//!   chassis for the step. Backward Euler is
+//!   system with the tyre model's exact Jacobian, started at a prediction and kept while it
+//!   contracts, `solve.rs`); the resulting forces drive the chassis for the step. Backward Euler is
 //!   L-stable, so rest is exactly rest (zero command gives zero force) and nothing chatters.
 //! - Physics rate: 100 Hz by default. The implicit solve removes the friction stiffness, so
 //!   the rate is bounded by the explicit suspension (Husky roll mode ~36 rad/s: ω·dt = 0.36)
@@ -226,6 +227,10 @@ impl Simulator {
         self.applied = wheels;
         self.ramp = [wheels.left_rad_s, wheels.right_rad_s];
         self.omega = self.ramp;
+        // The solve's predictor is the last physics step's change: a reset world has none, so
+        // that a replay does not depend on which step the world ran before (calibration reuses
+        // worlds across steps and threads).
+        self.last_change = [0.0; 5];
         self.deflection.iter_mut().for_each(|d| *d = 0.0);
         self.contacts.iter_mut().for_each(|c| *c = Contact::default());
         self.forces.iter_mut().for_each(|f| *f = ContactForce::default());
