@@ -35,6 +35,39 @@ pub(super) struct SolveCtx {
 
 type V5 = SVector<f64, 5>;
 
+/// Every solve stops when the residual, each row over its inertia (a velocity), is below this.
+const TOLERANCE: f64 = 1e-10;
+/// Newton iterations at most.
+const MAX_ITERATIONS: usize = 12;
+/// Halvings of a Newton step in the line search at most.
+const MAX_HALVINGS: usize = 6;
+
+impl SolveCtx {
+    /// The first iterate: `from`, with an unsaturated side's wheel spin at the controller's
+    /// target (its residual row is linear in it and zero there).
+    fn start(&self, from: &[f64; 5], saturated: [f64; 2]) -> V5 {
+        let mut u = V5::from_row_slice(from);
+        for s in 0..2 {
+            if saturated[s] == 0.0 {
+                u[3 + s] = self.target[s];
+            }
+        }
+        u
+    }
+
+    /// The size of a residual: each row over its inertia (a velocity change), largest.
+    fn residual_norm(&self, r: &V5) -> f64 {
+        let scale = V5::new(
+            self.mass,
+            self.mass,
+            self.izz,
+            self.side_inertia,
+            self.side_inertia,
+        );
+        r.component_div(&scale).amax()
+    }
+}
+
 /// Backward-Euler residual of the planar chassis and the wheel spins; writes contact forces.
 #[allow(clippy::too_many_arguments)]
 fn residual(
@@ -98,19 +131,13 @@ pub(super) fn solve_reference(
     let f = |u: &V5, forces: &mut [ContactForce]| {
         residual(ctx, tyre, wheels, contacts, deflection, saturated, u, forces)
     };
-    let mut u = V5::from_row_slice(&ctx.u0);
-    for s in 0..2 {
-        if saturated[s] == 0.0 {
-            u[3 + s] = ctx.target[s];
-        }
-    }
+    let mut u = ctx.start(&ctx.u0, saturated);
     let mut r = f(&u, forces);
-    let scale = V5::new(ctx.mass, ctx.mass, ctx.izz, ctx.side_inertia, ctx.side_inertia);
-    let norm = |r: &V5| r.component_div(&scale).amax();
+    let norm = |r: &V5| ctx.residual_norm(r);
     let mut scratch_buf = [ContactForce::default(); MAX_WHEELS];
     let scratch = &mut scratch_buf[..forces.len()];
-    for _ in 0..12 {
-        if norm(&r) < 1e-10 {
+    for _ in 0..MAX_ITERATIONS {
+        if norm(&r) < TOLERANCE {
             break;
         }
         let mut jac = SMatrix::<f64, 5, 5>::zeros();
@@ -132,7 +159,7 @@ pub(super) fn solve_reference(
         let mut step = 1.0;
         let n0 = norm(&r);
         let mut accepted = false;
-        for _ in 0..6 {
+        for _ in 0..MAX_HALVINGS {
             let trial = u + delta * step;
             let rt = f(&trial, scratch);
             if norm(&rt) < n0 || step < 0.05 {
@@ -260,22 +287,16 @@ pub(super) fn solve(
     let with_jacobian = |u: &V5, forces: &mut [ContactForce]| {
         residual_and_jacobian(ctx, tyre, wheels, contacts, deflection, saturated, u, forces)
     };
-    let mut u = V5::from_row_slice(&ctx.guess);
-    for s in 0..2 {
-        if saturated[s] == 0.0 {
-            u[3 + s] = ctx.target[s];
-        }
-    }
+    let mut u = ctx.start(&ctx.guess, saturated);
     let (mut r, jac) = with_jacobian(&u, forces);
     let mut lu = jac.lu();
     let mut fresh = true;
-    let scale = V5::new(ctx.mass, ctx.mass, ctx.izz, ctx.side_inertia, ctx.side_inertia);
-    let norm = |r: &V5| r.component_div(&scale).amax();
+    let norm = |r: &V5| ctx.residual_norm(r);
     let mut scratch_buf = [ContactForce::default(); MAX_WHEELS];
     let scratch = &mut scratch_buf[..forces.len()];
-    for _ in 0..12 {
+    for _ in 0..MAX_ITERATIONS {
         let n0 = norm(&r);
-        if n0 < 1e-10 {
+        if n0 < TOLERANCE {
             break;
         }
         let Some(delta) = lu.solve(&(-r)) else {
@@ -283,7 +304,7 @@ pub(super) fn solve(
         };
         let mut step = 1.0;
         let mut accepted = false;
-        for _ in 0..6 {
+        for _ in 0..MAX_HALVINGS {
             let trial = u + delta * step;
             let rt = residual_only(&trial, scratch);
             if norm(&rt) < n0 || step < 0.05 {
@@ -337,20 +358,14 @@ pub(super) fn solve_newton(
     let f = |u: &V5, forces: &mut [ContactForce]| {
         residual_and_jacobian(ctx, tyre, wheels, contacts, deflection, saturated, u, forces)
     };
-    let mut u = V5::from_row_slice(&ctx.u0);
-    for s in 0..2 {
-        if saturated[s] == 0.0 {
-            u[3 + s] = ctx.target[s];
-        }
-    }
+    let mut u = ctx.start(&ctx.u0, saturated);
     let (mut r, mut jac) = f(&u, forces);
-    let scale = V5::new(ctx.mass, ctx.mass, ctx.izz, ctx.side_inertia, ctx.side_inertia);
-    let norm = |r: &V5| r.component_div(&scale).amax();
+    let norm = |r: &V5| ctx.residual_norm(r);
     let mut scratch_buf = [ContactForce::default(); MAX_WHEELS];
     let scratch = &mut scratch_buf[..forces.len()];
-    for _ in 0..12 {
+    for _ in 0..MAX_ITERATIONS {
         let n0 = norm(&r);
-        if n0 < 1e-10 {
+        if n0 < TOLERANCE {
             break;
         }
         let Some(delta) = jac.lu().solve(&(-r)) else {
@@ -358,7 +373,7 @@ pub(super) fn solve_newton(
         };
         let mut step = 1.0;
         let mut accepted = false;
-        for _ in 0..6 {
+        for _ in 0..MAX_HALVINGS {
             let trial = u + delta * step;
             let (rt, jt) = f(&trial, scratch);
             if norm(&rt) < n0 || step < 0.05 {

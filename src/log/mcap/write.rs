@@ -142,12 +142,25 @@ impl FrameMessages {
     /// The `/tf` message: odom → base_link at `pose`, and odom → the ground truth's frame at
     /// `truth` when the frame has one.
     fn set_transforms(&mut self, stamp: Time, pose: RosPose, truth: Option<RosPose>) {
-        let wanted = [Some((FRAME_BASE, pose)), truth.map(|p| (FRAME_BASE_TRUTH, p))];
         let t = &mut self.tf.transforms;
-        let mut n = 0;
-        for (k, (child, p)) in wanted.into_iter().flatten().enumerate() {
-            n = k + 1;
-            let transform = Transform {
+        // Built once per run (or when a frame gains or loses its ground truth).
+        if t.len() != 1 + usize::from(truth.is_some()) {
+            *t = [Some(FRAME_BASE), truth.map(|_| FRAME_BASE_TRUTH)]
+                .into_iter()
+                .flatten()
+                .map(|child| TransformStamped {
+                    header: Header {
+                        stamp,
+                        frame_id: FRAME_ODOM.to_string(),
+                    },
+                    child_frame_id: child.into(),
+                    transform: Transform::default(),
+                })
+                .collect();
+        }
+        for (ts, p) in t.iter_mut().zip([Some(pose), truth].into_iter().flatten()) {
+            ts.header.stamp = stamp;
+            ts.transform = Transform {
                 translation: Vector3 {
                     x: p.position.x,
                     y: p.position.y,
@@ -155,25 +168,7 @@ impl FrameMessages {
                 },
                 rotation: p.orientation,
             };
-            match t.get_mut(k) {
-                Some(ts) if ts.child_frame_id == child => {
-                    ts.header.stamp = stamp;
-                    ts.transform = transform;
-                }
-                _ => {
-                    t.truncate(k);
-                    t.push(TransformStamped {
-                        header: Header {
-                            stamp,
-                            frame_id: FRAME_ODOM.to_string(),
-                        },
-                        child_frame_id: child.into(),
-                        transform,
-                    });
-                }
-            }
         }
-        t.truncate(n);
     }
 }
 
