@@ -32,6 +32,16 @@ fn a_log_against_itself_and_its_halves_shows_no_difference() {
         .all(|m| m.difference == 0.0 && m.difference_ci95.unwrap().contains(0.0)));
     assert!(c.transfer.iter().all(|t| t.rms == 0.0 && t.points > 0));
     assert!(r.warnings.iter().any(|w| w.name == "time_not_recorded"));
+    // The breakdown by curvature: every class of the run, no difference in any statistic.
+    let classes = &c.curvature.classes;
+    assert!(classes.len() >= 4, "{classes:#?}");
+    assert_eq!(classes.iter().map(|k| k.steps.0).sum::<usize>(), c.steps_used.0);
+    for k in classes {
+        assert_eq!(k.steps.0, k.steps.1);
+        for s in [&k.forward_ratio, &k.yaw_ratio, &k.rho] {
+            assert!(s.difference == 0.0 || s.real.is_nan(), "{}: {s:?}", k.class);
+        }
+    }
 
     // The run against its own halves (alternate steps): each half is a sample of the same
     // robot on the same ground. Medians and transfer functions agree. (The area of T does
@@ -81,6 +91,34 @@ fn another_terrain_differs() {
         c.verdict
     );
     assert!(!c.verdict.tf_beyond_yardstick.is_empty(), "{:#?}", c.transfer);
+    // On ice the body falls behind its wheels even driving straight (0.89 of their speed
+    // against 0.98 on asphalt): the breakdown says so where the maps only say "differs".
+    let straight = c
+        .curvature
+        .classes
+        .iter()
+        .find(|k| k.class == "straight")
+        .unwrap();
+    let f = &straight.forward_ratio;
+    assert!(
+        f.difference < -0.05 && f.difference_ci95.unwrap().upper < 0.0,
+        "{f:?}"
+    );
+}
+
+#[test]
+fn the_report_draws_the_body_and_the_wheel_maps() {
+    let asphalt = log("warthog_asphalt");
+    let gravel = log("warthog_gravel");
+    let r = compare(input(&asphalt), &[input(&gravel)], &CompareOptions::default()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let u = asphalt.meta.nominal.command_space().polygon_body();
+    let paths = drive_sim::compare::write::write_comparison(&r, &u, dir.path()).unwrap();
+    for f in ["tf_difference_0.png", "tf_difference_wheels_0.png", "report.html"] {
+        assert!(paths.iter().any(|p| p.ends_with(f)), "{f} not in {paths:?}");
+    }
+    let html = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
+    assert!(html.contains("by commanded curvature"), "no curvature table");
 }
 
 #[test]

@@ -20,6 +20,7 @@
 //! The library computes ([`compare`] → [`ComparisonReport`]); [`mod@write`] writes
 //! `comparison.json`, the figures and the report.
 
+pub mod curvature;
 pub mod tf;
 pub mod write;
 
@@ -192,6 +193,9 @@ pub struct SimComparison {
     pub maps: tf::DiffMaps,
     /// Interruptions and time efficiency, when both logs record them.
     pub time: Option<TimeDiff>,
+    /// Body against wheels by commanded curvature (a diagnostic, not in the verdict).
+    #[serde(default)]
+    pub curvature: curvature::CurvatureBreakdown,
     /// Verdict.
     pub verdict: Verdict,
 }
@@ -437,13 +441,24 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
         let paired = matches!(&s.log.meta.origin, Origin::Replayed { of, .. } if *of == real.log.meta.name);
         let all_real: Vec<&StepRow> = real_rows.iter().collect();
         let all_sim: Vec<&StepRow> = sim_rows.iter().collect();
-        let (pairing, steps_used, per_metric) = if paired {
+        let geometry = curvature::WheelGeometry {
+            radius_m: real.log.meta.nominal.wheel_radius_m,
+            baseline_m: real.log.meta.nominal.baseline_m,
+        };
+        let (pairing, steps_used, per_metric, curvature) = if paired {
             // The steps both logs analysed, in the real log's order.
             let common: Vec<(StepRow, StepRow)> = real_rows
                 .iter()
                 .filter_map(|r| sim_rows.iter().find(|q| q.step == r.step).map(|q| (*r, *q)))
                 .collect();
             let (rr, ss): (Vec<StepRow>, Vec<StepRow>) = common.into_iter().unzip();
+            let curvature = curvature::breakdown(
+                &rr.iter().collect::<Vec<_>>(),
+                &ss.iter().collect::<Vec<_>>(),
+                Pairing::Paired,
+                geometry,
+                b,
+            );
             let draws = b.draws(rr.len(), 3);
             let rs = resampled(&rr, &draws, &space);
             let sm = resampled(&ss, &draws, &space);
@@ -455,7 +470,7 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
                     (r, q, d)
                 })
                 .collect();
-            (Pairing::Paired, (rr.len(), ss.len()), per)
+            (Pairing::Paired, (rr.len(), ss.len()), per, curvature)
         } else {
             let draws = b.draws(sim_rows.len(), 2);
             let sm = resampled(&sim_rows, &draws, &space);
@@ -467,7 +482,13 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
                     (r.clone(), q, d)
                 })
                 .collect();
-            (Pairing::TwoSample, (real_rows.len(), sim_rows.len()), per)
+            let curvature = curvature::breakdown(&all_real, &all_sim, Pairing::TwoSample, geometry, b);
+            (
+                Pairing::TwoSample,
+                (real_rows.len(), sim_rows.len()),
+                per,
+                curvature,
+            )
         };
         let mut metrics: Vec<MetricDiff> = METRICS
             .iter()
@@ -561,6 +582,7 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
             transfer,
             maps,
             time,
+            curvature,
             verdict,
         });
     }

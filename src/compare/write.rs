@@ -103,6 +103,57 @@ pub fn verdict_text(r: &ComparisonReport) -> String {
     s
 }
 
+fn curvature_table(r: &ComparisonReport, c: &SimComparison) -> Comparison {
+    let k = &c.curvature.classes;
+    let stat_rows =
+        |label: &str, f: fn(&super::curvature::CurvatureClass) -> &super::curvature::ClassStatistic| {
+            [
+                (
+                    format!("{label}, real"),
+                    "-".to_string(),
+                    k.iter()
+                        .map(|x| format!("{:.3} {}", f(x).real, ci(&f(x).real_ci95)))
+                        .collect::<Vec<_>>(),
+                ),
+                (
+                    format!("{label}, sim"),
+                    "-".to_string(),
+                    k.iter()
+                        .map(|x| format!("{:.3} {}", f(x).sim, ci(&f(x).sim_ci95)))
+                        .collect(),
+                ),
+                (
+                    format!("{label}, sim − real"),
+                    "-".to_string(),
+                    k.iter()
+                        .map(|x| format!("{:+.3} {}", f(x).difference, ci(&f(x).difference_ci95)))
+                        .collect(),
+                ),
+            ]
+        };
+    let mut rows = vec![(
+        "steps (real / sim)".to_string(),
+        "-".to_string(),
+        k.iter()
+            .map(|x| format!("{} / {}", x.steps.0, x.steps.1))
+            .collect(),
+    )];
+    rows.extend(stat_rows("body / wheel forward speed", |x| &x.forward_ratio));
+    rows.extend(stat_rows("body / wheel yaw rate", |x| &x.yaw_ratio));
+    rows.extend(stat_rows("median ρ", |x| &x.rho));
+    Comparison {
+        caption: format!("{} against {}, by commanded curvature", c.sim.name, r.real.name),
+        columns: k
+            .iter()
+            .map(|x| match x.d_max {
+                Some(hi) => format!("{} ({} ≤ d < {})", x.class, x.d_min, hi),
+                None => format!("{} (d ≥ {})", x.class, x.d_min),
+            })
+            .collect(),
+        rows,
+    }
+}
+
 fn verdict_table(r: &ComparisonReport, c: &SimComparison) -> Comparison {
     Comparison {
         caption: format!(
@@ -163,19 +214,36 @@ fn verdict_table(r: &ComparisonReport, c: &SimComparison) -> Comparison {
     }
 }
 
+/// The body channels of the maps (vx, vy, wz) and the wheel channels (left, right), drawn as
+/// two figures: the body frame in m/s and rad/s, the wheels in rad/s.
+const MAP_FIGURES: &[(&str, std::ops::Range<usize>, &str)] = &[
+    ("tf_difference", 0..3, "body frame"),
+    ("tf_difference_wheels", 3..5, "wheels"),
+];
+
+/// Whether the channels `range` of a comparison's maps hold a compared point.
+fn has_points(c: &SimComparison, range: &std::ops::Range<usize>) -> bool {
+    c.maps
+        .values
+        .get(range.clone())
+        .is_some_and(|v| v.iter().any(|m| m.iter().any(|x| x.is_finite())))
+}
+
 fn map_figure(
     dir: &Path,
     idx: usize,
     r: &ComparisonReport,
     c: &SimComparison,
     real_u: &[(f64, f64)],
+    (stem, range, frame): &(&str, std::ops::Range<usize>, &str),
 ) -> Result<FigureFiles> {
     let panels: Vec<HeatPanel> = c
         .maps
         .channels
         .iter()
         .zip(&c.maps.values)
-        .take(3)
+        .skip(range.start)
+        .take(range.len())
         .map(|(name, v)| HeatPanel {
             title: name.clone(),
             grid: Grid2 {
@@ -188,8 +256,11 @@ fn map_figure(
         .collect();
     heat_maps(
         dir,
-        &format!("tf_difference_{idx}"),
-        &format!("Transfer-function difference, {} − {}", c.sim.name, r.real.name),
+        &format!("{stem}_{idx}"),
+        &format!(
+            "Transfer-function difference ({frame}), {} − {}",
+            c.sim.name, r.real.name
+        ),
         &panels,
         &ColourScale {
             value: AxisLabel::new("slip difference (sim − real)", "m/s, rad/s"),
@@ -218,19 +289,16 @@ pub fn write_comparison(r: &ComparisonReport, real_u: &[(f64, f64)], dir: &Path)
     }
     let mut figures = Vec::new();
     for (i, c) in r.sims.iter().enumerate() {
-        // A map with no compared point has nothing to draw.
-        if c.maps
-            .values
-            .iter()
-            .take(3)
-            .all(|v| v.iter().all(|x| !x.is_finite()))
-        {
-            continue;
+        for spec in MAP_FIGURES {
+            // A map with no compared point has nothing to draw.
+            if !has_points(c, &spec.1) {
+                continue;
+            }
+            let f = map_figure(dir, i, r, c, real_u, spec)?;
+            paths.push(f.svg.clone());
+            paths.push(f.png.clone());
+            figures.push((format!("{}, {}", c.sim.name, spec.2), f));
         }
-        let f = map_figure(dir, i, r, c, real_u)?;
-        paths.push(f.svg.clone());
-        paths.push(f.png.clone());
-        figures.push((c.sim.name.clone(), f));
     }
     html.section("How to read this").paragraph(format!(
         "Each difference is sim − real with a {:.0} % bootstrap-by-step interval ({} resamples; paired by step when the simulated log replays the real commands, two-sample otherwise). p-values are Holm-adjusted over each simulated log's metrics; a metric differs when its adjusted p is below {}. T/U areas must also agree within {} percentage points. A transfer function's RMS difference is judged against the real run's split-half RMS scaled to full size (at most {}×).",
@@ -248,6 +316,13 @@ pub fn write_comparison(r: &ComparisonReport, real_u: &[(f64, f64)], dir: &Path)
                 f,
             )?;
         }
+    }
+    html.section("Body against wheels, by commanded curvature");
+    html.paragraph(
+        "Where the transfer-function maps say where the runs differ, this says what: per class of commanded wheel differential d = |ω_R − ω_L| / |ω_R + ω_L| (0 straight, 1 one side stopped, above 1 the sides counter-rotate), the body's forward speed and yaw rate over the ones its measured wheel speeds imply, and ρ; medians of the steady-state windows with 95 % bootstrap-by-step intervals. A diagnostic: not part of the verdict above.",
+    );
+    for c in &r.sims {
+        html.comparison(curvature_table(r, c));
     }
     html.section("Runs").paragraph(format!(
         "real: {} ({} on {}, {} steps{}).",
