@@ -107,6 +107,39 @@ fn dead_time_and_time_constant_delay_the_wheels() {
 }
 
 #[test]
+fn the_motor_torque_speed_line_lowers_the_ceiling_and_the_wheels_under_load() {
+    // Straight on asphalt the load is the rolling resistance, a few N·m per side: the wheels
+    // run up to just below the no-load speed (the command asks for 16 rad/s).
+    let line = [
+        ("motor_stall_torque_nm", 1000.0),
+        ("motor_no_load_speed_rad_s", 11.0),
+    ];
+    let (_, mut s) = setup("warthog", "asphalt", &line);
+    let run = hold(&mut s, WheelSpeeds::new(16.0, 16.0), 6.0);
+    let enc = mean_tail(&run, 20, |x| x.0.enc.left_rad_s);
+    assert!(enc < 11.0 && enc > 10.5, "{enc}");
+    // Turning in place the sliding skid needs ~370 N·m per side: with 600 N·m at stall and
+    // 14 rad/s free-running (343 N·m left at 6 rad/s) the motors cannot hold 6 rad/s, which
+    // they do without the line.
+    let turn = |effects: &[(&str, f64)]| {
+        let (_, mut s) = setup("warthog", "asphalt", effects);
+        let run = hold(&mut s, WheelSpeeds::new(-6.0, 6.0), 5.0);
+        (
+            mean_tail(&run, 40, |x| x.0.enc.right_rad_s),
+            mean_tail(&run, 40, |x| x.1.wz_rad_s),
+        )
+    };
+    let (free, free_wz) = turn(&[]);
+    let (loaded, loaded_wz) = turn(&[
+        ("motor_stall_torque_nm", 600.0),
+        ("motor_no_load_speed_rad_s", 14.0),
+    ]);
+    assert!((free - 6.0).abs() < 0.05, "{free}");
+    assert!(loaded < 5.8 && loaded > 3.0, "{loaded}");
+    assert!(loaded_wz < free_wz, "{loaded_wz} vs {free_wz}");
+}
+
+#[test]
 fn more_turning_resistance_turns_slower() {
     let wz = |effects: &[(&str, f64)]| {
         let (_, mut s) = setup("husky", "asphalt", effects);

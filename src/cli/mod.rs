@@ -151,6 +151,15 @@ fn list_effects() -> anyhow::Result<()> {
     let mut out = std::io::stdout().lock();
     for e in REGISTRY.iter() {
         writeln!(out, "{} ({}): {}", e.name(), e.stage().as_str(), e.doc())?;
+        if !e.kinematic() {
+            writeln!(out, "    needs the simulator (the kinematic model cannot run it)")?;
+        }
+        if !e.generic() && !e.default_candidate() {
+            writeln!(
+                out,
+                "    calibration tries it only when `--candidates` names it (not yet in the default catalogue)"
+            )?;
+        }
         if e.generic() {
             // One coefficient per library feature: listed by pattern, not one by one.
             let first = e.params().first().map_or("", |p| p.key);

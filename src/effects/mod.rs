@@ -27,6 +27,7 @@ mod imu_yaw_rate_sign_flip;
 mod lateral_drift;
 mod motor_gain;
 mod motor_gain_drift;
+pub mod motor_torque_speed;
 mod pose_latency;
 mod reverse_baseline_scale;
 mod suspension_torsion;
@@ -232,6 +233,10 @@ pub struct PlantModifiers {
     pub pose_latency_s: f64,
     /// Time constant of the body velocity behind the wheels', s (0: none).
     pub body_time_constant_s: f64,
+    /// Stall torque of each side's motor at full voltage, N·m at the wheels (infinite: none).
+    pub motor_stall_torque_nm: f64,
+    /// Speed at which that motor's torque falls to zero, rad/s (infinite: none).
+    pub motor_no_load_speed_rad_s: f64,
 }
 
 impl Default for PlantModifiers {
@@ -244,6 +249,8 @@ impl Default for PlantModifiers {
             relaxation_length_m: 0.0,
             pose_latency_s: 0.0,
             body_time_constant_s: 0.0,
+            motor_stall_torque_nm: f64::INFINITY,
+            motor_no_load_speed_rad_s: f64::INFINITY,
         }
     }
 }
@@ -275,6 +282,12 @@ pub trait Effect: Send + Sync {
     /// tries it only where equation discovery proposes it.
     fn generic(&self) -> bool {
         false
+    }
+    /// Calibration tries it without being asked (`--candidates` names the others). An effect
+    /// enters the default catalogue once its effect on every measured calibration has been
+    /// measured: adding a candidate can re-select every calibration.
+    fn default_candidate(&self) -> bool {
+        true
     }
     /// Transforms the command in the nominal body space, before the controller's kinematics
     /// (clamps of a velocity controller). Only called when [`Effect::uses_body_space`].
@@ -351,6 +364,7 @@ pub static REGISTRY: LazyLock<Vec<&'static dyn Effect>> = LazyLock::new(|| {
         &motor_gain::MotorGain,
         &motor_gain_drift::MotorGainDrift,
         &wheel_speed_saturation::WheelSpeedSaturation,
+        &motor_torque_speed::MotorTorqueSpeed,
         &time_constant_scale::TimeConstantScale,
     ];
     // Discovered wheel terms act on the targets the motors receive, after the catalogue's

@@ -2,6 +2,7 @@
 //! tyre solve, the chassis integration, the body-stage effects, and the divergence checks.
 
 use super::*;
+use crate::effects::motor_torque_speed::available_torque_nm;
 
 impl Simulator {
     fn controller_target(&mut self, dt: f64) {
@@ -263,8 +264,20 @@ impl Simulator {
         let mut any_sat = false;
         for side in 0..2 {
             let need = self.side_inertia_kg_m2 * (u[3 + side] - u0[3 + side]) / dt + react[side];
-            if need.abs() > self.torque_limit_nm {
-                saturated[side] = self.torque_limit_nm * need.signum();
+            // The torque-speed line (an effect) is read at the step's start spin: explicit,
+            // like the rest of the controller.
+            let limit = available_torque_nm(
+                self.torque_limit_nm,
+                self.mods.motor_stall_torque_nm,
+                self.mods.motor_no_load_speed_rad_s,
+                u0[3 + side],
+                need,
+            )
+            // A saturated side is marked by its non-zero torque: beyond the no-load speed
+            // the motor gives (almost) none, not none at all.
+            .max(1e-6);
+            if need.abs() > limit {
+                saturated[side] = limit * need.signum();
                 any_sat = true;
             }
         }

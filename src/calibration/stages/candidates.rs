@@ -160,8 +160,10 @@ pub fn candidates_for(
             unsupported.push(e.name().to_string());
             continue;
         }
-        if only.is_some_and(|o| !o.iter().any(|n| n == e.name())) {
-            continue;
+        match only {
+            Some(o) if !o.iter().any(|n| n == e.name()) => continue,
+            None if !e.default_candidate() => continue,
+            _ => {}
         }
         out.push(Candidate::of_effect(i, reach));
     }
@@ -485,9 +487,20 @@ mod tests {
         };
         let (k, left_out) = candidates_for(&KinematicFactory, &reach, None);
         assert_eq!(k.len(), 19);
-        assert_eq!(left_out, ["turning_resistance_scale", "suspension_torsion_m"]);
+        assert_eq!(
+            left_out,
+            [
+                "motor_torque_speed",
+                "turning_resistance_scale",
+                "suspension_torsion_m"
+            ]
+        );
+        // The torque-speed line is not in the default catalogue: tried only when named.
         let (s, none) = candidates_for(&SimFactory::default(), &reach, None);
         assert_eq!((s.len(), none.len()), (21, 0));
+        let named = ["motor_torque_speed".to_string()];
+        let (m, _) = candidates_for(&SimFactory::default(), &reach, Some(&named));
+        assert_eq!((m.len(), m[0].params.len()), (1, 2));
         let only = ["dead_time_s".to_string(), "motor_gain".to_string()];
         let (c, _) = candidates_for(&SimFactory::default(), &reach, Some(&only));
         let names: Vec<&str> = c.iter().map(|c| c.name.as_str()).collect();
