@@ -92,6 +92,10 @@ pub struct AnalysisParams {
     pub derivative_half_width: usize,
     /// Minimum samples per window; `None` = 3/4 of the declared samples per window.
     pub min_samples_per_window: Option<usize>,
+    /// A steady window whose pose moves against the encoders' direction, both faster than
+    /// this (m/s), excludes its step as a localisation fault; `None` keeps such steps
+    /// ([`segment::POSE_CONTRADICTION_M_S`]).
+    pub pose_contradiction_m_s: Option<f64>,
     /// Cross-check tolerances.
     pub crosscheck: CrossCheckParams,
     /// Force the yaw-rate source instead of the cross-check's choice.
@@ -100,11 +104,25 @@ pub struct AnalysisParams {
     pub smoother: SmootherParams,
 }
 
+impl AnalysisParams {
+    /// The step rules these parameters set for a log with `samples_per_window` declared samples.
+    pub fn segment_rules(&self, samples_per_window: u32) -> segment::SegmentRules {
+        let default = segment::SegmentRules::for_samples_per_window(samples_per_window);
+        segment::SegmentRules {
+            min_samples_per_window: self
+                .min_samples_per_window
+                .map_or(default.min_samples_per_window, |n| n.max(2)),
+            pose_contradiction_m_s: self.pose_contradiction_m_s,
+        }
+    }
+}
+
 impl Default for AnalysisParams {
     fn default() -> Self {
         Self {
             derivative_half_width: 3,
             min_samples_per_window: None,
+            pose_contradiction_m_s: Some(segment::POSE_CONTRADICTION_M_S),
             crosscheck: CrossCheckParams::default(),
             yaw_rate_source: None,
             smoother: SmootherParams::default(),
@@ -352,11 +370,8 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
     let idd = meta.nominal.idd();
     let space = meta.nominal.command_space();
     let mass = MassProperties::from_nominal(&meta.nominal);
-    let min_samples = params
-        .min_samples_per_window
-        .unwrap_or_else(|| (meta.samples_per_window as usize * 3).div_ceil(4))
-        .max(2);
-    let (segments, exclusions) = segment::segment(log, min_samples);
+    let rules = params.segment_rules(meta.samples_per_window);
+    let (segments, exclusions) = segment::segment(log, &rules);
     if segments.is_empty() {
         let why: Vec<String> = exclusions
             .iter()

@@ -415,7 +415,7 @@ pub fn calibrate_joint(input: &JointInput<'_>, progress: &(dyn Fn(&str) + Sync))
     // test steps, and its floor.
     let mut slices_all = Vec::new();
     for l in &logs {
-        slices_all.push(steps::step_slices(l));
+        slices_all.push(steps::usable_step_slices(l).0);
     }
     let mut prepared = Vec::new();
     let mut reach = CommandReach {

@@ -234,7 +234,10 @@ pub fn calibrate_timed(
     let mut timings = Timings::default();
     let name = &log.meta.name;
     // Everything that can be checked is checked before any replay.
-    let slices = steps::step_slices(log);
+    let (slices, excluded) = steps::usable_step_slices(log);
+    for e in &excluded {
+        progress(&format!("step {} excluded: {}", e.step, e.reason));
+    }
     let commands: Vec<(u32, crate::kinematics::WheelSpeeds)> = slices
         .iter()
         .map(|s| {
@@ -327,6 +330,7 @@ pub fn calibrate_timed(
         floor,
         reach,
         declared: declared.clone(),
+        excluded,
         progress,
     };
     progress(&format!(
@@ -582,7 +586,7 @@ pub fn replay_model_and_compare(
     score: Option<&ScoreSteps>,
 ) -> Result<ReplayComparison> {
     let factory = kind.factory();
-    let slices = steps::step_slices(log);
+    let (slices, _) = steps::usable_step_slices(log);
     let ids: Vec<u32> = slices.iter().map(|s| s.step).collect();
     let all = StepSet::new(&slices, &ids, log.meta.rate_hz)?;
     let floor = NoiseFloor::estimate(&all.features)?;

@@ -87,6 +87,10 @@ pub struct CalibrationReport {
     pub validation_steps: Vec<u32>,
     /// Test steps: every figure of the table is computed on them, and only there.
     pub heldout_steps: Vec<u32>,
+    /// Steps of the log in no set: those the analysis excludes, with why (a localisation
+    /// fault, an incomplete step).
+    #[serde(default)]
+    pub excluded_steps: Vec<crate::analysis::segment::Exclusion>,
     /// Before/after table on the test steps.
     pub table: Vec<TableRow>,
     /// Noise floor estimate (training steps).

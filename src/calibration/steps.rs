@@ -2,6 +2,7 @@
 //! replayed step starts from, and the planar pose arithmetic both the estimators and the
 //! replay use. Below [`super::metrics`] and [`super::replay`], which both read it.
 
+use crate::analysis::segment::{usable_steps, Exclusion, SegmentRules};
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, WheelSpeeds};
 use crate::log::{DriveLog, Pose, Sample};
@@ -25,6 +26,20 @@ pub fn step_slices(log: &DriveLog) -> Vec<StepSlice<'_>> {
             samples: s,
         })
         .collect()
+}
+
+/// The steps a model is scored on: [`step_slices`] without the steps the analysis excludes
+/// (incomplete, with a gap, a pose jump or a pose against its encoders:
+/// [`crate::analysis::segment::usable_steps`] with the default rules), and those with why.
+/// A calibration must not fit what the analysis would not trust.
+pub fn usable_step_slices(log: &DriveLog) -> (Vec<StepSlice<'_>>, Vec<Exclusion>) {
+    let rules = SegmentRules::for_samples_per_window(log.meta.samples_per_window);
+    let (keep, excluded) = usable_steps(log, &rules);
+    let slices = step_slices(log)
+        .into_iter()
+        .filter(|s| keep.contains(&s.step))
+        .collect();
+    (slices, excluded)
 }
 
 /// Body-frame velocity between two poses `dt_s` apart: the displacement is rotated into the

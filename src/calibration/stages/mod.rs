@@ -43,6 +43,8 @@ pub struct Context<'a> {
     pub factory: &'a dyn PlantFactory,
     /// Options.
     pub opts: &'a CalibrationOptions,
+    /// Steps the analysis excludes (not in any set), with why.
+    pub excluded: Vec<crate::analysis::segment::Exclusion>,
     /// Which steps are for what.
     pub split: Split,
     /// Training steps: fits and estimates from data.

@@ -310,6 +310,17 @@ pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
     {
         converged = false;
     }
+    if !ctx.excluded.is_empty() {
+        notes.push(format!(
+            "{} step(s) of the log excluded from every set, as the analysis excludes them (excluded_steps): {}",
+            ctx.excluded.len(),
+            ctx.excluded
+                .iter()
+                .map(|e| e.step.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
     notes.extend(baseline.notes);
     notes.extend(selection.notes);
     notes.extend(final_fit.notes);
@@ -335,6 +346,7 @@ pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
         train_steps: ctx.split.train.clone(),
         validation_steps: ctx.split.validation.clone(),
         heldout_steps: ctx.split.test.clone(),
+        excluded_steps: ctx.excluded.clone(),
         table: table(&idd, &before, &after, &ErrorSummary::floor(floor)),
         floor: floor.clone(),
         idd,
