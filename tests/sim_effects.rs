@@ -351,3 +351,28 @@ fn a_command_change_term_is_neutral_in_a_manoeuvre() {
         "and not in a manoeuvre: {in_manoeuvre}"
     );
 }
+
+#[test]
+fn a_stopped_robot_stands_still_whatever_its_terms() {
+    // A discovered constant on the right wheel and a body yaw growing with time in the step:
+    // both act while the robot drives; told to stop it brakes and stands, as a DRIVE twin's
+    // operator needs (a twin with such terms could not end its stops: session 11).
+    let terms = [("term_wheel_right__1", -0.5), ("term_body_wz__t", -0.01)];
+    let (_, mut s) = setup("warthog", "asphalt", &terms);
+    let driving = hold(&mut s, WheelSpeeds::new(4.0, 4.0), 4.0);
+    assert!(
+        mean_tail(&driving, 20, |x| x.1.wz_rad_s) < -0.05,
+        "the terms act in motion"
+    );
+    let stopped = hold(&mut s, WheelSpeeds::default(), 20.0);
+    let v = stopped.last().unwrap().1;
+    assert!(
+        v.vx_m_s.abs() < 1e-3 && v.vy_m_s.abs() < 1e-3 && v.wz_rad_s.abs() < 1e-3,
+        "{v:?}"
+    );
+    let enc = stopped.last().unwrap().0.enc;
+    assert!(
+        enc.left_rad_s.abs() < 1e-3 && enc.right_rad_s.abs() < 1e-3,
+        "{enc:?}"
+    );
+}

@@ -44,6 +44,17 @@ pub struct TermInput {
     pub step: u32,
 }
 
+impl TermInput {
+    /// The command is a stop (both wheels told zero). A discovered wheel or body term then acts
+    /// not at all: it was fitted on DRIVE steps, whose commands are never a stop, and a robot
+    /// told to stop brakes its wheels and stands on them (a constant or time-dependent term
+    /// would otherwise push a twin that its operator is stopping, and the stop never ends).
+    /// Sensor terms still act: a gyro's bias reads at rest too.
+    pub fn is_stop(&self) -> bool {
+        self.cmd.left_rad_s == 0.0 && self.cmd.right_rad_s == 0.0
+    }
+}
+
 /// A candidate feature of a term: a function of a [`TermInput`] (and, for wheel targets, of
 /// the side's own command).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -479,6 +490,9 @@ impl Effect for Term {
         self.target.stage() == Stage::Body
     }
     fn wheel_targets_in(&self, p: &[f64], w: WheelSpeeds, x: &TermInput) -> WheelSpeeds {
+        if x.is_stop() {
+            return w;
+        }
         match self.target {
             TermTarget::WheelLeft => WheelSpeeds::new(
                 w.left_rad_s + self.evaluate(p, x, x.cmd.left_rad_s),
@@ -492,6 +506,9 @@ impl Effect for Term {
         }
     }
     fn body_offset(&self, p: &[f64], x: &TermInput) -> BodyVelocity {
+        if x.is_stop() {
+            return BodyVelocity::default();
+        }
         let v = self.evaluate(p, x, 0.0);
         match self.target {
             TermTarget::BodyVx => BodyVelocity::new(v, 0.0, 0.0),
