@@ -107,6 +107,25 @@ fn another_terrain_differs() {
 }
 
 #[test]
+fn the_terminal_names_the_clearest_body_against_wheels_difference() {
+    let asphalt = log("warthog_asphalt");
+    let ice = log("warthog_ice");
+    let opts = CompareOptions::default();
+    let text = |sim: &DriveLog| {
+        let r = compare(input(&asphalt), &[input(sim)], &opts).unwrap();
+        drive_sim::compare::write::verdict_text(&r)
+    };
+    let other = text(&ice);
+    assert!(
+        other.contains("by curvature, largest clear difference"),
+        "{other}"
+    );
+    // Against itself no interval excludes a zero difference: nothing to name.
+    let same = text(&asphalt);
+    assert!(!same.contains("by curvature"), "{same}");
+}
+
+#[test]
 fn the_report_draws_the_body_and_the_wheel_maps() {
     let asphalt = log("warthog_asphalt");
     let gravel = log("warthog_gravel");

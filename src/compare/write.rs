@@ -86,6 +86,27 @@ pub fn verdict_text(r: &ComparisonReport) -> String {
                 }
             );
         }
+        // The body against its wheels, by curvature: of the ratios whose interval excludes no
+        // difference, the one that differs most (a diagnostic; the report has the whole table).
+        let worst = c
+            .curvature
+            .classes
+            .iter()
+            .flat_map(|k| {
+                [("forward speed", &k.forward_ratio), ("yaw rate", &k.yaw_ratio)]
+                    .map(|(what, st)| (k, what, st))
+            })
+            .filter(|(_, _, st)| {
+                st.difference.is_finite() && st.difference_ci95.is_some_and(|i| !i.contains(0.0))
+            })
+            .max_by(|a, b| a.2.difference.abs().total_cmp(&b.2.difference.abs()));
+        if let Some((k, what, st)) = worst {
+            let _ = writeln!(
+                s,
+                "  body / wheel {what} by curvature, largest clear difference: {} (real {} / sim {} steps) real {:.3}, sim {:.3}, sim-real {:+.3} {} (report: the table per class)",
+                k.class, k.steps.0, k.steps.1, st.real, st.sim, st.difference, ci(&st.difference_ci95)
+            );
+        }
         if let Some(t) = &c.time {
             let _ = writeln!(
                 s,
