@@ -237,6 +237,37 @@ fn pose_outlier_and_gap_are_excluded_with_their_step() {
     );
 }
 
+/// The measured asphalt run's two localisation faults are excluded and named on the terminal;
+/// `--keep-pose-contradictions` keeps them, and says so in the summary's provenance.
+#[test]
+fn pose_contradictions_are_excluded_unless_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let log = format!("{MEASURED}/warthog_asphalt.csv");
+    let o = drive_sim(&["analyze", &log, "--out", "out"], d);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("step 71 excluded: pose contradicts the encoders")
+            && err.contains("step 90 excluded: pose contradicts the encoders"),
+        "{err}"
+    );
+    let o = drive_sim(
+        &["analyze", &log, "--keep-pose-contradictions", "--out", "kept"],
+        d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("excluded"), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("kept/summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["datasets"][0]["steps_analysed"], 100);
+    assert_eq!(
+        summary["provenance"]["options"]["keep_pose_contradictions"], true,
+        "{:#}",
+        summary["provenance"]
+    );
+}
+
 fn run_args<'a>(name: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
     let mut a = vec![
         "run",

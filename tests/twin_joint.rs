@@ -135,8 +135,8 @@ fn joint_fit_shares_the_robot_and_fits_a_terrain_per_log() {
         assert_eq!(l.terrain_file, format!("terrain_{}.toml", l.dataset));
     }
 
-    // Each log's twin runs its own DRIVE in closed loop; one made to drift at 2 m/s whatever
-    // its command cannot finish its re-orientations, and is named.
+    // Each log's twin runs its own DRIVE in closed loop; one that cannot complete its steps is
+    // named.
     let mut checked = r.clone();
     let failed = drive_sim::calibration::joint::check_joint_twin(&mut checked, 1).unwrap();
     assert!(failed.is_empty(), "{failed:?} {:?}", checked.notes);
@@ -145,7 +145,13 @@ fn joint_fit_shares_the_robot_and_fits_a_terrain_per_log() {
         .iter()
         .all(|l| l.twin_check.as_ref().is_some_and(|c| c.ran)));
     let mut broken = r.clone();
-    broken.logs[1].model.effects.set("term_body_vx__1", 2.0).unwrap();
+    // Sliding sideways at ten times its commanded forward speed: no attempt of a step stays in
+    // the safe area.
+    broken.logs[1]
+        .model
+        .effects
+        .set("term_body_vy__cmd_vx", 10.0)
+        .unwrap();
     let failed = drive_sim::calibration::joint::check_joint_twin(&mut broken, 1).unwrap();
     assert_eq!(failed, vec![broken.logs[1].dataset.clone()]);
     assert!(

@@ -20,6 +20,10 @@ pub struct AnalyzeArgs {
     /// the log's robot (0.25 for the Husky, 0.64 otherwise).
     #[arg(long)]
     pub kernel_variance: Option<f64>,
+    /// Keep the steps whose pose moves against the encoders where no physics can (a
+    /// localisation fault); by default they are excluded and listed with their evidence.
+    #[arg(long)]
+    pub keep_pose_contradictions: bool,
     /// Robot, terrain and topic roles of rosbag2 bags.
     #[command(flatten)]
     pub input: super::input::InputArgs,
@@ -33,6 +37,7 @@ impl AnalyzeArgs {
             out: self.out.clone(),
             resolution: self.resolution,
             kernel_variance: self.kernel_variance,
+            keep_pose_contradictions: self.keep_pose_contradictions,
             input: self.input.options(),
         }
     }

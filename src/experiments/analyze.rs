@@ -19,6 +19,9 @@ pub struct AnalyzeOptions {
     pub resolution: f64,
     /// Kernel variance Σ = diag(v, v); `None`: [`paper_kernel_variance`] of the log's robot.
     pub kernel_variance: Option<f64>,
+    /// Keep steps whose pose contradicts the encoders (see
+    /// [`crate::analysis::segment::POSE_CONTRADICTION_M_S`]); excluded by default.
+    pub keep_pose_contradictions: bool,
     /// How to open inputs a log does not describe itself (rosbag2 bags: robot, terrain, roles).
     pub input: crate::log::OpenOptions,
 }
@@ -80,6 +83,11 @@ pub fn analysis_params(opts: &AnalyzeOptions, robot: &str) -> Result<AnalysisPar
             },
             ..SmootherParams::default()
         },
+        pose_contradiction_m_s: if opts.keep_pose_contradictions {
+            None
+        } else {
+            AnalysisParams::default().pose_contradiction_m_s
+        },
         ..AnalysisParams::default()
     })
 }
@@ -137,6 +145,7 @@ pub fn analyze_logs(opts: &AnalyzeOptions, progress: &mut dyn FnMut(AnalyzeEvent
     let options = serde_json::json!({
         "resolution": opts.resolution,
         "kernel_variance": opts.kernel_variance,
+        "keep_pose_contradictions": opts.keep_pose_contradictions,
         "robot": opts.input.robot,
         "terrain": opts.input.terrain,
         "roles": opts.input.roles,

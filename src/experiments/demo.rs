@@ -100,6 +100,7 @@ pub fn run_demo(opts: &DemoOptions, progress: &mut dyn FnMut(DemoEvent)) -> Resu
             out: opts.out.clone(),
             resolution: 0.1,
             kernel_variance: None,
+            keep_pose_contradictions: false,
             input: Default::default(),
         };
         progress(DemoEvent::Analysis(AnalyzeEvent::Analysing(&log)));
