@@ -173,10 +173,14 @@ fn pose_contradicts_encoders(windows: &[Option<&[Sample]>], radius_m: f64, min_m
         if n < 8 {
             return None;
         }
+        // The encoders first: most windows end here without a pose derivative.
         let wheels = enc(w);
+        if wheels.abs() <= min_m_s {
+            return None;
+        }
         let s = wheels.signum();
         let pose = velocity(w).vx_m_s;
-        if !(pose * wheels < 0.0 && pose.abs() > min_m_s && wheels.abs() > min_m_s) {
+        if !(pose * wheels < 0.0 && pose.abs() > min_m_s) {
             return None;
         }
         // Deceleration towards the wheels between the two halves' mean velocities.

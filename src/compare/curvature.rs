@@ -129,24 +129,15 @@ fn values(row: &StepRow, g: WheelGeometry) -> [f64; 3] {
     [fwd, yaw, row.values[0]]
 }
 
-fn finite_median(v: &[f64]) -> f64 {
-    let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-    if f.is_empty() {
-        f64::NAN
-    } else {
-        stats::median(&f)
-    }
-}
-
 fn resampled_medians(v: &[f64], draws: &[Vec<usize>]) -> Vec<f64> {
     draws
         .iter()
-        .map(|d| finite_median(&d.iter().map(|&i| v[i]).collect::<Vec<_>>()))
+        .map(|d| stats::median(&d.iter().map(|&i| v[i]).collect::<Vec<_>>()))
         .collect()
 }
 
 fn statistic(real: &[f64], sim: &[f64], pairing: Pairing, b: &Bootstrap, stream: u64) -> ClassStatistic {
-    let (r_med, s_med) = (finite_median(real), finite_median(sim));
+    let (r_med, s_med) = (stats::median(real), stats::median(sim));
     let (r_stats, s_stats, diffs) = match pairing {
         Pairing::Paired => {
             let draws = b.draws(real.len(), stream);

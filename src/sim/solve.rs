@@ -11,6 +11,11 @@ use super::tyre::{contact_force, contact_force_and_jacobian, ContactForce, TyreP
 use super::{Contact, WheelGeom, MAX_WHEELS, TORSION_DAMPING_S};
 use nalgebra::{SMatrix, SVector};
 
+/// The motor torque of each side when it is held at its limit (N·m at the wheels, the side's
+/// wheel spin then a free unknown); `None` where the controller tracks its target. A side can
+/// be held at zero torque (a motor past its no-load speed), so the torque itself cannot mark it.
+pub(super) type SideTorques = [Option<f64>; 2];
+
 /// Inputs of the planar implicit solve of one physics step.
 pub(super) struct SolveCtx {
     pub dt: f64,
@@ -45,10 +50,10 @@ const MAX_HALVINGS: usize = 6;
 impl SolveCtx {
     /// The first iterate: `from`, with an unsaturated side's wheel spin at the controller's
     /// target (its residual row is linear in it and zero there).
-    fn start(&self, from: &[f64; 5], saturated: [f64; 2]) -> V5 {
+    fn start(&self, from: &[f64; 5], saturated: SideTorques) -> V5 {
         let mut u = V5::from_row_slice(from);
         for s in 0..2 {
-            if saturated[s] == 0.0 {
+            if saturated[s].is_none() {
                 u[3 + s] = self.target[s];
             }
         }
@@ -76,7 +81,7 @@ fn residual(
     wheels: &[WheelGeom],
     contacts: &[Contact],
     deflection: &[f64],
-    saturated: [f64; 2],
+    saturated: SideTorques,
     u: &V5,
     forces: &mut [ContactForce],
 ) -> V5 {
@@ -108,10 +113,9 @@ fn residual(
     r[1] = ctx.mass * (u[1] - ctx.u0[1]) - dt * fy;
     r[2] = ctx.izz * (u[2] - ctx.u0[2]) - dt * mz;
     for side in 0..2 {
-        r[3 + side] = if saturated[side] == 0.0 {
-            ctx.side_inertia * (u[3 + side] - ctx.target[side])
-        } else {
-            ctx.side_inertia * (u[3 + side] - ctx.u0[3 + side]) - dt * (saturated[side] - react[side])
+        r[3 + side] = match saturated[side] {
+            None => ctx.side_inertia * (u[3 + side] - ctx.target[side]),
+            Some(torque) => ctx.side_inertia * (u[3 + side] - ctx.u0[3 + side]) - dt * (torque - react[side]),
         };
     }
     r
@@ -125,7 +129,7 @@ pub(super) fn solve_reference(
     wheels: &[WheelGeom],
     contacts: &[Contact],
     deflection: &[f64],
-    saturated: [f64; 2],
+    saturated: SideTorques,
     forces: &mut [ContactForce],
 ) -> [f64; 5] {
     let f = |u: &V5, forces: &mut [ContactForce]| {
@@ -143,7 +147,7 @@ pub(super) fn solve_reference(
         let mut jac = SMatrix::<f64, 5, 5>::zeros();
         for k in 0..5 {
             // The row of an unsaturated side is `I (w - target)`: its column is known.
-            if k >= 3 && saturated[k - 3] == 0.0 {
+            if k >= 3 && saturated[k - 3].is_none() {
                 jac[(k, k)] = ctx.side_inertia;
                 continue;
             }
@@ -189,7 +193,7 @@ fn residual_and_jacobian(
     wheels: &[WheelGeom],
     contacts: &[Contact],
     deflection: &[f64],
-    saturated: [f64; 2],
+    saturated: SideTorques,
     u: &V5,
     forces: &mut [ContactForce],
 ) -> (V5, M5) {
@@ -251,13 +255,13 @@ fn residual_and_jacobian(
     jac[(2, 2)] += ctx.izz;
     for side in 0..2 {
         let row = 3 + side;
-        if saturated[side] == 0.0 {
-            r[row] = ctx.side_inertia * (u[row] - ctx.target[side]);
-        } else {
-            r[row] = ctx.side_inertia * (u[row] - ctx.u0[row]) - dt * (saturated[side] - react[side]);
+        if let Some(torque) = saturated[side] {
+            r[row] = ctx.side_inertia * (u[row] - ctx.u0[row]) - dt * (torque - react[side]);
             for k in 0..5 {
                 jac[(row, k)] = dt * g_react[side][k];
             }
+        } else {
+            r[row] = ctx.side_inertia * (u[row] - ctx.target[side]);
         }
         jac[(row, row)] += ctx.side_inertia;
     }
@@ -278,7 +282,7 @@ pub(super) fn solve(
     wheels: &[WheelGeom],
     contacts: &[Contact],
     deflection: &[f64],
-    saturated: [f64; 2],
+    saturated: SideTorques,
     forces: &mut [ContactForce],
 ) -> [f64; 5] {
     let residual_only = |u: &V5, forces: &mut [ContactForce]| {
@@ -352,7 +356,7 @@ pub(super) fn solve_newton(
     wheels: &[WheelGeom],
     contacts: &[Contact],
     deflection: &[f64],
-    saturated: [f64; 2],
+    saturated: SideTorques,
     forces: &mut [ContactForce],
 ) -> [f64; 5] {
     let f = |u: &V5, forces: &mut [ContactForce]| {

@@ -245,7 +245,7 @@ impl Simulator {
             Stepping::Newton => solve::solve_newton,
             Stepping::Reference => solve::solve_reference,
         };
-        let mut saturated = [0.0f64; 2];
+        let mut saturated: solve::SideTorques = [None; 2];
         let mut u = solve(
             &ctx,
             &self.tyre,
@@ -261,7 +261,6 @@ impl Simulator {
         for (wg, f) in self.wheels.iter().zip(&self.forces) {
             react[wg.side] += f.reaction_nm;
         }
-        let mut any_sat = false;
         for side in 0..2 {
             let need = self.side_inertia_kg_m2 * (u[3 + side] - u0[3 + side]) / dt + react[side];
             // The torque-speed line (an effect) is read at the step's start spin: explicit,
@@ -272,16 +271,12 @@ impl Simulator {
                 self.mods.motor_no_load_speed_rad_s,
                 u0[3 + side],
                 need,
-            )
-            // A saturated side is marked by its non-zero torque: beyond the no-load speed
-            // the motor gives (almost) none, not none at all.
-            .max(1e-6);
+            );
             if need.abs() > limit {
-                saturated[side] = limit * need.signum();
-                any_sat = true;
+                saturated[side] = Some(limit * need.signum());
             }
         }
-        if any_sat {
+        if saturated.iter().any(Option::is_some) {
             let ctx = SolveCtx { guess: u, ..ctx };
             u = solve(
                 &ctx,
@@ -302,12 +297,9 @@ impl Simulator {
             react[wg.side] += f.reaction_nm;
         }
         for side in 0..2 {
-            self.saturated[side] = saturated[side] != 0.0;
-            self.motor_torque_nm[side] = if self.saturated[side] {
-                saturated[side]
-            } else {
-                self.side_inertia_kg_m2 * (u[3 + side] - u0[3 + side]) / dt + react[side]
-            };
+            self.saturated[side] = saturated[side].is_some();
+            self.motor_torque_nm[side] = saturated[side]
+                .unwrap_or_else(|| self.side_inertia_kg_m2 * (u[3 + side] - u0[3 + side]) / dt + react[side]);
         }
         if torsion > 0.0 {
             let tan_peak = self.tyre.tan_slip_angle_peak;
