@@ -434,13 +434,10 @@ pub fn calibrate_joint(input: &JointInput<'_>, progress: &(dyn Fn(&str) + Sync))
         }
         let train = StepSet::new(&slices_all[k], &fit_steps, l.meta.rate_hz)?;
         let test = StepSet::new(&slices_all[k], &r.heldout_steps, l.meta.rate_hz)?;
-        for s in train.steps.iter().flat_map(|s| s.samples) {
-            let c = s.m.cmd;
-            let v = input.robot.idd().body_from_wheels(c);
-            reach.wheel_rad_s = reach.wheel_rad_s.max(c.left_rad_s.abs()).max(c.right_rad_s.abs());
-            reach.speed_m_s = reach.speed_m_s.max(v.vx_m_s.abs());
-            reach.yaw_rate_rad_s = reach.yaw_rate_rad_s.max(v.wz_rad_s.abs());
-        }
+        reach = reach.max(CommandReach::of_commands(
+            train.steps.iter().flat_map(|s| s.samples).map(|s| s.m.cmd),
+            &input.robot.idd(),
+        ));
         prepared.push(Prepared {
             train,
             test,
@@ -663,6 +660,7 @@ pub fn joint_twin(report: &JointReport) -> Result<(String, Vec<(String, String)>
             header: h,
             fitted,
             before: Some(report.singles[k].model_before.clone()),
+            chosen: Vec::new(),
         };
         let files = twin::twin_files(&l.model, &prov)?;
         if k == 0 {

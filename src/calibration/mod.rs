@@ -264,21 +264,9 @@ pub fn calibrate_timed(
             "`{name}`: no training step has two steady windows, so the steady channels have no              noise floor estimate (the floor compares the two steady windows of each step)"
         )));
     }
-    let reach = train_all.steps.iter().flat_map(|s| s.samples).fold(
-        CommandReach {
-            wheel_rad_s: 0.0,
-            speed_m_s: 0.0,
-            yaw_rate_rad_s: 0.0,
-        },
-        |r, s| {
-            let c = s.m.cmd;
-            let v = robot.idd().body_from_wheels(c);
-            CommandReach {
-                wheel_rad_s: r.wheel_rad_s.max(c.left_rad_s.abs()).max(c.right_rad_s.abs()),
-                speed_m_s: r.speed_m_s.max(v.vx_m_s.abs()),
-                yaw_rate_rad_s: r.yaw_rate_rad_s.max(v.wz_rad_s.abs()),
-            }
-        },
+    let reach = CommandReach::of_commands(
+        train_all.steps.iter().flat_map(|s| s.samples).map(|s| s.m.cmd),
+        &robot.idd(),
     );
     let mut notes = Vec::new();
     let train = match opts.max_fit_steps {

@@ -86,6 +86,9 @@ pub struct Provenance {
     pub fitted: Vec<(FittedParam, String)>,
     /// The model the fit started from, for the declared value beside each fitted one.
     pub before: Option<ModelParams>,
+    /// Values set by another method than a fit (a closed-loop search,
+    /// [`crate::experiments::tune`]), by report name, with their whole comment.
+    pub chosen: Vec<(String, String)>,
 }
 
 /// The comment of one fitted value: value, interval, dataset.
@@ -200,32 +203,28 @@ pub fn twin_files(params: &ModelParams, prov: &Provenance) -> Result<TwinFiles> 
     };
     let mut rc = BTreeMap::new();
     let mut tc = BTreeMap::new();
-    for (p, dataset) in &prov.fitted {
-        let (file, path) = if let Some(rest) = p.name.strip_prefix("robot.") {
-            ((&rv, &mut rc), rest.to_string())
-        } else if let Some(rest) = p.name.strip_prefix("terrain.") {
-            ((&tv, &mut tc), rest.to_string())
-        } else if let Some(key) = p.name.strip_prefix("effect.") {
+    // Which file holds a parameter (by report name), at which dotted path, and its value there.
+    let locate = |name: &str| -> Option<(bool, String, f64)> {
+        let (on_terrain, path) = if let Some(rest) = name.strip_prefix("robot.") {
+            (false, rest.to_string())
+        } else if let Some(rest) = name.strip_prefix("terrain.") {
+            (true, rest.to_string())
+        } else if let Some(key) = name.strip_prefix("effect.") {
             let path = format!("effects.{key}");
-            if value_at(&tv, &path).is_some() {
-                ((&tv, &mut tc), path)
-            } else {
-                ((&rv, &mut rc), path)
-            }
+            (value_at(&tv, &path).is_some(), path)
         } else {
+            return None;
+        };
+        let held = value_at(if on_terrain { &tv } else { &rv }, &path)?;
+        Some((on_terrain, path, held))
+    };
+    for (p, dataset) in &prov.fitted {
+        let Some((on_terrain, path, held)) = locate(&p.name) else {
             continue;
         };
-        let (v, comments) = file;
-        let Some(held) = value_at(v, &path) else {
-            continue;
-        };
-        let declared = before.as_ref().and_then(|(br, bt)| {
-            if std::ptr::eq(v, &rv) {
-                value_at(br, &path)
-            } else {
-                value_at(bt, &path)
-            }
-        });
+        let declared = before
+            .as_ref()
+            .and_then(|(br, bt)| value_at(if on_terrain { bt } else { br }, &path));
         let same = held == p.value || (held - p.value).abs() <= 1e-12 * p.value.abs().max(1.0);
         let c = if same {
             comment_for(p, dataset, declared)
@@ -235,7 +234,12 @@ pub fn twin_files(params: &ModelParams, prov: &Provenance) -> Result<TwinFiles> 
                 p.value
             )
         };
-        comments.insert(path, c);
+        if on_terrain { &mut tc } else { &mut rc }.insert(path, c);
+    }
+    for (name, comment) in &prov.chosen {
+        if let Some((on_terrain, path, _)) = locate(name) {
+            if on_terrain { &mut tc } else { &mut rc }.insert(path, comment.clone());
+        }
     }
     let mut rh = prov.header.clone();
     rh.push(format!(
@@ -307,6 +311,7 @@ pub fn twin_of_report(report: &CalibrationReport) -> Result<TwinFiles> {
             .map(|p| (p, report.dataset.clone()))
             .collect(),
         before: Some(report.model_before.clone()),
+        chosen: Vec::new(),
     };
     twin_files(&report.model_after, &prov)
 }
@@ -469,6 +474,7 @@ mod tests {
             header: vec!["test".into()],
             fitted: vec![(fitted, "gravel_run".into())],
             before: None,
+            chosen: Vec::new(),
         };
         let files = twin_files(&m, &prov).unwrap();
         assert!(

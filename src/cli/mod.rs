@@ -8,6 +8,7 @@ pub mod input;
 pub mod run;
 pub mod samplers;
 pub mod sweep;
+pub mod tune;
 
 use crate::robot::{Robot, BUILTIN_ROBOTS};
 use crate::terrain::{Terrain, BUILTIN_TERRAINS};
@@ -49,6 +50,10 @@ pub enum Command {
     /// areas, transfer-function difference maps) with bootstrap intervals and Holm-corrected
     /// verdicts; writes comparison.json, figures and report.html.
     Compare(compare::CompareArgs),
+    /// Tunes a twin's parameters in closed loop: its own DRIVE runs scored by compare's
+    /// statistics against half the real run's steps, checked on fresh seeds, judged on the
+    /// other half; writes tune.json, twin/robot.toml, twin/terrain.toml and heldout/.
+    Tune(tune::TuneArgs),
     /// Lists the robots (built-in and ./robots/*.toml).
     Robots,
     /// Lists the terrains (built-in and ./terrains/*.toml).
@@ -132,6 +137,9 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Replay(a)) => calibrate::replay(&a),
         Some(Command::Calibrate(a)) => calibrate::calibrate(&a),
         Some(Command::Compare(a)) => compare::compare(&a),
+        // No signal handler: Ctrl-C ends the process, and the staged output directory was
+        // never committed, so nothing already written is touched.
+        Some(Command::Tune(a)) => tune::tune(&a),
         Some(Command::Robots) => list_robots(),
         Some(Command::Terrains) => list_terrains(),
         Some(Command::Effects) => list_effects(),

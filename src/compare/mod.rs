@@ -21,6 +21,7 @@
 //! `comparison.json`, the figures and the report.
 
 pub mod curvature;
+pub mod loss;
 pub mod tf;
 pub mod write;
 

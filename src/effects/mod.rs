@@ -97,6 +97,36 @@ pub struct CommandReach {
     pub yaw_rate_rad_s: f64,
 }
 
+impl CommandReach {
+    /// How far `commands` reach, their body velocities through `idd` (the nominal geometry).
+    pub fn of_commands(commands: impl IntoIterator<Item = WheelSpeeds>, idd: &IdealDiffDrive) -> Self {
+        commands.into_iter().fold(
+            Self {
+                wheel_rad_s: 0.0,
+                speed_m_s: 0.0,
+                yaw_rate_rad_s: 0.0,
+            },
+            |r, c| {
+                let v = idd.body_from_wheels(c);
+                Self {
+                    wheel_rad_s: r.wheel_rad_s.max(c.left_rad_s.abs()).max(c.right_rad_s.abs()),
+                    speed_m_s: r.speed_m_s.max(v.vx_m_s.abs()),
+                    yaw_rate_rad_s: r.yaw_rate_rad_s.max(v.wz_rad_s.abs()),
+                }
+            },
+        )
+    }
+
+    /// The larger of two reaches in each component.
+    pub fn max(self, o: Self) -> Self {
+        Self {
+            wheel_rad_s: self.wheel_rad_s.max(o.wheel_rad_s),
+            speed_m_s: self.speed_m_s.max(o.speed_m_s),
+            yaw_rate_rad_s: self.yaw_rate_rad_s.max(o.yaw_rate_rad_s),
+        }
+    }
+}
+
 /// Which part of the [`CommandReach`] a limit's search box scales with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ReachOf {

@@ -12,5 +12,6 @@ pub mod run;
 pub mod samplers;
 pub mod simulate;
 pub mod sweep;
+pub mod tune;
 
 pub use simulate::{simulate, simulate_with, unknown_sampler, SimulatedRun};

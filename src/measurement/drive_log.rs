@@ -226,6 +226,16 @@ impl UseSteps {
         }
     }
 
+    /// The steps these leave out: the other half (`None` for `All`), where what was chosen on
+    /// these steps can be judged.
+    pub fn other_half(self) -> Option<Self> {
+        match self {
+            Self::All => None,
+            Self::Odd => Some(Self::Even),
+            Self::Even => Some(Self::Odd),
+        }
+    }
+
     /// The log restricted to these steps (itself for `All`), named `<name>_odd` / `_even`.
     pub fn select(self, log: &DriveLog) -> DriveLog {
         match self {

@@ -62,6 +62,15 @@ impl Halton {
     }
 }
 
+/// The textbook (unscrambled) radical inverse of `i` in `base`: the `i`-th coordinate of the
+/// Halton sequence in that base (also the design of a closed-loop search's first points,
+/// [`crate::experiments::tune`]).
+pub fn radical_inverse(i: u64, base: u64) -> f64 {
+    let digits = (53.0 / (base as f64).log2()).ceil() as usize;
+    let identity: Vec<Vec<u8>> = (0..digits).map(|_| (0..base as u8).collect()).collect();
+    scrambled_radical_inverse(i, base, &identity)
+}
+
 /// Radical inverse of `i` in `base`, each digit passed through that position's permutation.
 fn scrambled_radical_inverse(mut i: u64, base: u64, perms: &[Vec<u8>]) -> f64 {
     let inv = 1.0 / base as f64;

@@ -1,0 +1,144 @@
+#!/usr/bin/env python3
+"""Twins tuned in closed loop (`drive-sim tune`), chosen on each measured run's odd steps and
+judged on its even steps, beside the models they start from.
+
+For each dataset, two starts:
+- the declared robot and terrain (the run's deployment file `robots/<dataset>.toml` when there
+  is one, as `scripts/twin_table.py` takes it);
+- the twin calibrated by replay on the odd steps (`drive-sim calibrate --model simulator
+  --use-steps odd --no-discovery`),
+each tuned with `drive-sim tune --choose-on odd` on the effects of `--tune` (per robot), and
+judged by `tune` itself on the even steps with three fresh seeds. The table gives, per start and
+per model (start, tuned), the means over the three judging seeds: median ρ difference, T/U
+areas (sim − real, percentage points), transfer-function RMS over the yardstick, and in how
+many of the seeds compare's verdict is "reproduces".
+
+    python3 scripts/tune_table.py [--bin target/release/drive-sim] [--out out/tune_table]
+                                  [--datasets warthog_asphalt,...]
+
+Writes OUT/table.md and every command to OUT/commands.txt; a stage whose output exists is
+skipped (delete OUT to start over).
+"""
+
+import argparse
+import json
+import os
+import shlex
+import subprocess
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(HERE)
+DATA = os.path.join(REPO, "..", "shared", "data", "measured")
+DATASETS = ["warthog_asphalt", "warthog_gravel", "warthog_ice", "husky_2023"]
+# What each robot's twins tune: the motor's torque-speed line, the lateral (turning) friction
+# scale and the wheel-speed limit for the Warthog; for the Husky as its run was configured, the
+# velocity controller's yaw-rate limit in place of the wheel limit (its run's wheels reach the
+# whole of U; its controller's yaw clamp is what its declared file carries).
+TUNE = {
+    "warthog": "motor_torque_speed,turning_resistance_scale,wheel_speed_saturation_rad_s",
+    "husky": "motor_torque_speed,turning_resistance_scale,command_yaw_rate_limit_rad_s",
+}
+
+
+def declared_models(dataset):
+    with open(os.path.join(DATA, dataset + ".json")) as f:
+        meta = json.load(f)
+    terrain = meta.get("terrain") or "asphalt"
+    if terrain == "unlabelled":
+        terrain = "asphalt"
+    deployment = os.path.join(REPO, "robots", dataset + ".toml")
+    robot = os.path.relpath(deployment, REPO) if os.path.exists(deployment) else meta["robot"]
+    return meta["robot"], robot, terrain
+
+
+def run(cmd, log):
+    log.write(" ".join(shlex.quote(c) for c in cmd) + "\n")
+    log.flush()
+    t0 = time.time()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.time() - t0
+
+
+def mean(xs):
+    xs = [x for x in xs if x is not None]
+    return sum(xs) / len(xs) if xs else float("nan")
+
+
+def summary(runs):
+    """Means over the judging seeds of one model's held-out comparisons."""
+    ok = [r for r in runs if r.get("verdict")]
+    m = lambda r, k: next(x for x in r["metrics"] if x["metric"] == k)
+    tf = [mean([r["transfer"][i]["ratio"] for r in ok]) for i in range(5)] if ok else []
+    return {
+        "rho": mean([m(r, "median_rho")["difference"] for r in ok]),
+        "rho_real": m(ok[0], "median_rho")["real"] if ok else float("nan"),
+        "rho_sim": mean([m(r, "median_rho")["sim"] for r in ok]),
+        "tub": mean([m(r, "t_area_pct_body")["difference"] for r in ok]),
+        "tuw": mean([m(r, "t_area_pct_wheels")["difference"] for r in ok]),
+        "tf": tf,
+        "reproduces": sum(1 for r in ok if r["verdict"]["reproduces"]),
+        "fails": sorted({f for r in ok for f in r["verdict"]["significant"]
+                         + [a + " > 5 pp" for a in r["verdict"]["areas_beyond_tolerance"]]
+                         + [t.replace("slip_", "").split("_")[0] + " map" for t in r["verdict"]["tf_beyond_yardstick"]]}),
+        "n": len(runs),
+        "failed_runs": len(runs) - len(ok),
+    }
+
+
+def row(dataset, label, s):
+    tf = ", ".join(f"{x:.2f}" for x in s["tf"])
+    failed = f" ({s['failed_runs']} runs failed)" if s["failed_runs"] else ""
+    fails = ", ".join(s["fails"]) or "-"
+    return (f"| {dataset} | {label} | {s['rho_sim']:.3f} (real {s['rho_real']:.3f}) | {s['rho']:+.3f} | "
+            f"{s['tub']:+.1f} pp | {s['tuw']:+.1f} pp | {tf} | {s['reproduces']} of {s['n']}{failed} | {fails} |")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--bin", default=os.path.join(REPO, "target", "release", "drive-sim"))
+    ap.add_argument("--out", default=os.path.join(REPO, "out", "tune_table"))
+    ap.add_argument("--datasets", default=",".join(DATASETS))
+    args = ap.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    data = lambda d: os.path.join(DATA, d + ".csv")
+    lines = [
+        "| dataset | model (judged on the even steps, 3 seeds) | median ρ | ρ difference | T/U body | "
+        "T/U wheels | TF RMS / yardstick (vx, vy, wz, left, right) | reproduces | what fails (any seed) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    with open(os.path.join(args.out, "commands.txt"), "a") as log:
+        for d in args.datasets.split(","):
+            robot_name, robot, terrain = declared_models(d)
+            tune = TUNE[robot_name]
+            cal = os.path.join(args.out, d, "calibrate_odd")
+            if not os.path.exists(os.path.join(cal, "twin", "robot.toml")):
+                s = run([args.bin, "calibrate", data(d), "--model", "simulator", "--use-steps", "odd",
+                         "--no-discovery", "--robot", robot, "--terrain", terrain, "--out", cal], log)
+                print(f"{d}: odd-step calibration {s:.0f} s")
+            starts = [
+                ("declared", robot, terrain),
+                ("replay twin (odd steps)", os.path.join(cal, "twin", "robot.toml"),
+                 os.path.join(cal, "twin", "terrain.toml")),
+            ]
+            for i, (label, r, t) in enumerate(starts):
+                out = os.path.join(args.out, d, f"tune_{i}")
+                if not os.path.exists(os.path.join(out, "tune.json")):
+                    s = run([args.bin, "tune", data(d), "--robot", r, "--terrain", t, "--tune", tune,
+                             "--choose-on", "odd", "--out", out], log)
+                    print(f"{d}: tune from {label} {s:.0f} s")
+                with open(os.path.join(out, "tune.json")) as f:
+                    o = json.load(f)
+                chosen = ", ".join(f"{p['name'].split('.')[-1]} {p['chosen']:.3g}" for p in o["params"])
+                verdict = "accepted" if o["accepted"] else "not accepted"
+                lines.append(row(d, label, summary(o["heldout"]["start"])))
+                lines.append(row(d, f"→ tuned ({chosen}; {verdict}, loss {o['start_loss']:.1f} → "
+                                    f"{o['chosen_loss']:.1f})", summary(o["heldout"]["chosen"])))
+    table = "\n".join(lines)
+    print(table)
+    with open(os.path.join(args.out, "table.md"), "w") as f:
+        f.write(table + "\n")
+
+
+if __name__ == "__main__":
+    main()

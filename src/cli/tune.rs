@@ -1,0 +1,259 @@
+//! `drive-sim tune REAL --tune NAMES --out DIR`: a twin's parameters chosen in closed loop by
+//! `compare`'s statistics ([`crate::experiments::tune`]).
+
+use crate::calibration::{self, twin};
+use crate::experiments::tune::{self, search::SearchOptions, TuneOptions, TuneOutcome, TuneRequest};
+use std::io::Write;
+use std::path::PathBuf;
+
+/// Options of `drive-sim tune`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct TuneArgs {
+    /// The real log (measured `.csv`, `.mcap` or a bag).
+    pub real: PathBuf,
+    /// What to tune, comma-separated: effects (all their parameters), effect parameters, or
+    /// simulator base parameters (`terrain.friction.peak_lateral`); `drive-sim effects` lists
+    /// the effects.
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub tune: Vec<String>,
+    /// Choose on the real log's odd or even steps (the other half then judges the choice), or
+    /// on all of them (no held-out judgement).
+    #[arg(long, value_enum, default_value = "odd")]
+    pub choose_on: crate::log::UseSteps,
+    /// Set an effect parameter of the starting model first, `NAME=VALUE` (repeatable; e.g.
+    /// `wheel_speed_saturation_rad_s=0` switches the declared limit off).
+    #[arg(long = "inject", value_name = "EFFECT=VALUE")]
+    pub inject: Vec<String>,
+    /// DRIVE steps of each simulated run (default: as many as the real steps the choice uses,
+    /// so that the T/U hulls compare like with like).
+    #[arg(long)]
+    pub steps: Option<u32>,
+    /// First seed: the search runs seeds SEED.., the check SEED+1000.., the judgement SEED+2000...
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Seeds each point of the search is run with.
+    #[arg(long, default_value_t = TuneOptions::default().choose_seeds)]
+    pub seeds: u32,
+    /// Fresh seeds of the check (and of the held-out judgement).
+    #[arg(long, default_value_t = TuneOptions::default().check_seeds)]
+    pub check_seeds: u32,
+    /// Most points the search evaluates.
+    #[arg(long, default_value_t = SearchOptions::default().max_evaluations)]
+    pub max_evaluations: usize,
+    /// Bootstrap resamples of the loss's intervals during the search (the judgement uses
+    /// compare's 2000).
+    #[arg(long, default_value_t = TuneOptions::default().loss_resamples)]
+    pub loss_resamples: usize,
+    /// Output directory.
+    #[arg(long, default_value = "out/tune")]
+    pub out: PathBuf,
+    /// The starting model (`--robot`, `--terrain`: names or files, e.g. a calibrated twin's;
+    /// default the log's robot and terrain), and how to read a bag.
+    #[command(flatten)]
+    pub input: super::input::InputArgs,
+}
+
+impl TuneArgs {
+    fn options(&self) -> TuneOptions {
+        TuneOptions {
+            choose_on: self.choose_on,
+            steps: self.steps,
+            seed: self.seed,
+            choose_seeds: self.seeds,
+            check_seeds: self.check_seeds,
+            search: SearchOptions {
+                max_evaluations: self.max_evaluations,
+                ..SearchOptions::default()
+            },
+            loss_resamples: self.loss_resamples,
+        }
+    }
+
+    /// The command line that reproduces this tuning (`tune.json` → `provenance`, and the
+    /// twin's header).
+    fn reproduce(&self) -> String {
+        let mut s = format!(
+            "drive-sim tune {} --tune {} --choose-on {}{} --seed {} --seeds {} --check-seeds {} --max-evaluations {} --loss-resamples {}",
+            self.real.display(),
+            self.tune.join(","),
+            self.choose_on.as_str(),
+            self.steps.map_or_else(String::new, |s| format!(" --steps {s}")),
+            self.seed,
+            self.seeds,
+            self.check_seeds,
+            self.max_evaluations,
+            self.loss_resamples
+        );
+        for i in &self.inject {
+            s.push_str(&format!(" --inject {i}"));
+        }
+        for (flag, v) in [("--robot", &self.input.robot), ("--terrain", &self.input.terrain)] {
+            if let Some(v) = v {
+                s.push_str(&format!(" {flag} {v}"));
+            }
+        }
+        s.push_str(&format!(" --out {}", self.out.display()));
+        s
+    }
+}
+
+/// Reads the log and the starting model, checks everything, tunes, writes and prints.
+pub fn tune(args: &TuneArgs) -> anyhow::Result<()> {
+    let opts = args.options();
+    opts.validate()?;
+    eprintln!("drive-sim: reading {}", args.real.display());
+    let log = super::input::open_log(&args.real, &args.input)?;
+    let models = calibration::StartingModels::resolve(
+        &log,
+        args.input.robot.as_deref(),
+        args.input.terrain.as_deref(),
+    )?;
+    for n in &models.notes {
+        eprintln!("drive-sim: {n}");
+    }
+    let mut start = twin::lift_effects(&models.robot, &models.terrain)?;
+    for a in &args.inject {
+        start.effects.apply_assignment(a)?;
+    }
+    let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
+    let t0 = std::time::Instant::now();
+    let outcome = tune::tune(
+        &TuneRequest {
+            real: &log,
+            start: &start,
+            tune: &args.tune,
+            opts: &opts,
+        },
+        &|line| eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64()),
+    )?;
+    let start_source = format!(
+        "robot `{}` and terrain `{}`{}",
+        args.input.robot.as_deref().unwrap_or(&models.robot.name),
+        args.input.terrain.as_deref().unwrap_or(&models.terrain.name),
+        if args.inject.is_empty() {
+            String::new()
+        } else {
+            format!(" with {}", args.inject.join(", "))
+        }
+    );
+    let reproduce = args.reproduce();
+    let files = tune::twin_of(&outcome, &start_source, &reproduce)?;
+    let provenance = models.provenance(
+        &args.real,
+        serde_json::json!({
+            "tune": args.tune,
+            "choose_on": args.choose_on.as_str(),
+            "inject": args.inject,
+            "options": opts,
+            "robot": args.input.robot,
+            "terrain": args.input.terrain,
+            "reproduce": reproduce,
+        }),
+    );
+    let written = tune::write::write_tune(
+        &outcome,
+        &files,
+        &log.meta.nominal.command_space().polygon_body(),
+        &provenance,
+        staged.path(),
+    )?;
+    staged.commit()?;
+    print_outcome(&outcome)?;
+    eprintln!(
+        "drive-sim: twin: drive-sim run --robot {} --terrain {}",
+        args.out.join("twin/robot.toml").display(),
+        args.out.join("twin/terrain.toml").display()
+    );
+    eprintln!(
+        "drive-sim: wrote {} files into {} ({:.0} s)",
+        written.len(),
+        args.out.display(),
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+fn print_outcome(o: &TuneOutcome) -> std::io::Result<()> {
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{:<36} {:>12} {:>12}   box", "parameter", "start", "chosen")?;
+    for p in &o.params {
+        writeln!(
+            out,
+            "{:<36} {:>12} {:>12.4}   [{}, {}] {}{}",
+            p.name,
+            p.start.map_or_else(|| "off".into(), |v| format!("{v:.4}")),
+            p.chosen,
+            p.lower,
+            p.upper,
+            p.unit,
+            if p.at_bound { " (at its bound)" } else { "" }
+        )?;
+    }
+    writeln!(
+        out,
+        "loss on the {} {} steps, seeds {:?}: start {} -> chosen {:.3} ({} points, {})",
+        o.real_steps_chosen_on,
+        o.options.choose_on.as_str(),
+        o.choose_seeds,
+        o.start_loss
+            .map_or_else(|| "failed".into(), |l| format!("{l:.3}")),
+        o.chosen_loss,
+        o.search.evaluations,
+        o.search.stop
+    )?;
+    writeln!(
+        out,
+        "check on fresh seeds {:?}: reduction {:.3} ± {:.3} (SE) -> {}",
+        o.check.seeds,
+        o.check.mean_reduction,
+        o.check.se,
+        if o.accepted {
+            "accepted: the twin is the chosen model"
+        } else {
+            "not accepted: the twin is the start"
+        }
+    )?;
+    if let Some(h) = &o.heldout {
+        writeln!(
+            out,
+            "judged on the {} {} steps (never used above), one run per seed:",
+            h.real_steps,
+            h.steps.as_str()
+        )?;
+        writeln!(out, "{:<8} {:>6} {:>10}  verdict", "model", "seed", "loss")?;
+        for (label, runs) in [("start", &h.start), ("chosen", &h.chosen)] {
+            for r in runs {
+                let verdict = match (&r.verdict, &r.error) {
+                    (Some(v), _) if v.reproduces => "reproduces".to_string(),
+                    (Some(v), _) => format!(
+                        "differs: {}",
+                        [
+                            v.significant.clone(),
+                            v.areas_beyond_tolerance
+                                .iter()
+                                .map(|a| format!("{a} > 5 pp"))
+                                .collect(),
+                            v.tf_beyond_yardstick.clone(),
+                        ]
+                        .concat()
+                        .join(", ")
+                    ),
+                    (None, Some(e)) => format!("run failed: {e}"),
+                    (None, None) => "-".into(),
+                };
+                writeln!(
+                    out,
+                    "{label:<8} {:>6} {:>10}  {verdict}",
+                    r.seed,
+                    r.loss
+                        .as_ref()
+                        .map_or_else(|| "-".into(), |l| format!("{:.3}", l.total))
+                )?;
+            }
+        }
+    }
+    for n in &o.notes {
+        writeln!(out, "note: {n}")?;
+    }
+    Ok(())
+}

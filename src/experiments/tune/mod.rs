@@ -1,0 +1,954 @@
+//! Tuning a twin in closed loop: effect parameters chosen by what `compare` says about the
+//! twin's own DRIVE runs against the real run, not by replays of the real commands.
+//!
+//! Calibration replays the measured commands and fits what it sees sample by sample; the issue
+//! judges a twin by its own DRIVE runs, in the paper's statistics (median ρ and slips, T/U
+//! areas, transfer-function maps). The two views can disagree: on `warthog_asphalt` the
+//! motor's torque-speed line is rejected by replays (its two ends are not identifiable there)
+//! and explains most of the closed-loop gap (README, "Twins and compare"). This stage chooses
+//! parameters by the closed-loop view, honestly:
+//!
+//! 1. **Choose** on the steps `choose_on` (odd, even or all) of the real log, with the seeds
+//!    `seed + i` (`choose_seeds` of them, every point run with the same ones): the loss of
+//!    [`crate::compare::loss`], averaged over the seeds, minimised by a design over the box and
+//!    a Nelder–Mead simplex ([`search`]).
+//! 2. **Check** the choice on fresh seeds (`seed + 1000 + i`, `check_seeds` of them), same
+//!    steps: the start and the chosen model, paired by seed. The choice is accepted when its
+//!    mean loss reduction exceeds twice its standard error (a choice that only fitted its seeds'
+//!    paths does not survive new ones). Otherwise the twin stays the start.
+//! 3. **Judge** on the other half of the steps (when the choice used one half), which played no
+//!    part in 1 or 2, with seeds `seed + 2000 + i`: both models' full comparisons and verdicts,
+//!    whatever step 2 decided. With `choose_on = all` there is nothing left to judge on, and
+//!    the outcome says so.
+//!
+//! Each run is the DRIVE protocol of `drive-sim run --robot twin/robot.toml --terrain
+//! twin/terrain.toml --steps N --seed S` (uniform-wheel sampler, typical sensor noise), held
+//! in memory.
+
+pub mod search;
+pub mod write;
+
+use crate::analysis::bootstrap::{Bootstrap, MIN_STEPS_FOR_INTERVAL};
+use crate::calibration::params::{Param, ParamSpec};
+use crate::calibration::{twin, ModelParams, PlantFactory, SimFactory};
+use crate::compare::loss::{loss, Loss};
+use crate::compare::{compare, CompareOptions, ComparisonReport, Input, MetricDiff, TfDiff, Verdict};
+use crate::effects::{self, CommandReach, REGISTRY};
+use crate::error::{Error, Result};
+use crate::log::{DriveLog, UseSteps};
+use crate::sim::SensorNoise;
+use rayon::prelude::*;
+use search::{SearchOptions, SearchSummary};
+use serde::{Deserialize, Serialize};
+use std::sync::Mutex;
+
+/// Offset of the check seeds from the choosing ones.
+pub const CHECK_SEED_OFFSET: u64 = 1000;
+/// Offset of the judging seeds from the choosing ones.
+pub const JUDGE_SEED_OFFSET: u64 = 2000;
+/// The sampler of every run (the paper's).
+pub const SAMPLER: &str = "uniform-wheel";
+/// Most parameters tuned at once: the design has one Halton base per parameter, and a
+/// closed-loop search in more dimensions than this does not fit a budget of minutes.
+pub const MAX_TUNED: usize = search::DESIGN_BASES.len();
+
+/// Options of [`tune`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TuneOptions {
+    /// Steps of the real log the choice uses; the other half (if any) judges it.
+    pub choose_on: UseSteps,
+    /// DRIVE steps of each simulated run; `None`: as many as the real steps the choice uses,
+    /// so that the T/U areas (hulls, which grow with the number of steps) compare like with
+    /// like.
+    pub steps: Option<u32>,
+    /// First seed (see the module doc for the three sets).
+    pub seed: u64,
+    /// Seeds every point of the search is run with.
+    pub choose_seeds: u32,
+    /// Fresh seeds of the check, and of the judgement.
+    pub check_seeds: u32,
+    /// The search's budget.
+    pub search: SearchOptions,
+    /// Bootstrap resamples of the loss's intervals during the search and the check (the
+    /// judgement uses `compare`'s default).
+    pub loss_resamples: usize,
+}
+
+impl Default for TuneOptions {
+    fn default() -> Self {
+        Self {
+            choose_on: UseSteps::All,
+            steps: None,
+            seed: 0,
+            choose_seeds: 3,
+            check_seeds: 3,
+            search: SearchOptions::default(),
+            loss_resamples: 500,
+        }
+    }
+}
+
+impl TuneOptions {
+    /// Checks the numbers before any run (bad input names the option).
+    pub fn validate(&self) -> Result<()> {
+        let bad = |opt: &str, why: String| Err(Error::config("<command line>", opt, why));
+        if let Some(steps) = self
+            .steps
+            .filter(|s| (*s as usize) < MIN_STEPS_FOR_INTERVAL || *s > 100_000)
+        {
+            return bad(
+                "--steps",
+                format!("must be in {MIN_STEPS_FOR_INTERVAL}..=100000 (fewer give no interval), got {steps}"),
+            );
+        }
+        if self.choose_seeds == 0 || self.choose_seeds > 64 {
+            return bad("--seeds", format!("must be in 1..=64, got {}", self.choose_seeds));
+        }
+        if self.check_seeds < 2 || self.check_seeds > 64 {
+            return bad(
+                "--check-seeds",
+                format!(
+                    "must be in 2..=64 (a standard error needs two), got {}",
+                    self.check_seeds
+                ),
+            );
+        }
+        if self.search.max_evaluations < 2 || self.search.max_evaluations > 10_000 {
+            return bad(
+                "--max-evaluations",
+                format!("must be in 2..=10000, got {}", self.search.max_evaluations),
+            );
+        }
+        if self.loss_resamples < 100 {
+            return bad(
+                "--loss-resamples",
+                format!("must be at least 100, got {}", self.loss_resamples),
+            );
+        }
+        Ok(())
+    }
+
+    fn seeds(&self, offset: u64, n: u32) -> Vec<u64> {
+        (0..n as u64).map(|i| self.seed + offset + i).collect()
+    }
+}
+
+/// What to tune, from where, against which log.
+#[derive(Debug, Clone, Copy)]
+pub struct TuneRequest<'a> {
+    /// The real log (all its steps; the options say which half chooses).
+    pub real: &'a DriveLog,
+    /// The model tuning starts from (e.g. a calibrated twin, or the declared robot and terrain),
+    /// its effects lifted out of the files ([`twin::lift_effects`]).
+    pub start: &'a ModelParams,
+    /// Names of what to tune: an effect (all its parameters), an effect parameter, or a
+    /// simulator base parameter (`terrain.friction.peak_lateral`, ...).
+    pub tune: &'a [String],
+    /// Options.
+    pub opts: &'a TuneOptions,
+}
+
+/// One tuned parameter.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TunedParam {
+    /// Report name (`effect.motor_stall_torque_nm`, `terrain.friction.peak_lateral`).
+    pub name: String,
+    /// Unit.
+    pub unit: String,
+    /// Search box.
+    pub lower: f64,
+    /// Search box.
+    pub upper: f64,
+    /// The start model's value (`None`: the effect is off there).
+    pub start: Option<f64>,
+    /// Where the search started: the start model's value when inside the box, else the box's
+    /// starting point.
+    pub search_start: f64,
+    /// The search's best.
+    pub chosen: f64,
+    /// The best lies in the outer half percent of the box (a likely stand-in for something
+    /// the model lacks, or a box too small).
+    pub at_bound: bool,
+}
+
+/// One point of the search.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PointEvaluation {
+    /// Parameter values, in the order of `params`.
+    pub values: Vec<f64>,
+    /// Mean loss over the seeds; `None` when a run failed.
+    pub loss: Option<f64>,
+    /// Loss of each seed's run.
+    pub seed_losses: Vec<Option<f64>>,
+    /// Why a run failed.
+    pub error: Option<String>,
+}
+
+/// The check of the choice on fresh seeds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SeedCheck {
+    /// Seeds.
+    pub seeds: Vec<u64>,
+    /// Loss of the start model per seed (`None`: the run failed).
+    pub start: Vec<Option<f64>>,
+    /// Loss of the chosen model per seed.
+    pub chosen: Vec<Option<f64>>,
+    /// Mean of (start − chosen) over the seeds where both ran.
+    pub mean_reduction: f64,
+    /// Its standard error (sample standard deviation / √n).
+    pub se: f64,
+    /// The rule's outcome.
+    pub accepted: bool,
+    /// The rule, in words.
+    pub rule: String,
+}
+
+/// One judged run: its loss and what `compare` says against the held-out steps.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct JudgedRun {
+    /// Seed.
+    pub seed: u64,
+    /// Loss (the search's measure) against the held-out steps.
+    pub loss: Option<Loss>,
+    /// Scalar metrics (sim − real, intervals, Holm).
+    pub metrics: Vec<MetricDiff>,
+    /// Transfer-function ratios.
+    pub transfer: Vec<TfDiff>,
+    /// Verdict.
+    pub verdict: Option<Verdict>,
+    /// Why the run failed.
+    pub error: Option<String>,
+}
+
+/// The judgement on the steps the choice did not see.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HeldOut {
+    /// The held-out steps.
+    pub steps: UseSteps,
+    /// Analysed real steps in them.
+    pub real_steps: usize,
+    /// The start model, one run per judging seed.
+    pub start: Vec<JudgedRun>,
+    /// The chosen model, on the same seeds.
+    pub chosen: Vec<JudgedRun>,
+    /// Each judging seed's comparison (both models against the held-out steps), for the
+    /// figures and `report.html`.
+    #[serde(skip)]
+    pub reports: Vec<ComparisonReport>,
+}
+
+/// Everything [`tune`] found (`tune.json`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TuneOutcome {
+    /// The real log.
+    pub dataset: String,
+    /// Its robot.
+    pub robot: String,
+    /// Options.
+    pub options: TuneOptions,
+    /// Analysed real steps the choice used.
+    pub real_steps_chosen_on: usize,
+    /// DRIVE steps of each simulated run.
+    pub steps_per_run: u32,
+    /// Seeds of the search.
+    pub choose_seeds: Vec<u64>,
+    /// Parameters, start and chosen.
+    pub params: Vec<TunedParam>,
+    /// Every point evaluated, in order (the loss landscape).
+    pub evaluations: Vec<PointEvaluation>,
+    /// The search.
+    pub search: SearchSummary,
+    /// Mean loss of the start on the search's seeds.
+    pub start_loss: Option<f64>,
+    /// The start model's runs on the search's seeds (its values: the start model's, NaN where
+    /// an effect is off).
+    pub start_evaluation: PointEvaluation,
+    /// Mean loss of the chosen point on the search's seeds.
+    pub chosen_loss: f64,
+    /// The check on fresh seeds.
+    pub check: SeedCheck,
+    /// The judgement on the other half (`None` when the choice used every step).
+    pub heldout: Option<HeldOut>,
+    /// The twin is the chosen model (the check accepted it), not the start.
+    pub accepted: bool,
+    /// What happened, in words.
+    pub notes: Vec<String>,
+    /// The twin's model: the chosen one when accepted, else the start.
+    #[serde(skip)]
+    pub model: Option<ModelParams>,
+}
+
+/// The parameters named by `names` with their search boxes for a log commanding up to
+/// `reach`: an effect name gives all its parameters, an effect parameter key that one, a
+/// simulator base parameter name (as `calibration.json` writes it) that one. Unknown names,
+/// duplicates and too many parameters are errors naming the entry.
+pub fn tuned_specs(names: &[String], start: &ModelParams, reach: &CommandReach) -> Result<Vec<ParamSpec>> {
+    let base = SimFactory::default().base_params(start);
+    let mut specs: Vec<ParamSpec> = Vec::new();
+    for name in names {
+        let found: Vec<ParamSpec> = if let Some(i) = REGISTRY.iter().position(|e| e.name() == name) {
+            (0..REGISTRY[i].params().len())
+                .map(|j| ParamSpec::for_effect(i, j, reach))
+                .collect()
+        } else if let Some((i, j)) = effects::param_owner(name) {
+            vec![ParamSpec::for_effect(i, j, reach)]
+        } else if let Some(s) = base.iter().find(|s| s.param.name() == *name) {
+            vec![*s]
+        } else {
+            let known: Vec<String> = REGISTRY
+                .iter()
+                .map(|e| e.name().to_string())
+                .chain(base.iter().map(|s| s.param.name()))
+                .collect();
+            let hint = known
+                .iter()
+                .map(|k| (k, strsim::jaro_winkler(name, k)))
+                .filter(|(_, s)| *s >= 0.8)
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(k, _)| format!("did you mean `{k}`? "))
+                .unwrap_or_default();
+            return Err(Error::config(
+                "--tune",
+                name,
+                format!(
+                    "not an effect, an effect parameter or a simulator base parameter; {hint}known: {} and every effect parameter (`drive-sim effects`)",
+                    known.join(", ")
+                ),
+            ));
+        };
+        for s in found {
+            if s.discrete {
+                return Err(Error::config(
+                    "--tune",
+                    name,
+                    format!(
+                        "`{}` is an on/off parameter: a closed-loop search varies continuous ones",
+                        s.param.name()
+                    ),
+                ));
+            }
+            if specs.iter().any(|t| t.param == s.param) {
+                return Err(Error::config(
+                    "--tune",
+                    name,
+                    format!("`{}` is named twice", s.param.name()),
+                ));
+            }
+            specs.push(s);
+        }
+    }
+    if specs.is_empty() {
+        return Err(Error::config("--tune", "", "name at least one parameter"));
+    }
+    if specs.len() > MAX_TUNED {
+        return Err(Error::config(
+            "--tune",
+            names.join(","),
+            format!(
+                "{} parameters; at most {MAX_TUNED} are tuned at once",
+                specs.len()
+            ),
+        ));
+    }
+    Ok(specs)
+}
+
+/// The loss of one seeded DRIVE run of a model against the real steps.
+struct SeedRun {
+    outcome: std::result::Result<Loss, String>,
+}
+
+/// The protocol run of `drive-sim run --robot twin/robot.toml --terrain twin/terrain.toml
+/// --steps N --seed S`, in memory.
+pub fn twin_run(model: &ModelParams, steps: u32, seed: u64) -> Result<DriveLog> {
+    let (robot, terrain) = twin::twin_models(model)?;
+    super::simulate(&robot, &terrain, SAMPLER, steps, seed, SensorNoise::typical()).map(|r| r.log)
+}
+
+fn compare_opts(resamples: usize) -> CompareOptions {
+    CompareOptions {
+        bootstrap: Bootstrap {
+            resamples,
+            ..Bootstrap::default()
+        },
+        ..CompareOptions::default()
+    }
+}
+
+fn run_against(
+    real: &DriveLog,
+    models: &[&ModelParams],
+    steps: u32,
+    seed: u64,
+    resamples: usize,
+) -> Result<ComparisonReport> {
+    let logs = models
+        .iter()
+        .map(|m| twin_run(m, steps, seed))
+        .collect::<Result<Vec<_>>>()?;
+    let inputs: Vec<Input> = logs.iter().map(|log| Input { log, file: None }).collect();
+    compare(
+        Input {
+            log: real,
+            file: None,
+        },
+        &inputs,
+        &compare_opts(resamples),
+    )
+}
+
+fn seed_run(real: &DriveLog, model: &ModelParams, steps: u32, seed: u64, resamples: usize) -> SeedRun {
+    let outcome = run_against(real, &[model], steps, seed, resamples)
+        .map(|r| loss(&r.sims[0], &r.options))
+        .map_err(|e| e.to_string());
+    SeedRun { outcome }
+}
+
+/// Mean of the seeds' losses; `None` when one failed.
+fn mean_loss(runs: &[SeedRun]) -> Option<f64> {
+    let mut sum = 0.0;
+    for r in runs {
+        sum += r.outcome.as_ref().ok()?.total;
+    }
+    Some(sum / runs.len().max(1) as f64)
+}
+
+fn evaluation(values: Vec<f64>, runs: &[SeedRun]) -> PointEvaluation {
+    PointEvaluation {
+        values,
+        loss: mean_loss(runs),
+        seed_losses: runs
+            .iter()
+            .map(|r| r.outcome.as_ref().ok().map(|o| o.total))
+            .collect(),
+        error: runs.iter().find_map(|r| r.outcome.as_ref().err().cloned()),
+    }
+}
+
+/// The check's rule on paired losses (start, chosen) per seed.
+fn check_rule(
+    seeds: Vec<u64>,
+    start: Vec<Option<f64>>,
+    chosen: Vec<Option<f64>>,
+    same_point: bool,
+) -> SeedCheck {
+    let d: Vec<f64> = start
+        .iter()
+        .zip(&chosen)
+        .filter_map(|(a, b)| match (a, b) {
+            (Some(a), Some(b)) => Some(a - b),
+            // A start that fails where the choice runs: the choice is the better model there.
+            (None, Some(_)) => Some(f64::INFINITY),
+            _ => None,
+        })
+        .collect();
+    let n = d.len() as f64;
+    let finite: Vec<f64> = d.iter().copied().filter(|v| v.is_finite()).collect();
+    let mean = if d.iter().any(|v| v.is_infinite()) {
+        f64::INFINITY
+    } else {
+        finite.iter().sum::<f64>() / n.max(1.0)
+    };
+    let se = if finite.len() >= 2 {
+        let m = finite.iter().sum::<f64>() / finite.len() as f64;
+        let var = finite.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (finite.len() as f64 - 1.0);
+        (var / finite.len() as f64).sqrt()
+    } else {
+        f64::NAN
+    };
+    let every_chosen_ran = chosen.iter().all(Option::is_some);
+    let accepted = !same_point && every_chosen_ran && d.len() >= 2 && mean > 0.0 && mean > 2.0 * se;
+    SeedCheck {
+        seeds,
+        start,
+        chosen,
+        mean_reduction: mean,
+        se,
+        accepted,
+        rule: "accepted when every run of the chosen model completes and its mean loss reduction over the fresh seeds, paired by seed, exceeds twice its standard error".into(),
+    }
+}
+
+fn judged(r: std::result::Result<&ComparisonReport, &String>, i: usize, seed: u64) -> JudgedRun {
+    match r {
+        Ok(rep) => {
+            let c = &rep.sims[i];
+            JudgedRun {
+                seed,
+                loss: Some(loss(c, &rep.options)),
+                metrics: c.metrics.clone(),
+                transfer: c.transfer.clone(),
+                verdict: Some(c.verdict.clone()),
+                error: None,
+            }
+        }
+        Err(e) => JudgedRun {
+            seed,
+            loss: None,
+            metrics: vec![],
+            transfer: vec![],
+            verdict: None,
+            error: Some(e.clone()),
+        },
+    }
+}
+
+/// Tunes (see the module doc). Bad input (unknown names, options, a log of another robot, too
+/// few steps) is refused before the first run. `progress` gets one line per phase.
+pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneOutcome> {
+    let opts = req.opts;
+    opts.validate()?;
+    let real = req.real;
+    if real.meta.robot != req.start.robot.name {
+        return Err(Error::config(
+            "--robot",
+            &req.start.robot.name,
+            format!(
+                "the real log `{}` is of robot `{}`: a twin is tuned against its own robot's log",
+                real.meta.name, real.meta.robot
+            ),
+        ));
+    }
+    let chosen_half = opts.choose_on.select(real);
+    let n_choose = crate::compare::analysis_of(&chosen_half)?.steps.len();
+    let heldout_half = opts.choose_on.other_half().map(|h| (h, h.select(real)));
+    for (name, n) in std::iter::once((opts.choose_on.as_str(), n_choose)).chain(
+        heldout_half
+            .as_ref()
+            .map(|(h, log)| crate::compare::analysis_of(log).map(|a| (h.as_str(), a.steps.len())))
+            .transpose()?,
+    ) {
+        if n < MIN_STEPS_FOR_INTERVAL {
+            return Err(Error::config(
+                "--choose-on",
+                name,
+                format!(
+                    "`{}` has {n} analysed steps there (fewer than {MIN_STEPS_FOR_INTERVAL}): no interval, nothing to tune on",
+                    real.meta.name
+                ),
+            ));
+        }
+    }
+    let reach = CommandReach::of_commands(
+        chosen_half.samples.iter().map(|s| s.m.cmd),
+        &req.start.robot.idd(),
+    );
+    let specs = tuned_specs(req.tune, req.start, &reach)?;
+    let steps = opts.steps.unwrap_or(n_choose as u32);
+    let lo: Vec<f64> = specs.iter().map(|s| s.lower).collect();
+    let width: Vec<f64> = specs.iter().map(|s| s.upper - s.lower).collect();
+    let x0: Vec<f64> = specs.iter().map(|s| s.start_in(req.start)).collect();
+    let to_x = |z: &[f64]| -> Vec<f64> {
+        z.iter()
+            .zip(lo.iter().zip(&width))
+            .map(|(z, (l, w))| l + z * w)
+            .collect()
+    };
+    let z0: Vec<f64> = x0
+        .iter()
+        .zip(lo.iter().zip(&width))
+        .map(|(x, (l, w))| (x - l) / w)
+        .collect();
+    let model_at = |x: &[f64]| req.start.with_values(&specs, x);
+    // The start model as given (an effect it does not have stays off: the search's first point
+    // is then mid-box, but the check compares the choice with this model).
+    let start_model = req.start.clone();
+
+    let choose_seeds = opts.seeds(0, opts.choose_seeds);
+    progress(&format!(
+        "tune: {} parameter(s) on {} {} steps of `{}`, {} DRIVE steps x {} seed(s) per point, at most {} points",
+        specs.len(),
+        n_choose,
+        opts.choose_on.as_str(),
+        real.meta.name,
+        steps,
+        choose_seeds.len(),
+        opts.search.max_evaluations
+    ));
+    let evaluations: Mutex<Vec<PointEvaluation>> = Mutex::new(Vec::new());
+    let best_so_far = Mutex::new(f64::INFINITY);
+    let cost_many = |zs: &[Vec<f64>]| -> Vec<Option<f64>> {
+        let jobs: Vec<(usize, u64)> = (0..zs.len())
+            .flat_map(|i| choose_seeds.iter().map(move |s| (i, *s)))
+            .collect();
+        let mut runs: Vec<(usize, SeedRun)> = jobs
+            .par_iter()
+            .map(|&(i, seed)| {
+                let x = to_x(&zs[i]);
+                let run = match model_at(&x) {
+                    Ok(m) => seed_run(&chosen_half, &m, steps, seed, opts.loss_resamples),
+                    Err(e) => SeedRun {
+                        outcome: Err(e.to_string()),
+                    },
+                };
+                (i, run)
+            })
+            .collect();
+        let mut out = Vec::new();
+        for (i, z) in zs.iter().enumerate() {
+            let (mine, rest): (Vec<_>, Vec<_>) = runs.into_iter().partition(|(j, _)| *j == i);
+            runs = rest;
+            let mine: Vec<SeedRun> = mine.into_iter().map(|(_, r)| r).collect();
+            let e = evaluation(to_x(z), &mine);
+            let mut best = best_so_far.lock().unwrap_or_else(|p| p.into_inner());
+            let mut evals = evaluations.lock().unwrap_or_else(|p| p.into_inner());
+            if let Some(l) = e.loss.filter(|l| *l < *best) {
+                *best = l;
+            }
+            progress(&format!(
+                "tune: point {} {} -> loss {} (best {:.2})",
+                evals.len() + 1,
+                format_values(&specs, &e.values),
+                e.loss.map_or_else(
+                    || format!("failed ({})", e.error.clone().unwrap_or_default()),
+                    |l| format!("{l:.2}")
+                ),
+                *best
+            ));
+            out.push(e.loss);
+            evals.push(e);
+        }
+        out
+    };
+    // The start model on the search's seeds: the baseline the search's losses compare with.
+    let start_runs: Vec<SeedRun> = choose_seeds
+        .par_iter()
+        .map(|&s| seed_run(&chosen_half, &start_model, steps, s, opts.loss_resamples))
+        .collect();
+    let start_eval = evaluation(req.start.values_of(&specs), &start_runs);
+    let start_loss = start_eval.loss;
+    progress(&format!(
+        "tune: the start model: loss {}",
+        start_loss.map_or_else(
+            || format!("failed ({})", start_eval.error.clone().unwrap_or_default()),
+            |l| format!("{l:.2}")
+        )
+    ));
+    let (z_best, chosen_loss, summary) = search::minimise(&z0, &opts.search, &cost_many);
+    let evaluations = evaluations.into_inner().unwrap_or_else(|p| p.into_inner());
+    let x_best = to_x(&z_best);
+    let chosen_model = model_at(&x_best)?;
+    let same_point = chosen_model == start_model;
+    progress(&format!(
+        "tune: search done ({} points, {}): best {} loss {chosen_loss:.2} (start {})",
+        summary.evaluations,
+        summary.stop,
+        format_values(&specs, &x_best),
+        start_loss.map_or_else(|| "failed".into(), |l| format!("{l:.2}"))
+    ));
+
+    // 2. The check on fresh seeds.
+    let check_seeds = opts.seeds(CHECK_SEED_OFFSET, opts.check_seeds);
+    let pairs: Vec<(SeedRun, SeedRun)> = check_seeds
+        .par_iter()
+        .map(|&s| {
+            (
+                seed_run(&chosen_half, &start_model, steps, s, opts.loss_resamples),
+                seed_run(&chosen_half, &chosen_model, steps, s, opts.loss_resamples),
+            )
+        })
+        .collect();
+    let total = |r: &SeedRun| r.outcome.as_ref().ok().map(|o| o.total);
+    let check = check_rule(
+        check_seeds,
+        pairs.iter().map(|p| total(&p.0)).collect(),
+        pairs.iter().map(|p| total(&p.1)).collect(),
+        same_point,
+    );
+    progress(&format!(
+        "tune: check on {} fresh seeds: loss reduction {:.2} ± {:.2} (SE): {}",
+        check.seeds.len(),
+        check.mean_reduction,
+        check.se,
+        if check.accepted {
+            "accepted"
+        } else {
+            "not accepted, the twin stays the start"
+        }
+    ));
+
+    // 3. The judgement on the other half.
+    let heldout = match &heldout_half {
+        Some((half, log)) => {
+            let seeds = opts.seeds(JUDGE_SEED_OFFSET, opts.check_seeds);
+            let reps: Vec<(u64, std::result::Result<ComparisonReport, String>)> = seeds
+                .par_iter()
+                .map(|&s| {
+                    let r = run_against(
+                        log,
+                        &[&start_model, &chosen_model],
+                        steps,
+                        s,
+                        Bootstrap::default().resamples,
+                    )
+                    .map_err(|e| e.to_string());
+                    (s, r)
+                })
+                .collect();
+            let h = HeldOut {
+                steps: *half,
+                real_steps: crate::compare::analysis_of(log)?.steps.len(),
+                start: reps.iter().map(|(s, r)| judged(r.as_ref(), 0, *s)).collect(),
+                chosen: reps.iter().map(|(s, r)| judged(r.as_ref(), 1, *s)).collect(),
+                reports: reps.into_iter().filter_map(|(_, r)| r.ok()).collect(),
+            };
+            let mean = |runs: &[JudgedRun]| {
+                let v: Vec<f64> = runs
+                    .iter()
+                    .filter_map(|r| r.loss.as_ref().map(|l| l.total))
+                    .collect();
+                v.iter().sum::<f64>() / v.len().max(1) as f64
+            };
+            progress(&format!(
+                "tune: judged on the {} {} steps ({} seeds): mean loss start {:.2}, chosen {:.2}",
+                h.real_steps,
+                half.as_str(),
+                h.start.len(),
+                mean(&h.start),
+                mean(&h.chosen)
+            ));
+            Some(h)
+        }
+        None => None,
+    };
+    let mut notes = Vec::new();
+    if heldout.is_none() {
+        notes.push("chosen on every step: nothing is left to judge it on (choose on odd or even steps for a held-out judgement)".into());
+    }
+    if !summary.converged {
+        notes.push(format!("the search did not converge: {}", summary.stop));
+    }
+    let params: Vec<TunedParam> = specs
+        .iter()
+        .zip(x0.iter().zip(&x_best))
+        .map(|(s, (a, b))| TunedParam {
+            name: s.param.name(),
+            unit: s.param.unit().to_string(),
+            lower: s.lower,
+            upper: s.upper,
+            start: Some(s.param.get(req.start)).filter(|v| v.is_finite() && s.param.neutral() != Some(*v)),
+            search_start: *a,
+            chosen: *b,
+            at_bound: s.at_bound(*b),
+        })
+        .collect();
+    for p in params.iter().filter(|p| p.at_bound) {
+        notes.push(format!(
+            "`{}` ended on its box [{}, {}]: a stand-in for something else, or a box too small",
+            p.name, p.lower, p.upper
+        ));
+    }
+    let accepted = check.accepted;
+    Ok(TuneOutcome {
+        dataset: real.meta.name.clone(),
+        robot: real.meta.robot.clone(),
+        options: *opts,
+        real_steps_chosen_on: n_choose,
+        steps_per_run: steps,
+        choose_seeds,
+        params,
+        evaluations,
+        search: summary,
+        start_loss,
+        start_evaluation: start_eval,
+        chosen_loss,
+        check,
+        heldout,
+        accepted,
+        notes,
+        model: Some(if accepted { chosen_model } else { start_model }),
+    })
+}
+
+fn format_values(specs: &[ParamSpec], x: &[f64]) -> String {
+    specs
+        .iter()
+        .zip(x)
+        .map(|(s, v)| {
+            let name = match s.param {
+                Param::Effect { .. } => s.param.def().map_or("?", |d| d.key).to_string(),
+                _ => s.param.name(),
+            };
+            format!("{name}={v:.4}")
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// The twin files of a tuning: the twin's model, each tuned value commented with how it was
+/// chosen (no interval: a closed-loop search gives none; `tune.json` holds every point it
+/// evaluated).
+pub fn twin_of(outcome: &TuneOutcome, start_source: &str, reproduce: &str) -> Result<twin::TwinFiles> {
+    let model = outcome
+        .model
+        .as_ref()
+        .ok_or_else(|| Error::Analysis("a tuning read back from JSON has no model".into()))?;
+    let mut header = vec![
+        format!(
+            "Twin tuned in closed loop by drive-sim on `{}` ({} steps), starting from {start_source}.",
+            outcome.dataset,
+            outcome.options.choose_on.as_str()
+        ),
+        format!(
+            "Loss (compare's statistics, 1 per term at its verdict's threshold) {} -> {:.3} on seeds {:?}; check on fresh seeds: reduction {:.3} ± {:.3} (SE), {}.",
+            outcome.start_loss.map_or_else(|| "failed".into(), |l| format!("{l:.3}")),
+            outcome.chosen_loss,
+            outcome.choose_seeds,
+            outcome.check.mean_reduction,
+            outcome.check.se,
+            if outcome.accepted { "accepted" } else { "not accepted: these are the start's values" }
+        ),
+        format!("Reproduce: {reproduce}"),
+    ];
+    if let Some(h) = &outcome.heldout {
+        header.push(format!(
+            "Judged on the {} {} steps: see tune.json (heldout) and heldout/report.html.",
+            h.real_steps,
+            h.steps.as_str()
+        ));
+    }
+    let chosen = if outcome.accepted {
+        outcome
+            .params
+            .iter()
+            .map(|p| {
+                let unit = if p.unit == "-" {
+                    String::new()
+                } else {
+                    format!(" {}", p.unit)
+                };
+                (
+                    p.name.clone(),
+                    format!(
+                        "[tune] {}: {:.6}{unit}, chosen in closed loop in [{}, {}] (start: {}); no interval",
+                        outcome.dataset,
+                        p.chosen,
+                        p.lower,
+                        p.upper,
+                        p.start.map_or_else(|| "off".to_string(), |v| format!("{v:.6}"))
+                    ),
+                )
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    twin::twin_files(
+        model,
+        &twin::Provenance {
+            header,
+            fitted: Vec::new(),
+            before: None,
+            chosen,
+        },
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::robot::Robot;
+    use crate::terrain::Terrain;
+
+    fn start() -> ModelParams {
+        let (r, _) = Robot::resolve("warthog").unwrap();
+        let (t, _) = Terrain::resolve("asphalt").unwrap();
+        twin::lift_effects(&r, &t).unwrap()
+    }
+
+    const REACH: CommandReach = CommandReach {
+        wheel_rad_s: 16.0,
+        speed_m_s: 5.0,
+        yaw_rate_rad_s: 4.0,
+    };
+
+    #[test]
+    fn names_resolve_to_effects_parameters_and_base_parameters() {
+        let names: Vec<String> = [
+            "motor_torque_speed",
+            "turning_resistance_scale",
+            "terrain.friction.peak_lateral",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        let specs = tuned_specs(&names, &start(), &REACH).unwrap();
+        let got: Vec<String> = specs.iter().map(|s| s.param.name()).collect();
+        assert_eq!(
+            got,
+            [
+                "effect.motor_stall_torque_nm",
+                "effect.motor_no_load_speed_rad_s",
+                "effect.turning_resistance_scale",
+                "terrain.friction.peak_lateral"
+            ]
+        );
+        // The no-load speed's box scales with what the log commands.
+        assert_eq!((specs[1].lower, specs[1].upper), (8.0, 24.0));
+    }
+
+    #[test]
+    fn bad_names_are_refused_with_a_hint() {
+        let e = tuned_specs(&["motor_torque_sped".to_string()], &start(), &REACH)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("did you mean `motor_torque_speed`"), "{e}");
+        let e = tuned_specs(
+            &[
+                "motor_torque_speed".to_string(),
+                "motor_stall_torque_nm".to_string(),
+            ],
+            &start(),
+            &REACH,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("named twice"), "{e}");
+        let e = tuned_specs(&["imu_yaw_rate_sign_flip".to_string()], &start(), &REACH)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("on/off"), "{e}");
+    }
+
+    #[test]
+    fn the_check_accepts_only_a_reduction_beyond_two_standard_errors() {
+        let s = |v: &[f64]| v.iter().map(|x| Some(*x)).collect::<Vec<_>>();
+        let c = check_rule(vec![1, 2, 3], s(&[10.0, 11.0, 12.0]), s(&[5.0, 6.0, 6.5]), false);
+        assert!(c.accepted, "{c:?}");
+        assert!((c.mean_reduction - 5.1666).abs() < 1e-3);
+        // Noisy: one seed better, one worse.
+        let c = check_rule(
+            vec![1, 2, 3],
+            s(&[10.0, 11.0, 12.0]),
+            s(&[5.0, 14.0, 11.0]),
+            false,
+        );
+        assert!(!c.accepted, "{c:?}");
+        // The same point (the start was the best) is never "accepted".
+        let c = check_rule(vec![1, 2], s(&[10.0, 11.0]), s(&[10.0, 11.0]), true);
+        assert!(!c.accepted);
+        // A choice whose run fails is not accepted, however good the others.
+        let c = check_rule(
+            vec![1, 2, 3],
+            s(&[10.0, 11.0, 12.0]),
+            vec![Some(1.0), None, Some(1.0)],
+            false,
+        );
+        assert!(!c.accepted);
+    }
+
+    #[test]
+    fn options_are_checked_before_any_run() {
+        let bad = TuneOptions {
+            check_seeds: 1,
+            ..TuneOptions::default()
+        };
+        assert!(bad.validate().unwrap_err().to_string().contains("--check-seeds"));
+        let bad = TuneOptions {
+            steps: Some(3),
+            ..TuneOptions::default()
+        };
+        assert!(bad.validate().unwrap_err().to_string().contains("--steps"));
+        TuneOptions::default().validate().unwrap();
+    }
+}
