@@ -7,8 +7,10 @@ For each dataset, two starts:
   is one, as `scripts/twin_table.py` takes it);
 - the twin calibrated by replay on the odd steps (`drive-sim calibrate --model simulator
   --use-steps odd --no-discovery`),
-each tuned with `drive-sim tune --choose-on odd` on the effects of `--tune` (per robot), and
-judged by `tune` itself on the even steps with three fresh seeds. The table gives, per start and
+each tuned with `drive-sim tune --choose-on odd` on the effects of `TUNE` (per robot), and
+judged by `tune` itself on the even steps with three fresh seeds. A first row per dataset
+compares the real odd steps themselves with the even ones: the closest any model that matches
+the odd steps can come. The table gives, per start and
 per model (start, tuned), the means over the three judging seeds: median ρ difference, T/U
 areas (sim − real, percentage points), transfer-function RMS over the yardstick, and in how
 many of the seeds compare's verdict is "reproduces".
@@ -131,6 +133,9 @@ def main():
                     o = json.load(f)
                 chosen = ", ".join(f"{p['name'].split('.')[-1]} {p['chosen']:.3g}" for p in o["params"])
                 verdict = "accepted" if o["accepted"] else "not accepted"
+                if i == 0:
+                    lines.append(row(d, "the real odd steps themselves (a model matching them exactly)",
+                                     summary([o["heldout"]["real_halves"]])))
                 lines.append(row(d, label, summary(o["heldout"]["start"])))
                 lines.append(row(d, f"→ tuned ({chosen}; {verdict}, loss {o['start_loss']:.1f} → "
                                     f"{o['chosen_loss']:.1f})", summary(o["heldout"]["chosen"])))

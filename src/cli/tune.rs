@@ -221,7 +221,12 @@ fn print_outcome(o: &TuneOutcome) -> std::io::Result<()> {
             h.steps.as_str()
         )?;
         writeln!(out, "{:<8} {:>6} {:>10}  verdict", "model", "seed", "loss")?;
-        for (label, runs) in [("start", &h.start), ("chosen", &h.chosen)] {
+        let halves = std::slice::from_ref(&h.real_halves);
+        for (label, runs) in [
+            ("start", &h.start[..]),
+            ("chosen", &h.chosen[..]),
+            ("halves", halves),
+        ] {
             for r in runs {
                 let verdict = match (&r.verdict, &r.error) {
                     (Some(v), _) if v.reproduces => "reproduces".to_string(),
@@ -244,13 +249,25 @@ fn print_outcome(o: &TuneOutcome) -> std::io::Result<()> {
                 writeln!(
                     out,
                     "{label:<8} {:>6} {:>10}  {verdict}",
-                    r.seed,
+                    if label == "halves" {
+                        "-".to_string()
+                    } else {
+                        r.seed.to_string()
+                    },
                     r.loss
                         .as_ref()
                         .map_or_else(|| "-".into(), |l| format!("{:.3}", l.total))
                 )?;
             }
         }
+    }
+    if o.heldout.is_some() {
+        writeln!(
+            out,
+            "(halves: the real run's {} steps against its {} steps, as a model matching the first exactly would be judged)",
+            o.options.choose_on.as_str(),
+            o.options.choose_on.other_half().map_or("", |h| h.as_str())
+        )?;
     }
     for n in &o.notes {
         writeln!(out, "note: {n}")?;

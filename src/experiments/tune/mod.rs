@@ -231,6 +231,11 @@ pub struct HeldOut {
     pub start: Vec<JudgedRun>,
     /// The chosen model, on the same seeds.
     pub chosen: Vec<JudgedRun>,
+    /// The real run's choosing half compared with its held-out half as if it were a simulated
+    /// run (`seed` 0: not a run): how far a model that matched the choosing half exactly would
+    /// be from the held-out one. Where the halves differ beyond a tolerance (a T/U area by more
+    /// than 5 pp), no model meets it on both.
+    pub real_halves: JudgedRun,
     /// Each judging seed's comparison (both models against the held-out steps), for the
     /// figures and `report.html`.
     #[serde(skip)]
@@ -685,7 +690,17 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
                     (s, r)
                 })
                 .collect();
+            let halves = compare(
+                Input { log, file: None },
+                &[Input {
+                    log: &chosen_half,
+                    file: None,
+                }],
+                &compare_opts(Bootstrap::default().resamples),
+            )
+            .map_err(|e| e.to_string());
             let h = HeldOut {
+                real_halves: judged(halves.as_ref(), 0, 0),
                 steps: *half,
                 real_steps: crate::compare::analysis_of(log)?.steps.len(),
                 start: reps.iter().map(|(s, r)| judged(r.as_ref(), 0, *s)).collect(),
