@@ -30,14 +30,19 @@ fn spec(seed: u64) -> TestRobotSpec {
     }
 }
 
-fn tuned(limit_rad_s: f64) -> drive_sim::experiments::tune::TuneOutcome {
+/// The generator's DRIVE run (120 steps), its motors clipping at `limit_rad_s` (0: no limit).
+fn generator_log(limit_rad_s: f64) -> (drive_sim::log::DriveLog, drive_sim::robot::Robot) {
     let extra = Unmodelled {
         wheel_limit_rad_s: limit_rad_s,
         centripetal_s: 0.05,
         pose_yaw_noise_rad: 0.01,
         ..Unmodelled::default()
     };
-    let (log, robot) = drive_log_with("generator", spec(3), extra, 120);
+    drive_log_with("generator", spec(3), extra, 120)
+}
+
+fn tuned(limit_rad_s: f64) -> drive_sim::experiments::tune::TuneOutcome {
+    let (log, robot) = generator_log(limit_rad_s);
     let (terrain, _) = Terrain::resolve("asphalt").unwrap();
     let start = twin::lift_effects(&robot, &terrain).unwrap();
     let opts = TuneOptions {
@@ -104,22 +109,42 @@ fn a_wheel_speed_limit_is_found_in_closed_loop_and_judged_on_held_out_steps() {
     // The twin carries the chosen limit.
     let m = o.model.as_ref().unwrap();
     assert_eq!(m.effects.get("wheel_speed_saturation_rad_s"), Some(p.chosen));
+    // Its files round-trip, and running them (what `drive-sim run --robot twin/robot.toml
+    // --terrain twin/terrain.toml --steps N --seed S` does) gives the judged run again.
+    let files = drive_sim::experiments::tune::twin_of(&o, "the test's start", "cargo test").unwrap();
+    assert!(
+        files.robot_toml.contains("[tune] generator"),
+        "{}",
+        files.robot_toml
+    );
+    let r: drive_sim::robot::Robot =
+        drive_sim::config::parse_toml(&files.robot_toml, "robot.toml".as_ref()).unwrap();
+    let t: Terrain = drive_sim::config::parse_toml(&files.terrain_toml, "terrain.toml".as_ref()).unwrap();
+    let back = twin::lift_effects(&r, &t).unwrap();
+    assert_eq!(&back, m);
+    let (log, _) = generator_log(LIMIT_RAD_S);
+    let even = UseSteps::Even.select(&log);
+    let seed = h.chosen[0].seed;
+    let run = drive_sim::experiments::tune::twin_run(&back, o.steps_per_run, seed).unwrap();
+    let c = drive_sim::compare::compare(
+        drive_sim::compare::Input {
+            log: &even,
+            file: None,
+        },
+        &[drive_sim::compare::Input {
+            log: &run,
+            file: None,
+        }],
+        &drive_sim::compare::CompareOptions::default(),
+    )
+    .unwrap();
+    let again = drive_sim::compare::loss::loss(&c.sims[0], &c.options).total;
+    assert_eq!(again, h.chosen[0].loss.as_ref().unwrap().total);
 }
 
 #[test]
 fn without_a_limit_nothing_is_accepted() {
     let o = tuned(0.0);
-    for r in &o.heldout.as_ref().unwrap().start {
-        for t in &r.loss.as_ref().unwrap().terms {
-            eprintln!("{} {:?}", t.name, t.value);
-        }
-        for m in &r.metrics {
-            eprintln!(
-                "{} real {:.4} sim {:.4} ci {:?}",
-                m.metric, m.real, m.sim, m.difference_ci95
-            );
-        }
-    }
     eprintln!(
         "chosen {:.3} rad/s, loss {:?} -> {:.2}, check {:.2} ± {:.2}",
         o.params[0].chosen, o.start_loss, o.chosen_loss, o.check.mean_reduction, o.check.se
