@@ -93,10 +93,11 @@ fn a_wheel_speed_limit_is_found_in_closed_loop_and_judged_on_held_out_steps() {
         .expect("chosen on odd steps: judged on even ones");
     assert_eq!(h.steps, UseSteps::Even);
     // The real halves against each other: the generator's odd and even steps are alike.
+    let halves = h.real_halves.as_ref().expect("held out: the halves are compared");
     assert!(
-        h.real_halves.verdict.as_ref().is_some_and(|v| v.reproduces),
+        halves.verdict.as_ref().is_some_and(|v| v.reproduces),
         "{:?}",
-        h.real_halves.verdict
+        halves.verdict
     );
     for (a, b) in h.start.iter().zip(&h.chosen) {
         let (a, b) = (a.loss.as_ref().unwrap().total, b.loss.as_ref().unwrap().total);

@@ -213,15 +213,24 @@ fn print_outcome(o: &TuneOutcome) -> std::io::Result<()> {
             "not accepted: the twin is the start"
         }
     )?;
-    if let Some(h) = &o.heldout {
+    for (h, held_out) in [(&o.heldout, true), (&o.same_steps, false)] {
+        let Some(h) = h else { continue };
         writeln!(
             out,
-            "judged on the {} {} steps (never used above), one run per seed:",
+            "judged on the {} {} steps ({}), one run per fresh seed:",
             h.real_steps,
-            h.steps.as_str()
+            h.steps.as_str(),
+            if held_out {
+                "never used above"
+            } else {
+                "the steps it was chosen on: not held out"
+            }
         )?;
         writeln!(out, "{:<8} {:>6} {:>10}  verdict", "model", "seed", "loss")?;
-        let halves = std::slice::from_ref(&h.real_halves);
+        let halves: &[tune::JudgedRun] = match &h.real_halves {
+            Some(r) => std::slice::from_ref(r),
+            None => &[],
+        };
         for (label, runs) in [
             ("start", &h.start[..]),
             ("chosen", &h.chosen[..]),

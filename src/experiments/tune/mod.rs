@@ -220,7 +220,8 @@ pub struct JudgedRun {
     pub error: Option<String>,
 }
 
-/// The judgement on the steps the choice did not see.
+/// The judgement of the start and the chosen model on real steps, with fresh seeds: the steps
+/// the choice did not see (`heldout`), or, when it saw every step, those (`same_steps`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct HeldOut {
     /// The held-out steps.
@@ -234,8 +235,8 @@ pub struct HeldOut {
     /// The real run's choosing half compared with its held-out half as if it were a simulated
     /// run (`seed` 0: not a run): how far a model that matched the choosing half exactly would
     /// be from the held-out one. Where the halves differ beyond a tolerance (a T/U area by more
-    /// than 5 pp), no model meets it on both.
-    pub real_halves: JudgedRun,
+    /// than 5 pp), no model meets it on both. `None` when judged on the choosing steps.
+    pub real_halves: Option<JudgedRun>,
     /// Each judging seed's comparison (both models against the held-out steps), for the
     /// figures and `report.html`.
     #[serde(skip)]
@@ -274,6 +275,10 @@ pub struct TuneOutcome {
     pub check: SeedCheck,
     /// The judgement on the other half (`None` when the choice used every step).
     pub heldout: Option<HeldOut>,
+    /// When the choice used every step: the judgement on those same steps with fresh seeds
+    /// (the first target, a twin against the run it was made from; not held out).
+    #[serde(default)]
+    pub same_steps: Option<HeldOut>,
     /// The twin is the chosen model (the check accepted it), not the start.
     pub accepted: bool,
     /// What happened, in words.
@@ -672,63 +677,73 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
         }
     ));
 
-    // 3. The judgement on the other half.
-    let heldout = match &heldout_half {
-        Some((half, log)) => {
-            let seeds = opts.seeds(JUDGE_SEED_OFFSET, opts.check_seeds);
-            let reps: Vec<(u64, std::result::Result<ComparisonReport, String>)> = seeds
-                .par_iter()
-                .map(|&s| {
-                    let r = run_against(
-                        log,
-                        &[&start_model, &chosen_model],
-                        steps,
-                        s,
-                        Bootstrap::default().resamples,
-                    )
-                    .map_err(|e| e.to_string());
-                    (s, r)
-                })
-                .collect();
-            let halves = compare(
+    // 3. The judgement: on the other half when the choice used one (held out), else on the
+    // choosing steps themselves with fresh seeds (labelled: not a held-out result).
+    let judge_seeds = opts.seeds(JUDGE_SEED_OFFSET, opts.check_seeds);
+    let judge_on = |half: UseSteps, log: &DriveLog, halves: Option<&DriveLog>| -> Result<HeldOut> {
+        let reps: Vec<(u64, std::result::Result<ComparisonReport, String>)> = judge_seeds
+            .par_iter()
+            .map(|&s| {
+                let r = run_against(
+                    log,
+                    &[&start_model, &chosen_model],
+                    steps,
+                    s,
+                    Bootstrap::default().resamples,
+                )
+                .map_err(|e| e.to_string());
+                (s, r)
+            })
+            .collect();
+        let real_halves = halves.map(|other| {
+            let c = compare(
                 Input { log, file: None },
                 &[Input {
-                    log: &chosen_half,
+                    log: other,
                     file: None,
                 }],
                 &compare_opts(Bootstrap::default().resamples),
             )
             .map_err(|e| e.to_string());
-            let h = HeldOut {
-                real_halves: judged(halves.as_ref(), 0, 0),
-                steps: *half,
-                real_steps: crate::compare::analysis_of(log)?.steps.len(),
-                start: reps.iter().map(|(s, r)| judged(r.as_ref(), 0, *s)).collect(),
-                chosen: reps.iter().map(|(s, r)| judged(r.as_ref(), 1, *s)).collect(),
-                reports: reps.into_iter().filter_map(|(_, r)| r.ok()).collect(),
-            };
-            let mean = |runs: &[JudgedRun]| {
-                let v: Vec<f64> = runs
-                    .iter()
-                    .filter_map(|r| r.loss.as_ref().map(|l| l.total))
-                    .collect();
-                v.iter().sum::<f64>() / v.len().max(1) as f64
-            };
-            progress(&format!(
-                "tune: judged on the {} {} steps ({} seeds): mean loss start {:.2}, chosen {:.2}",
-                h.real_steps,
-                half.as_str(),
-                h.start.len(),
-                mean(&h.start),
-                mean(&h.chosen)
-            ));
-            Some(h)
-        }
-        None => None,
+            judged(c.as_ref(), 0, 0)
+        });
+        let h = HeldOut {
+            real_halves,
+            steps: half,
+            real_steps: crate::compare::analysis_of(log)?.steps.len(),
+            start: reps.iter().map(|(s, r)| judged(r.as_ref(), 0, *s)).collect(),
+            chosen: reps.iter().map(|(s, r)| judged(r.as_ref(), 1, *s)).collect(),
+            reports: reps.into_iter().filter_map(|(_, r)| r.ok()).collect(),
+        };
+        let mean = |runs: &[JudgedRun]| {
+            let v: Vec<f64> = runs
+                .iter()
+                .filter_map(|r| r.loss.as_ref().map(|l| l.total))
+                .collect();
+            v.iter().sum::<f64>() / v.len().max(1) as f64
+        };
+        progress(&format!(
+            "tune: judged on the {} {} steps{} ({} seeds): mean loss start {:.2}, chosen {:.2}",
+            h.real_steps,
+            half.as_str(),
+            if halves.is_some() {
+                ""
+            } else {
+                " it was chosen on (not held out)"
+            },
+            h.start.len(),
+            mean(&h.start),
+            mean(&h.chosen)
+        ));
+        Ok(h)
+    };
+    let (heldout, same_steps) = match &heldout_half {
+        Some((half, log)) => (Some(judge_on(*half, log, Some(&chosen_half))?), None),
+        None => (None, Some(judge_on(opts.choose_on, &chosen_half, None)?)),
     };
     let mut notes = Vec::new();
     if heldout.is_none() {
-        notes.push("chosen on every step: nothing is left to judge it on (choose on odd or even steps for a held-out judgement)".into());
+        notes.push("chosen on every step: judged on the same steps with fresh seeds (`same_steps`), not held out (choose on odd or even steps for a held-out judgement)".into());
     }
     if !summary.converged {
         notes.push(format!("the search did not converge: {}", summary.stop));
@@ -769,6 +784,7 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
         chosen_loss,
         check,
         heldout,
+        same_steps,
         accepted,
         notes,
         model: Some(if accepted { chosen_model } else { start_model }),
