@@ -298,3 +298,61 @@ fn analyze_two_robots_writes_a_figure_per_robot() {
     assert!(summary.contains("warthog_asphalt_s2") && summary.contains("husky_grass_s2"));
     assert!(dir.path().join("a/report.html").exists());
 }
+
+/// `--safe-area` replaces the robot file's safe area for one deployment: a site twice as long
+/// and wide interrupts the same seed's run less, the option is recorded in the run's
+/// provenance, and a malformed or absurd area is bad input (exit code 2) that writes nothing.
+#[test]
+fn safe_area_is_a_deployment_option() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |extra: &[&str], name: &str| {
+        let mut a = vec![
+            "run",
+            "--robot",
+            "warthog",
+            "--terrain",
+            "asphalt",
+            "--steps",
+            "20",
+            "--seed",
+            "4",
+            "--quiet",
+            "--out",
+            "o",
+            "--name",
+            name,
+        ];
+        a.extend_from_slice(extra);
+        drive_sim(&a, dir.path())
+    };
+    let summary = |name: &str| -> serde_json::Value {
+        let text = std::fs::read_to_string(dir.path().join(format!("o/{name}.run.json"))).unwrap();
+        serde_json::from_str(&text).unwrap()
+    };
+    assert!(run(&[], "small").status.success());
+    let o = run(&["--safe-area", "90x40"], "large");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (small, large) = (summary("small"), summary("large"));
+    let interruptions = |v: &serde_json::Value| v["summary"]["interruptions"].as_u64().unwrap();
+    assert!(
+        interruptions(&large) < interruptions(&small),
+        "{} -> {}",
+        interruptions(&small),
+        interruptions(&large)
+    );
+    assert_eq!(
+        large["provenance"]["options"]["--safe-area"],
+        serde_json::json!([90.0, 40.0])
+    );
+    assert!(small["provenance"]["options"].get("--safe-area").is_none());
+    for (bad, needle) in [
+        ("90", "LENGTHxWIDTH"),
+        ("90xwide", "not a number"),
+        ("0x20", "--safe-area"),
+    ] {
+        let o = run(&["--safe-area", bad], "bad");
+        assert_eq!(o.status.code(), Some(2), "{bad}: {}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{bad}: {}", stderr(&o));
+        assert!(!dir.path().join("o/bad.mcap").exists());
+    }
+}

@@ -81,6 +81,7 @@ pub fn scenario_request(opts: &DemoOptions, robot: &str, terrain: &str) -> RunRe
         force: true,
         out: opts.out.join("logs"),
         name: None,
+        safe_area: None,
     }
 }
 

@@ -38,6 +38,9 @@ pub struct RunRequest {
     pub name: Option<String>,
     /// Overwrite a log of the same name made with other options (otherwise refused).
     pub force: bool,
+    /// The safe area of this deployment, replacing the robot file's (sites differ: the paper's
+    /// Warthog sites were 740 to 1900 m² around the 900 m² minimum).
+    pub safe_area: Option<crate::robot::SafeArea>,
 }
 
 /// Most steps a run may ask for: 100 000 steps are about 7 simulated days of DRIVE.
@@ -69,6 +72,17 @@ impl RunRequest {
         }
         if let Some(n) = &self.name {
             crate::output::check_file_name("--name", n)?;
+        }
+        if let Some(a) = &self.safe_area {
+            for (what, v) in [("length", a.length_m), ("width", a.width_m)] {
+                if !(v.is_finite() && (1.0..=10_000.0).contains(&v)) {
+                    return Err(Error::config(
+                        cl,
+                        "--safe-area",
+                        format!("the {what} must be in [1, 10000] m, got {v}"),
+                    ));
+                }
+            }
         }
         Ok(())
     }
@@ -165,7 +179,10 @@ fn record(
 ) -> Result<(RunReport, Option<DriveLog>)> {
     // The validation pass first: nothing is loaded, created or simulated on bad input.
     req.validate()?;
-    let (robot, robot_file) = Robot::resolve(&req.robot)?;
+    let (mut robot, robot_file) = Robot::resolve(&req.robot)?;
+    if let Some(a) = &req.safe_area {
+        robot.safe_area = a.clone();
+    }
     let (terrain, terrain_file) = Terrain::resolve(&req.terrain)?;
     let seed = req.sim.seed;
     let protocol = ProtocolConfig::for_run(&robot, &terrain, req.steps);
@@ -281,7 +298,7 @@ pub fn describe(r: &RunReport) -> String {
 /// The options that determine a run's log, by the command-line option that sets each (the
 /// names an overwrite refusal reports).
 fn run_options(req: &RunRequest, robot_file: &Path, terrain_file: &Path) -> serde_json::Value {
-    serde_json::json!({
+    let mut o = serde_json::json!({
         "--robot": robot_file.display().to_string(),
         "--terrain": terrain_file.display().to_string(),
         "--steps": req.steps,
@@ -290,7 +307,12 @@ fn run_options(req: &RunRequest, robot_file: &Path, terrain_file: &Path) -> serd
         "--physics-hz": req.sim.physics_hz,
         "--noise": noise_label(&serde_json::to_value(req.sim.noise).unwrap_or_default()),
         "--inject": req.sim.effects,
-    })
+    });
+    // Only when given: the options of earlier logs (without it) stay the same options.
+    if let Some(a) = &req.safe_area {
+        o["--safe-area"] = serde_json::json!([a.length_m, a.width_m]);
+    }
+    o
 }
 
 /// `"off"` or `"typical"` for the sensor noise the command line names, else the values.
