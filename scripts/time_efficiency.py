@@ -1,0 +1,80 @@
+#!/usr/bin/env python3
+"""Where the simulated DRIVE's time goes, for the declared Warthog and a twin, on the paper's
+minimum safe area and on a site as large as the paper's for that terrain.
+
+For each model (the declared `warthog` on TERRAIN, and the twin given by --twin, a directory
+holding robot.toml and terrain.toml) and each safe area (the robot file's 45 x 20 m, and
+--site, e.g. 50x25 for the paper's 1250 m2 asphalt site), runs `drive-sim run` for 150 steps
+with seeds 0, 1, 2 and prints the paper's "time data gathering" (run.json
+summary.data_gathering_fraction), the interruptions per step and the re-orientation breakdown.
+
+    python3 scripts/time_efficiency.py --terrain asphalt --site 50x25 \\
+        --twin out/tune_table/warthog_asphalt/tune_1/twin [--bin target/release/drive-sim] [--out out/time_efficiency]
+
+Writes OUT/table.md and every command to OUT/commands.txt; runs whose log exists are reused.
+"""
+
+import argparse
+import json
+import os
+import shlex
+import subprocess
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(HERE)
+SEEDS = [0, 1, 2]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--bin", default=os.path.join(REPO, "target", "release", "drive-sim"))
+    ap.add_argument("--out", default=os.path.join(REPO, "out", "time_efficiency"))
+    ap.add_argument("--terrain", default="asphalt")
+    ap.add_argument("--site", default="50x25", help="LENGTHxWIDTH of the paper's site, metres")
+    ap.add_argument("--twin", required=True, help="directory with robot.toml and terrain.toml")
+    args = ap.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    models = [
+        ("declared warthog + " + args.terrain, "warthog", args.terrain),
+        ("twin " + os.path.relpath(args.twin, REPO), os.path.join(args.twin, "robot.toml"),
+         os.path.join(args.twin, "terrain.toml")),
+    ]
+    sites = [("45 x 20 m (robot file)", None), (args.site.replace("x", " x ") + " m", args.site)]
+    lines = [
+        "| model | safe area | data gathering (seeds 0, 1, 2) | mean | interruptions / step | "
+        "re-orientation turning / driving / stopping, % of time |",
+        "|---|---|---|---|---|---|",
+    ]
+    with open(os.path.join(args.out, "commands.txt"), "a") as log:
+        for mi, (label, robot, terrain) in enumerate(models):
+            for si, (site_label, site) in enumerate(sites):
+                rows = []
+                for seed in SEEDS:
+                    name = f"m{mi}_a{si}_s{seed}"
+                    json_path = os.path.join(args.out, name + ".run.json")
+                    if not os.path.exists(json_path):
+                        cmd = [args.bin, "run", "--robot", robot, "--terrain", terrain, "--steps", "150",
+                               "--seed", str(seed), "--out", args.out, "--name", name, "--quiet"]
+                        if site:
+                            cmd += ["--safe-area", site]
+                        log.write(" ".join(shlex.quote(c) for c in cmd) + "\n")
+                        log.flush()
+                        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+                    with open(json_path) as f:
+                        rows.append(json.load(f)["summary"])
+                g = [100 * r["data_gathering_fraction"] for r in rows]
+                ips = [r["interruptions"] / r["steps_completed"] for r in rows]
+                share = lambda k: sum(100 * r[k] / r["total_time_s"] for r in rows) / len(rows)
+                lines.append(
+                    f"| {label} | {site_label} | {', '.join(f'{x:.1f} %' for x in g)} | "
+                    f"{sum(g) / len(g):.1f} % | {', '.join(f'{x:.2f}' for x in ips)} | "
+                    f"{share('reorientation_turning_s'):.1f} / {share('reorientation_driving_s'):.1f} / "
+                    f"{share('reorientation_stopping_s'):.1f} |")
+    table = "\n".join(lines)
+    print(table)
+    with open(os.path.join(args.out, "table.md"), "w") as f:
+        f.write(table + "\n")
+
+
+if __name__ == "__main__":
+    main()
