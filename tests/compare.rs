@@ -31,6 +31,13 @@ fn a_log_against_itself_and_its_halves_shows_no_difference() {
         .iter()
         .all(|m| m.difference == 0.0 && m.difference_ci95.unwrap().contains(0.0)));
     assert!(c.transfer.iter().all(|t| t.rms == 0.0 && t.points > 0));
+    // Every exchange of steps between two identical runs differs at least as much: p = 1.
+    assert!(
+        c.transfer.iter().all(|t| t.p_permutation == Some(1.0)),
+        "{:#?}",
+        c.transfer
+    );
+    assert!(c.verdict.tf_significant.is_empty());
     assert!(r.warnings.iter().any(|w| w.name == "time_not_recorded"));
     // The breakdown by curvature: every class of the run, no difference in any statistic.
     let classes = &c.curvature.classes;
@@ -71,6 +78,8 @@ fn a_log_against_itself_and_its_halves_shows_no_difference() {
     let r = compare(input(&odd), &[input(&even)], &opts).unwrap();
     let c = &r.sims[0];
     assert!(c.verdict.significant.is_empty(), "{:#?}", c.metrics);
+    // The maps' permutation test (the halves' steps exchanged) finds no difference either.
+    assert!(c.verdict.tf_significant.is_empty(), "{:#?}", c.transfer);
     assert!(
         c.transfer.iter().all(|t| t.points > 0 && t.ratio < 2.0),
         "{:#?}",
@@ -91,6 +100,9 @@ fn another_terrain_differs() {
         c.verdict
     );
     assert!(!c.verdict.tf_beyond_yardstick.is_empty(), "{:#?}", c.transfer);
+    // Ice's maps against asphalt's are beyond any exchange of their steps (the smallest p a
+    // test of 200 permutations gives, 1/201, Holm-adjusted over five maps).
+    assert!(c.verdict.tf_significant.len() >= 3, "{:#?}", c.transfer);
     // On ice the body falls behind its wheels even driving straight (0.89 of their speed
     // against 0.98 on asphalt): the breakdown says so where the maps only say "differs".
     let straight = c

@@ -108,6 +108,8 @@ mod tests {
             ratio,
             within: ratio <= 1.5,
             points,
+            p_permutation: None,
+            p_permutation_holm: None,
         }
     }
 
@@ -140,6 +142,7 @@ mod tests {
                 significant: vec![],
                 areas_beyond_tolerance: vec![],
                 tf_beyond_yardstick: vec![],
+                tf_significant: vec![],
             },
         }
     }

@@ -52,6 +52,9 @@ pub struct CompareOptions {
     /// A grid point is compared only where both runs have at least this kernel weight (about
     /// one step within 1.2 σ): elsewhere a smoothed value is an extrapolation.
     pub min_weight: f64,
+    /// Permutations of the transfer functions' test (0: not computed).
+    #[serde(default)]
+    pub tf_permutations: usize,
 }
 
 impl Default for CompareOptions {
@@ -64,6 +67,7 @@ impl Default for CompareOptions {
             grid_step: 0.1,
             kernel_var: None,
             min_weight: 0.5,
+            tf_permutations: 200,
         }
     }
 }
@@ -148,6 +152,13 @@ pub struct TfDiff {
     pub within: bool,
     /// Grid points compared.
     pub points: usize,
+    /// Permutation p-value of the RMS difference (steps exchanged between the runs,
+    /// [`tf::TfSetup::permutation_p`]); `None` when not computed (`tf_permutations` 0).
+    #[serde(default)]
+    pub p_permutation: Option<f64>,
+    /// The same, Holm-adjusted over the five channels.
+    #[serde(default)]
+    pub p_permutation_holm: Option<f64>,
 }
 
 /// Interruptions and time efficiency of both runs (one value per run: no interval).
@@ -175,6 +186,11 @@ pub struct Verdict {
     pub areas_beyond_tolerance: Vec<String>,
     /// Transfer functions beyond the yardstick.
     pub tf_beyond_yardstick: Vec<String>,
+    /// Transfer functions whose difference is beyond what exchanging the steps between the
+    /// runs gives (permutation test, Holm over the five, at `alpha`): a calibrated diagnostic
+    /// beside the yardstick, not part of `reproduces` (the criterion is the yardstick).
+    #[serde(default)]
+    pub tf_significant: Vec<String>,
 }
 
 /// One simulated log against the real one.
@@ -523,13 +539,44 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
             m.significant = p.is_finite() && p < opts.alpha;
         }
         let sim_fields = tf_grid.fields(&all_sim);
-        let (transfer, maps) = tf_grid.compare(
+        let (mut transfer, maps) = tf_grid.compare(
             &real_fields,
             &sim_fields,
             &halves,
             real_rows.len(),
             sim_rows.len(),
         );
+        let p_perm = if paired {
+            // The steps both logs analysed, each real row with its replayed one.
+            let (rr, ss): (Vec<&StepRow>, Vec<&StepRow>) = real_rows
+                .iter()
+                .filter_map(|r| sim_rows.iter().find(|q| q.step == r.step).map(|q| (r, q)))
+                .unzip();
+            tf_grid.permutation_p(
+                &rr,
+                &ss,
+                true,
+                &halves,
+                &transfer,
+                opts.tf_permutations,
+                b.seed ^ 0x7e57,
+            )
+        } else {
+            tf_grid.permutation_p(
+                &all_real,
+                &all_sim,
+                false,
+                &halves,
+                &transfer,
+                opts.tf_permutations,
+                b.seed ^ 0x7e57,
+            )
+        };
+        let adjusted = holm(&p_perm.iter().map(|p| p.unwrap_or(f64::NAN)).collect::<Vec<_>>());
+        for ((t, p), a) in transfer.iter_mut().zip(&p_perm).zip(adjusted) {
+            t.p_permutation = *p;
+            t.p_permutation_holm = p.map(|_| a);
+        }
         if transfer.iter().all(|t| t.points == 0) {
             warnings.push(Warning {
                 name: "tf_no_overlap".into(),
@@ -565,6 +612,11 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
             tf_beyond_yardstick: transfer
                 .iter()
                 .filter(|t| t.points > 0 && !t.within)
+                .map(|t| t.channel.clone())
+                .collect(),
+            tf_significant: transfer
+                .iter()
+                .filter(|t| t.p_permutation_holm.is_some_and(|p| p < opts.alpha))
                 .map(|t| t.channel.clone())
                 .collect(),
             reproduces: false,

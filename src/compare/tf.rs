@@ -8,6 +8,13 @@
 //! RMS² ≈ σ²(2/n_r + 2/n_r) = 4σ²/n_r, and two full runs of n_r and n_s steps by
 //! σ²(1/n_r + 1/n_s). The yardstick is therefore the split-half RMS times
 //! √((1 + n_r/n_s)/4) ([`yardstick_scale`]); √½ for runs of equal size.
+//!
+//! The yardstick is a scale, not a test: a map's RMS over a few dozen kernel footprints is a
+//! statistic with few degrees of freedom, and two runs of the same model exceed 1.5× it often
+//! (README, "Twins and compare"). [`TfSetup::permutation_p`] gives each map a calibrated test
+//! beside it: the RMS difference against its distribution when the steps are exchanged between
+//! the two runs (two-sample: the pooled steps re-split at random; paired: each step's two rows
+//! swapped with probability ½), a p-value per channel, Holm-adjusted over the five.
 
 use super::{CompareOptions, StepRow, TfDiff};
 use crate::analysis::smoother::{smooth, FastParams, Grid, KernelCovariance, Smoothed};
@@ -86,6 +93,71 @@ impl TfSetup {
         self.grid.inside[i] && f.weight_sum[i] >= self.min_weight
     }
 
+    /// The points the comparison is made on: where the simulated run and both of the real
+    /// run's halves support the map (`sim`'s fields with the weight of every other point set to
+    /// zero; [`TfSetup::rms`] also requires the real run's support).
+    fn joint_support(&self, sim: &Smoothed, halves: &(Smoothed, Smoothed)) -> Smoothed {
+        let mut both = sim.clone();
+        for i in 0..self.grid.len() {
+            if !(self.supported(&halves.0, i) && self.supported(&halves.1, i)) {
+                both.weight_sum[i] = 0.0;
+            }
+        }
+        both
+    }
+
+    /// Permutation p-values of each channel's RMS difference between `real` and `sim` (module
+    /// doc): `permutations` exchanges of the steps, seeded with `seed`, the RMS of each over
+    /// the observed comparison's points; `p = (1 + #{RMS ≥ observed}) / (1 + permutations)`.
+    /// `paired`: `real[i]` and `sim[i]` are the same step. `None` where a channel has no point.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn permutation_p(
+        &self,
+        real: &[&StepRow],
+        sim: &[&StepRow],
+        paired: bool,
+        halves: &(Smoothed, Smoothed),
+        observed: &[TfDiff],
+        permutations: usize,
+        seed: u64,
+    ) -> Vec<Option<f64>> {
+        use rand::seq::SliceRandom;
+        use rand::{RngExt, SeedableRng};
+        if permutations == 0 || real.is_empty() || sim.is_empty() {
+            return vec![None; CHANNELS.len()];
+        }
+        let mask = self.joint_support(&self.fields(sim), halves);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut exceed = vec![0usize; CHANNELS.len()];
+        let pooled: Vec<&StepRow> = real.iter().chain(sim).copied().collect();
+        for _ in 0..permutations {
+            let (a, b): (Vec<&StepRow>, Vec<&StepRow>) = if paired && real.len() == sim.len() {
+                real.iter()
+                    .zip(sim)
+                    .map(|(r, q)| if rng.random_bool(0.5) { (*q, *r) } else { (*r, *q) })
+                    .unzip()
+            } else {
+                let mut p = pooled.clone();
+                p.shuffle(&mut rng);
+                let b = p.split_off(real.len());
+                (p, b)
+            };
+            let rms = self.rms(&self.fields(&b), &self.fields(&a), &mask);
+            for (c, (r, _)) in rms.iter().enumerate() {
+                if r.is_finite() && *r >= observed[c].rms {
+                    exceed[c] += 1;
+                }
+            }
+        }
+        observed
+            .iter()
+            .zip(exceed)
+            .map(|(t, e)| {
+                (t.points > 0 && t.rms.is_finite()).then(|| (1 + e) as f64 / (1 + permutations) as f64)
+            })
+            .collect()
+    }
+
     /// RMS of `a − b` per channel over the points both support (and `extra` supports), with
     /// the point count.
     fn rms(&self, a: &Smoothed, b: &Smoothed, extra: &Smoothed) -> Vec<(f64, usize)> {
@@ -119,12 +191,7 @@ impl TfSetup {
     ) -> (Vec<TfDiff>, DiffMaps) {
         // Both comparisons on the same points: those the real run, the simulated run and both
         // halves support.
-        let mut both = sim.clone();
-        for i in 0..self.grid.len() {
-            if !(self.supported(&halves.0, i) && self.supported(&halves.1, i)) {
-                both.weight_sum[i] = 0.0;
-            }
-        }
+        let both = self.joint_support(sim, halves);
         let main = self.rms(sim, real, &both);
         let split = self.rms(&halves.0, &halves.1, &both);
         let scale = yardstick_scale(n_real, n_sim);
@@ -149,6 +216,8 @@ impl TfSetup {
                     ratio,
                     within: points > 0 && ratio <= self.tolerance,
                     points,
+                    p_permutation: None,
+                    p_permutation_holm: None,
                 }
             })
             .collect();

@@ -69,7 +69,7 @@ pub fn verdict_text(r: &ComparisonReport) -> String {
         for t in &c.transfer {
             let _ = writeln!(
                 s,
-                "  TF {:<17} RMS {:.4} {}, yardstick {:.4} (split-half {:.4}), ratio {:.2} on {} points: {}",
+                "  TF {:<17} RMS {:.4} {}, yardstick {:.4} (split-half {:.4}), ratio {:.2} on {} points: {}{}",
                 t.channel,
                 t.rms,
                 t.unit,
@@ -83,7 +83,10 @@ pub fn verdict_text(r: &ComparisonReport) -> String {
                     "within"
                 } else {
                     "beyond"
-                }
+                },
+                t.p_permutation_holm
+                    .map(|p| format!("; permutation p (Holm) {p:.3}"))
+                    .unwrap_or_default()
             );
         }
         // The body against its wheels, by curvature: of the ratios whose interval excludes no
@@ -219,7 +222,13 @@ fn verdict_table(r: &ComparisonReport, c: &SimComparison) -> Comparison {
                     vec![
                         format!("yardstick {:.4}", t.yardstick),
                         format!("RMS {:.4}", t.rms),
-                        format!("ratio {:.2}", t.ratio),
+                        format!(
+                            "ratio {:.2}{}",
+                            t.ratio,
+                            t.p_permutation_holm
+                                .map(|p| format!(" (permutation p, Holm: {p:.3})"))
+                                .unwrap_or_default()
+                        ),
                         format!("≤ {}", r.options.tf_tolerance),
                         if t.points == 0 {
                             "not compared".into()

@@ -375,12 +375,16 @@ pub fn twin_run(model: &ModelParams, steps: u32, seed: u64) -> Result<DriveLog> 
     super::simulate(&robot, &terrain, SAMPLER, steps, seed, SensorNoise::typical()).map(|r| r.log)
 }
 
-fn compare_opts(resamples: usize) -> CompareOptions {
+/// Compare's options for the loss of the search and the check: `resamples` bootstrap draws and
+/// no permutation test of the maps (the loss does not use it, and it would cost every run a few
+/// hundred smoothings). The judgement uses compare's defaults.
+fn loss_opts(resamples: usize) -> CompareOptions {
     CompareOptions {
         bootstrap: Bootstrap {
             resamples,
             ..Bootstrap::default()
         },
+        tf_permutations: 0,
         ..CompareOptions::default()
     }
 }
@@ -390,7 +394,7 @@ fn run_against(
     models: &[&ModelParams],
     steps: u32,
     seed: u64,
-    resamples: usize,
+    opts: &CompareOptions,
 ) -> Result<ComparisonReport> {
     let logs = models
         .iter()
@@ -403,12 +407,12 @@ fn run_against(
             file: None,
         },
         &inputs,
-        &compare_opts(resamples),
+        opts,
     )
 }
 
 fn seed_run(real: &DriveLog, model: &ModelParams, steps: u32, seed: u64, resamples: usize) -> SeedRun {
-    let outcome = run_against(real, &[model], steps, seed, resamples)
+    let outcome = run_against(real, &[model], steps, seed, &loss_opts(resamples))
         .map(|r| loss(&r.sims[0], &r.options))
         .map_err(|e| e.to_string());
     SeedRun { outcome }
@@ -689,7 +693,7 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
                     &[&start_model, &chosen_model],
                     steps,
                     s,
-                    Bootstrap::default().resamples,
+                    &CompareOptions::default(),
                 )
                 .map_err(|e| e.to_string());
                 (s, r)
@@ -702,7 +706,7 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
                     log: other,
                     file: None,
                 }],
-                &compare_opts(Bootstrap::default().resamples),
+                &CompareOptions::default(),
             )
             .map_err(|e| e.to_string());
             judged(c.as_ref(), 0, 0)
