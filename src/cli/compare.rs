@@ -27,6 +27,9 @@ pub struct CompareArgs {
     /// Family-wise significance level (Holm).
     #[arg(long, default_value_t = 0.05)]
     pub alpha: f64,
+    /// Permutations of the maps' test (0: skip it).
+    #[arg(long, default_value_t = CompareOptions::default().tf_permutations)]
+    pub permutations: usize,
     /// Compare only the real log's odd or even steps (e.g. those a twin was not calibrated on,
     /// `calibrate --use-steps`), or all of them.
     #[arg(long, value_enum, default_value = "all")]
@@ -65,6 +68,7 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<()> {
             ..Bootstrap::default()
         },
         alpha: args.alpha,
+        tf_permutations: args.permutations,
         ..CompareOptions::default()
     };
     let inputs: Vec<Input> = sims

@@ -1,0 +1,87 @@
+#!/usr/bin/env python3
+"""How often `compare`'s verdict calls two runs of the *same* model different.
+
+For each terrain, the declared Warthog runs DRIVE with seeds 0-5 (100 steps; each seed is also a
+new realisation of the terrain's roughness and of the sensor noise), and `drive-sim compare`
+judges seed 1 against seed 0, 3 against 2, 5 against 4, as it would a twin against a real run.
+A perfect twin can do no better than this: every "differs" here is a false rejection of a model
+that is exactly right.
+
+    python3 scripts/same_model_pairs.py [--bin target/release/drive-sim] [--out out/same_model_pairs]
+                                        [--terrains asphalt,gravel,ice] [--steps 100]
+
+Prints a Markdown table (OUT/table.md) and a count of the verdicts; runs and comparisons that
+exist are reused.
+"""
+
+import argparse
+import json
+import os
+import subprocess
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(HERE)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--bin", default=os.path.join(REPO, "target", "release", "drive-sim"))
+    ap.add_argument("--out", default=os.path.join(REPO, "out", "same_model_pairs"))
+    ap.add_argument("--terrains", default="asphalt,gravel,ice")
+    ap.add_argument("--steps", type=int, default=100)
+    args = ap.parse_args()
+    lines = [
+        "| terrain | seeds | significant (Holm) | T/U areas beyond 5 pp | TF RMS / yardstick (vx, vy, wz, left, right) "
+        "| beyond 1.5× | maps' permutation p (Holm) | maps differing (permutation) | verdict |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    counts = {"pairs": 0, "reproduces": 0, "yardstick": 0, "permutation": 0, "metrics": 0, "areas": 0}
+    for t in args.terrains.split(","):
+        runs = os.path.join(args.out, t)
+        for s in range(6):
+            mcap = os.path.join(runs, f"warthog_{t}_s{s}.mcap")
+            if not os.path.exists(mcap):
+                subprocess.run([args.bin, "run", "--robot", "warthog", "--terrain", t, "--steps", str(args.steps),
+                                "--seed", str(s), "--out", runs, "--quiet"], check=True,
+                               stdout=subprocess.DEVNULL)
+        for a in (0, 2, 4):
+            b = a + 1
+            out = os.path.join(args.out, f"compare_{t}_{a}_{b}")
+            path = os.path.join(out, "comparison.json")
+            if not os.path.exists(path):
+                subprocess.run([args.bin, "compare", os.path.join(runs, f"warthog_{t}_s{a}.mcap"),
+                                os.path.join(runs, f"warthog_{t}_s{b}.mcap"), "--out", out], check=True,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            with open(path) as f:
+                c = json.load(f)["sims"][0]
+            v = c["verdict"]
+            counts["pairs"] += 1
+            counts["reproduces"] += v["reproduces"]
+            counts["yardstick"] += bool(v["tf_beyond_yardstick"])
+            counts["permutation"] += bool(v.get("tf_significant"))
+            counts["metrics"] += bool(v["significant"])
+            counts["areas"] += bool(v["areas_beyond_tolerance"])
+            short = lambda xs: ", ".join(x.replace("slip_", "").split("_")[0] if x.startswith("slip_") else x
+                                         for x in xs) or "-"
+            ratios = ", ".join("%.2f" % x["ratio"] for x in c["transfer"])
+            ps = ", ".join("%.3f" % x["p_permutation_holm"] for x in c["transfer"])
+            verdict = "reproduces" if v["reproduces"] else "differs"
+            lines.append(
+                f"| {t} | {b} vs {a} | {short(v['significant'])} | {short(v['areas_beyond_tolerance'])} | "
+                f"{ratios} | {short(v['tf_beyond_yardstick'])} | {ps} | {short(v.get('tf_significant', []))} | "
+                f"{verdict} |")
+    lines.append("")
+    lines.append(
+        f"{counts['pairs']} pairs of runs of one model: {counts['reproduces']} 'reproduces'; "
+        f"a map beyond 1.5× its yardstick in {counts['yardstick']}, a map differing by the permutation "
+        f"test in {counts['permutation']}, a metric significant in {counts['metrics']}, an area beyond "
+        f"5 pp in {counts['areas']}.")
+    table = "\n".join(lines)
+    print(table)
+    os.makedirs(args.out, exist_ok=True)
+    with open(os.path.join(args.out, "table.md"), "w") as f:
+        f.write(table + "\n")
+
+
+if __name__ == "__main__":
+    main()
