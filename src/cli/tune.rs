@@ -238,20 +238,33 @@ fn print_outcome(o: &TuneOutcome) -> std::io::Result<()> {
         ] {
             for r in runs {
                 let verdict = match (&r.verdict, &r.error) {
-                    (Some(v), _) if v.reproduces => "reproduces".to_string(),
-                    (Some(v), _) => format!(
-                        "differs: {}",
-                        [
-                            v.significant.clone(),
-                            v.areas_beyond_tolerance
-                                .iter()
-                                .map(|a| format!("{a} > 5 pp"))
-                                .collect(),
-                            v.tf_beyond_yardstick.clone(),
-                        ]
-                        .concat()
-                        .join(", ")
-                    ),
+                    (Some(v), _) => {
+                        let word = if v.reproduces {
+                            "reproduces".to_string()
+                        } else {
+                            format!(
+                                "differs: {}",
+                                [
+                                    v.significant.clone(),
+                                    v.areas_beyond_tolerance
+                                        .iter()
+                                        .map(|a| format!("{a} > 5 pp"))
+                                        .collect(),
+                                    v.tf_beyond_yardstick.clone(),
+                                ]
+                                .concat()
+                                .join(", ")
+                            )
+                        };
+                        if v.tf_significant.is_empty() {
+                            word
+                        } else {
+                            format!(
+                                "{word} (maps differing by the permutation test: {})",
+                                v.tf_significant.join(", ")
+                            )
+                        }
+                    }
                     (None, Some(e)) => format!("run failed: {e}"),
                     (None, None) => "-".into(),
                 };

@@ -152,8 +152,8 @@ pub struct TfDiff {
     pub within: bool,
     /// Grid points compared.
     pub points: usize,
-    /// Permutation p-value of the RMS difference (steps exchanged between the runs,
-    /// [`tf::TfSetup::permutation_p`]); `None` when not computed (`tf_permutations` 0).
+    /// Permutation p-value of the RMS difference (steps exchanged between the runs, see
+    /// [`tf`]); `None` when not computed (`tf_permutations` 0).
     #[serde(default)]
     pub p_permutation: Option<f64>,
     /// The same, Holm-adjusted over the five channels.

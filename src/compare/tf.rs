@@ -11,10 +11,10 @@
 //!
 //! The yardstick is a scale, not a test: a map's RMS over a few dozen kernel footprints is a
 //! statistic with few degrees of freedom, and two runs of the same model exceed 1.5× it often
-//! (README, "Twins and compare"). [`TfSetup::permutation_p`] gives each map a calibrated test
+//! (README, "Twins and compare"). A permutation test gives each map a calibrated p-value
 //! beside it: the RMS difference against its distribution when the steps are exchanged between
 //! the two runs (two-sample: the pooled steps re-split at random; paired: each step's two rows
-//! swapped with probability ½), a p-value per channel, Holm-adjusted over the five.
+//! swapped with probability ½), Holm-adjusted over the five maps.
 
 use super::{CompareOptions, StepRow, TfDiff};
 use crate::analysis::smoother::{smooth, FastParams, Grid, KernelCovariance, Smoothed};
