@@ -7,6 +7,7 @@
 use super::TuneOutcome;
 use crate::calibration::twin::{self, TwinFiles};
 use crate::compare::write::write_comparison;
+use crate::error::Error;
 use crate::error::Result;
 use crate::provenance::Provenance;
 use std::path::{Path, PathBuf};
@@ -31,4 +32,73 @@ pub fn write_tune(
         files.extend(write_comparison(first, real_u, &dir.join("same_steps"))?);
     }
     Ok(files)
+}
+
+/// The twin files of a tuning: the twin's model, each tuned value commented with how it was
+/// chosen (no interval: a closed-loop search gives none; `tune.json` holds every point it
+/// evaluated).
+pub fn twin_of(outcome: &TuneOutcome, start_source: &str, reproduce: &str) -> Result<twin::TwinFiles> {
+    let model = outcome
+        .model
+        .as_ref()
+        .ok_or_else(|| Error::Analysis("a tuning read back from JSON has no model".into()))?;
+    let mut header = vec![
+        format!(
+            "Twin tuned in closed loop by drive-sim on `{}` ({} steps), starting from {start_source}.",
+            outcome.dataset,
+            outcome.options.choose_on.as_str()
+        ),
+        format!(
+            "Loss (compare's statistics, 1 per term at its verdict's threshold) {} -> {:.3} on seeds {:?}; check on fresh seeds: reduction {:.3} ± {:.3} (SE), {}.",
+            outcome.start_loss.map_or_else(|| "failed".into(), |l| format!("{l:.3}")),
+            outcome.chosen_loss,
+            outcome.choose_seeds,
+            outcome.check.mean_reduction,
+            outcome.check.se,
+            if outcome.accepted { "accepted" } else { "not accepted: these are the start's values" }
+        ),
+        format!("Reproduce: {reproduce}"),
+    ];
+    if let Some(h) = &outcome.heldout {
+        header.push(format!(
+            "Judged on the {} {} steps: see tune.json (heldout) and heldout/report.html.",
+            h.real_steps,
+            h.steps.as_str()
+        ));
+    }
+    let chosen = if outcome.accepted {
+        outcome
+            .params
+            .iter()
+            .map(|p| {
+                let unit = if p.unit == "-" {
+                    String::new()
+                } else {
+                    format!(" {}", p.unit)
+                };
+                (
+                    p.name.clone(),
+                    format!(
+                        "[tune] {}: {:.6}{unit}, chosen in closed loop in [{}, {}] (start: {}); no interval",
+                        outcome.dataset,
+                        p.chosen,
+                        p.lower,
+                        p.upper,
+                        p.start.map_or_else(|| "off".to_string(), |v| format!("{v:.6}"))
+                    ),
+                )
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    twin::twin_files(
+        model,
+        &twin::Provenance {
+            header,
+            fitted: Vec::new(),
+            before: None,
+            chosen,
+        },
+    )
 }
