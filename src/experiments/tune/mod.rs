@@ -10,7 +10,7 @@
 //!
 //! 1. **Choose** on the steps `choose_on` (odd, even or all) of the real log, with the seeds
 //!    `seed + i` (`choose_seeds` of them, every point run with the same ones): the loss of
-//!    [`crate::compare::loss`], averaged over the seeds, minimised by a design over the box and
+//!    [`crate::compare::loss`] (each term 1 at its verdict's threshold), averaged over the seeds, minimised by a design over the box and
 //!    a Nelder–Mead simplex ([`search`]).
 //! 2. **Check** the choice on fresh seeds (`seed + 1000 + i`, `check_seeds` of them), same
 //!    steps: the start and the chosen model, paired by seed. The choice is accepted when its
@@ -18,8 +18,13 @@
 //!    paths does not survive new ones). Otherwise the twin stays the start.
 //! 3. **Judge** on the other half of the steps (when the choice used one half), which played no
 //!    part in 1 or 2, with seeds `seed + 2000 + i`: both models' full comparisons and verdicts,
-//!    whatever step 2 decided. With `choose_on = all` there is nothing left to judge on, and
-//!    the outcome says so.
+//!    whatever step 2 decided, beside the real choosing half itself judged the same way (how
+//!    close a model matching it exactly could come). With `choose_on = all` there is nothing
+//!    left out: the judgement is on the same steps with those seeds (`same_steps`, not held
+//!    out), and the outcome says so.
+//!
+//! Runs have as many DRIVE steps as the real steps they are compared with unless told
+//! otherwise: a T/U area is a hull, which grows with the number of steps.
 //!
 //! Each run is the DRIVE protocol of `drive-sim run --robot twin/robot.toml --terrain
 //! twin/terrain.toml --steps N --seed S` (uniform-wheel sampler, typical sensor noise), held
