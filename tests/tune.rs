@@ -63,6 +63,7 @@ fn tuned(limit_rad_s: f64) -> drive_sim::experiments::tune::TuneOutcome {
             real: &log,
             start: &start,
             tune: &names,
+            boxes: &[],
             opts: &opts,
         },
         &|line| eprintln!("{line}"),

@@ -20,6 +20,10 @@ pub struct TuneArgs {
     /// on all of them (no held-out judgement).
     #[arg(long, value_enum, default_value = "odd")]
     pub choose_on: crate::log::UseSteps,
+    /// A search box instead of the registry's, `KEY=LOWER:UPPER` (repeatable; an effect
+    /// parameter's key or a base parameter's name), e.g. `turning_resistance_scale=0.5:1.5`.
+    #[arg(long = "box", value_name = "KEY=LOWER:UPPER")]
+    pub boxes: Vec<String>,
     /// Set an effect parameter of the starting model first, `NAME=VALUE` (repeatable; e.g.
     /// `wheel_speed_saturation_rad_s=0` switches the declared limit off).
     #[arg(long = "inject", value_name = "EFFECT=VALUE")]
@@ -87,6 +91,9 @@ impl TuneArgs {
         for i in &self.inject {
             s.push_str(&format!(" --inject {i}"));
         }
+        for b in &self.boxes {
+            s.push_str(&format!(" --box {b}"));
+        }
         for (flag, v) in [("--robot", &self.input.robot), ("--terrain", &self.input.terrain)] {
             if let Some(v) = v {
                 s.push_str(&format!(" {flag} {v}"));
@@ -101,6 +108,11 @@ impl TuneArgs {
 pub fn tune(args: &TuneArgs) -> anyhow::Result<()> {
     let opts = args.options();
     opts.validate()?;
+    let boxes = args
+        .boxes
+        .iter()
+        .map(|b| tune::BoxOverride::parse(b))
+        .collect::<crate::Result<Vec<_>>>()?;
     eprintln!("drive-sim: reading {}", args.real.display());
     let log = super::input::open_log(&args.real, &args.input)?;
     let models = calibration::StartingModels::resolve(
@@ -122,6 +134,7 @@ pub fn tune(args: &TuneArgs) -> anyhow::Result<()> {
             real: &log,
             start: &start,
             tune: &args.tune,
+            boxes: &boxes,
             opts: &opts,
         },
         &|line| eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64()),
@@ -144,6 +157,7 @@ pub fn tune(args: &TuneArgs) -> anyhow::Result<()> {
             "tune": args.tune,
             "choose_on": args.choose_on.as_str(),
             "inject": args.inject,
+            "box": args.boxes,
             "options": opts,
             "robot": args.input.robot,
             "terrain": args.input.terrain,

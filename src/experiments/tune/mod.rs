@@ -38,7 +38,7 @@ pub mod write;
 
 use outcome::check_rule;
 pub use outcome::{HeldOut, JudgedRun, PointEvaluation, SeedCheck, TuneOutcome, TunedParam};
-pub use params::tuned_specs;
+pub use params::{apply_boxes, tuned_specs, BoxOverride};
 pub use runs::twin_run;
 use runs::{evaluation, judged, run_against, seed_run, SeedRun};
 pub use write::twin_of;
@@ -159,6 +159,8 @@ pub struct TuneRequest<'a> {
     /// Names of what to tune: an effect (all its parameters), an effect parameter, or a
     /// simulator base parameter (`terrain.friction.peak_lateral`, ...).
     pub tune: &'a [String],
+    /// Search boxes replacing the registry's for some of them.
+    pub boxes: &'a [BoxOverride],
     /// Options.
     pub opts: &'a TuneOptions,
 }
@@ -203,7 +205,8 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
         chosen_half.samples.iter().map(|s| s.m.cmd),
         &req.start.robot.idd(),
     );
-    let specs = tuned_specs(req.tune, req.start, &reach)?;
+    let mut specs = tuned_specs(req.tune, req.start, &reach)?;
+    apply_boxes(&mut specs, req.boxes)?;
     let steps = opts.steps.unwrap_or(n_choose as u32);
     let lo: Vec<f64> = specs.iter().map(|s| s.lower).collect();
     let width: Vec<f64> = specs.iter().map(|s| s.upper - s.lower).collect();

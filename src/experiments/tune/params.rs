@@ -77,6 +77,100 @@ pub fn tuned_specs(names: &[String], start: &ModelParams, reach: &CommandReach) 
     Ok(specs)
 }
 
+/// A search box the user sets for one tuned parameter instead of the registry's
+/// (`--box KEY=LOWER:UPPER`): keep a search where the model is physical, or widen it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BoxOverride {
+    /// The parameter: an effect parameter's key or a base parameter's report name.
+    pub name: String,
+    /// Lower bound, in the parameter's unit.
+    pub lower: f64,
+    /// Upper bound.
+    pub upper: f64,
+}
+
+impl BoxOverride {
+    /// Parses `KEY=LOWER:UPPER`.
+    pub fn parse(text: &str) -> Result<Self> {
+        let bad = |why: &str| {
+            Error::config(
+                "--box",
+                text,
+                format!("{why} (expected KEY=LOWER:UPPER, e.g. turning_resistance_scale=0.5:1.5)"),
+            )
+        };
+        let (name, range) = text.split_once('=').ok_or_else(|| bad("no `=`"))?;
+        let (lo, hi) = range
+            .split_once(':')
+            .ok_or_else(|| bad("no `:` between the bounds"))?;
+        let num = |t: &str| {
+            t.trim()
+                .parse::<f64>()
+                .map_err(|_| bad(&format!("`{t}` is not a number")))
+        };
+        Ok(Self {
+            name: name.trim().to_string(),
+            lower: num(lo)?,
+            upper: num(hi)?,
+        })
+    }
+}
+
+/// Sets the boxes of `boxes` on the specs they name. A box naming no tuned parameter, empty or
+/// reversed, or outside an effect parameter's valid range is an error naming it.
+pub fn apply_boxes(specs: &mut [ParamSpec], boxes: &[BoxOverride]) -> Result<()> {
+    for b in boxes {
+        let key_of = |s: &ParamSpec| {
+            s.param
+                .def()
+                .map_or_else(|| s.param.name(), |d| d.key.to_string())
+        };
+        let Some(s) = specs
+            .iter_mut()
+            .find(|s| key_of(s) == b.name || s.param.name() == b.name)
+        else {
+            return Err(Error::config(
+                "--box",
+                &b.name,
+                "names no parameter being tuned (`--tune` names them; effect parameters by their key)",
+            ));
+        };
+        if !(b.lower.is_finite() && b.upper.is_finite() && b.lower < b.upper) {
+            return Err(Error::config(
+                "--box",
+                &b.name,
+                format!(
+                    "needs finite bounds with lower < upper, got {}:{}",
+                    b.lower, b.upper
+                ),
+            ));
+        }
+        if let Some(d) = s.param.def() {
+            let min = if d.kind == effects::ParamKind::Limit {
+                f64::MIN_POSITIVE
+            } else {
+                d.min
+            };
+            if b.lower < min || b.upper > d.max {
+                return Err(Error::config(
+                    "--box",
+                    &b.name,
+                    format!(
+                        "must lie in the parameter's valid range [{}, {}] {}",
+                        d.min, d.max, d.unit
+                    ),
+                ));
+            }
+        }
+        s.lower = b.lower;
+        s.upper = b.upper;
+        if !(b.lower..=b.upper).contains(&s.start) {
+            s.start = 0.5 * (b.lower + b.upper);
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -141,5 +235,31 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("on/off"), "{e}");
+    }
+
+    #[test]
+    fn boxes_replace_the_registrys_and_bad_ones_are_refused() {
+        let names = vec![
+            "motor_torque_speed".to_string(),
+            "turning_resistance_scale".to_string(),
+        ];
+        let mut specs = tuned_specs(&names, &start(), &REACH).unwrap();
+        let b = BoxOverride::parse("turning_resistance_scale=0.5:1.5").unwrap();
+        apply_boxes(&mut specs, &[b]).unwrap();
+        assert_eq!((specs[2].lower, specs[2].upper), (0.5, 1.5));
+        assert!((0.5..=1.5).contains(&specs[2].start_in(&start())));
+        for (text, needle) in [
+            ("turning_resistance_scale=1.5:0.5", "lower < upper"),
+            ("dead_time_s=0:0.2", "names no parameter being tuned"),
+            ("motor_stall_torque_nm=-5:100", "valid range"),
+            ("turning_resistance_scale=0.5", "no `:`"),
+            ("turning_resistance_scale=a:1", "not a number"),
+        ] {
+            let e = BoxOverride::parse(text)
+                .and_then(|b| apply_boxes(&mut specs.clone(), &[b]))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(needle), "{text}: {e}");
+        }
     }
 }
