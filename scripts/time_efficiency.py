@@ -17,11 +17,10 @@ Writes OUT/table.md and every command to OUT/commands.txt; runs whose log exists
 import argparse
 import json
 import os
-import shlex
-import subprocess
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-REPO = os.path.dirname(HERE)
+# The logged command runner is the twin table's.
+from twin_table import REPO, run
+
 SEEDS = [0, 1, 2]
 
 
@@ -57,9 +56,7 @@ def main():
                                "--seed", str(seed), "--out", args.out, "--name", name, "--quiet"]
                         if site:
                             cmd += ["--safe-area", site]
-                        log.write(" ".join(shlex.quote(c) for c in cmd) + "\n")
-                        log.flush()
-                        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+                        run(cmd, log)
                     with open(json_path) as f:
                         rows.append(json.load(f)["summary"])
                 g = [100 * r["data_gathering_fraction"] for r in rows]

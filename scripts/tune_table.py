@@ -29,14 +29,10 @@ skipped (delete OUT to start over).
 import argparse
 import json
 import os
-import shlex
-import subprocess
-import time
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-REPO = os.path.dirname(HERE)
-DATA = os.path.join(REPO, "..", "shared", "data", "measured")
-DATASETS = ["warthog_asphalt", "warthog_gravel", "warthog_ice", "husky_2023"]
+# The declared models of a dataset and the logged command runner are the twin table's.
+from twin_table import DATA, DATASETS, REPO, declared_models, run
+
 # What each robot's twins tune: the motor's torque-speed line, the lateral (turning) friction
 # scale and the wheel-speed limit for the Warthog; for the Husky as its run was configured, the
 # velocity controller's yaw-rate limit in place of the wheel limit (its run's wheels reach the
@@ -47,23 +43,16 @@ TUNE = {
 }
 
 
-def declared_models(dataset):
+def robot_name(dataset):
     with open(os.path.join(DATA, dataset + ".json")) as f:
-        meta = json.load(f)
-    terrain = meta.get("terrain") or "asphalt"
-    if terrain == "unlabelled":
-        terrain = "asphalt"
-    deployment = os.path.join(REPO, "robots", dataset + ".toml")
-    robot = os.path.relpath(deployment, REPO) if os.path.exists(deployment) else meta["robot"]
-    return meta["robot"], robot, terrain
+        return json.load(f)["robot"]
 
 
-def run(cmd, log):
-    log.write(" ".join(shlex.quote(c) for c in cmd) + "\n")
-    log.flush()
-    t0 = time.time()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    return time.time() - t0
+def tuned_label(o):
+    """The tuned row's label: the chosen values, whether the check accepted them, the loss."""
+    chosen = ", ".join(f"{p['name'].split('.')[-1]} {p['chosen']:.3g}" for p in o["params"])
+    verdict = "accepted" if o["accepted"] else "not accepted"
+    return f"→ tuned ({chosen}; {verdict}, loss {o['start_loss']:.1f} → {o['chosen_loss']:.1f})"
 
 
 def mean(xs):
@@ -117,8 +106,8 @@ def main():
     all_lines[0] = all_lines[0].replace("judged on the even steps, 3 seeds", "judged on all steps, 3 fresh seeds")
     with open(os.path.join(args.out, "commands.txt"), "a") as log:
         for d in args.datasets.split(","):
-            robot_name, robot, terrain = declared_models(d)
-            tune = TUNE[robot_name]
+            robot, terrain, _ = declared_models(d)
+            tune = TUNE[robot_name(d)]
             cal = os.path.join(args.out, d, "calibrate_odd")
             if not os.path.exists(os.path.join(cal, "twin", "robot.toml")):
                 s = run([args.bin, "calibrate", data(d), "--model", "simulator", "--use-steps", "odd",
@@ -137,14 +126,11 @@ def main():
                     print(f"{d}: tune from {label} {s:.0f} s")
                 with open(os.path.join(out, "tune.json")) as f:
                     o = json.load(f)
-                chosen = ", ".join(f"{p['name'].split('.')[-1]} {p['chosen']:.3g}" for p in o["params"])
-                verdict = "accepted" if o["accepted"] else "not accepted"
                 if i == 0:
                     lines.append(row(d, "the real odd steps themselves (a model matching them exactly)",
                                      summary([o["heldout"]["real_halves"]])))
                 lines.append(row(d, label, summary(o["heldout"]["start"])))
-                lines.append(row(d, f"→ tuned ({chosen}; {verdict}, loss {o['start_loss']:.1f} → "
-                                    f"{o['chosen_loss']:.1f})", summary(o["heldout"]["chosen"])))
+                lines.append(row(d, tuned_label(o), summary(o["heldout"]["chosen"])))
             # Every step: calibrated, tuned and judged on the whole run.
             cal_all = os.path.join(args.out, d, "calibrate_all")
             if not os.path.exists(os.path.join(cal_all, "twin", "robot.toml")):
@@ -159,11 +145,8 @@ def main():
                 print(f"{d}: tune on all steps {s:.0f} s")
             with open(os.path.join(out, "tune.json")) as f:
                 o = json.load(f)
-            chosen = ", ".join(f"{p['name'].split('.')[-1]} {p['chosen']:.3g}" for p in o["params"])
-            verdict = "accepted" if o["accepted"] else "not accepted"
             all_lines.append(row(d, "replay twin (all steps)", summary(o["same_steps"]["start"])))
-            all_lines.append(row(d, f"→ tuned ({chosen}; {verdict}, loss {o['start_loss']:.1f} → "
-                                    f"{o['chosen_loss']:.1f})", summary(o["same_steps"]["chosen"])))
+            all_lines.append(row(d, tuned_label(o), summary(o["same_steps"]["chosen"])))
     table = "\n".join(lines + ["", "Every step (chosen and judged on the same steps, fresh seeds; not held out):", ""]
                       + all_lines)
     print(table)

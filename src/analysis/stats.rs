@@ -43,6 +43,23 @@ pub fn mean(values: &[f64]) -> f64 {
     }
 }
 
+/// Mean and sample standard deviation (n − 1) of the finite values: (NaN, NaN) if there is
+/// none, a standard deviation of 0 for one.
+pub fn mean_sd(values: &[f64]) -> (f64, f64) {
+    let x: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    if x.is_empty() {
+        return (f64::NAN, f64::NAN);
+    }
+    let n = x.len() as f64;
+    let m = x.iter().sum::<f64>() / n;
+    let sd = if x.len() > 1 {
+        (x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    } else {
+        0.0
+    };
+    (m, sd)
+}
+
 /// Box-plot summary of a distribution (paper convention: whiskers at 2.5 % and 97.5 %).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct BoxStats {

@@ -115,14 +115,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
         args.model
     );
     // `--robot` / `--terrain` (names or files, e.g. a twin) choose the model replayed.
-    let models = calibration::StartingModels::resolve(
-        &log,
-        args.input.robot.as_deref(),
-        args.input.terrain.as_deref(),
-    )?;
-    for n in &models.notes {
-        eprintln!("drive-sim: {n}");
-    }
+    let models = super::input::starting_models(&log, &args.input)?;
     let score = match &args.score_like {
         Some(p) => {
             let text = std::fs::read_to_string(p).map_err(|e| crate::Error::io(p, e))?;

@@ -48,6 +48,20 @@ pub fn open_log(path: &Path, args: &InputArgs) -> crate::Result<DriveLog> {
     Ok(o.log)
 }
 
+/// The models a replay or a tuning of `log` starts from (`--robot` / `--terrain`, names or
+/// files, else the log's own), printing what resolving them noted.
+pub fn starting_models(
+    log: &DriveLog,
+    args: &InputArgs,
+) -> crate::Result<crate::calibration::StartingModels> {
+    let models =
+        crate::calibration::StartingModels::resolve(log, args.robot.as_deref(), args.terrain.as_deref())?;
+    for n in &models.notes {
+        eprintln!("drive-sim: {n}");
+    }
+    Ok(models)
+}
+
 /// Options of `drive-sim inspect`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct InspectArgs {

@@ -1,7 +1,7 @@
 //! `drive-sim tune REAL --tune NAMES --out DIR`: a twin's parameters chosen in closed loop by
 //! `compare`'s statistics ([`crate::experiments::tune`]).
 
-use crate::calibration::{self, twin};
+use crate::calibration::twin;
 use crate::experiments::tune::{self, search::SearchOptions, TuneOptions, TuneOutcome, TuneRequest};
 use std::io::Write;
 use std::path::PathBuf;
@@ -115,14 +115,7 @@ pub fn tune(args: &TuneArgs) -> anyhow::Result<()> {
         .collect::<crate::Result<Vec<_>>>()?;
     eprintln!("drive-sim: reading {}", args.real.display());
     let log = super::input::open_log(&args.real, &args.input)?;
-    let models = calibration::StartingModels::resolve(
-        &log,
-        args.input.robot.as_deref(),
-        args.input.terrain.as_deref(),
-    )?;
-    for n in &models.notes {
-        eprintln!("drive-sim: {n}");
-    }
+    let models = super::input::starting_models(&log, &args.input)?;
     let mut start = twin::lift_effects(&models.robot, &models.terrain)?;
     for a in &args.inject {
         start.effects.apply_assignment(a)?;

@@ -462,13 +462,14 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
             radius_m: real.log.meta.nominal.wheel_radius_m,
             baseline_m: real.log.meta.nominal.baseline_m,
         };
-        let (pairing, steps_used, per_metric, curvature) = if paired {
-            // The steps both logs analysed, in the real log's order.
-            let common: Vec<(StepRow, StepRow)> = real_rows
+        // Paired: the steps both logs analysed, in the real log's order.
+        let common: Option<(Vec<StepRow>, Vec<StepRow>)> = paired.then(|| {
+            real_rows
                 .iter()
                 .filter_map(|r| sim_rows.iter().find(|q| q.step == r.step).map(|q| (*r, *q)))
-                .collect();
-            let (rr, ss): (Vec<StepRow>, Vec<StepRow>) = common.into_iter().unzip();
+                .unzip()
+        });
+        let (pairing, steps_used, per_metric, curvature) = if let Some((rr, ss)) = &common {
             let curvature = curvature::breakdown(
                 &rr.iter().collect::<Vec<_>>(),
                 &ss.iter().collect::<Vec<_>>(),
@@ -477,8 +478,8 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
                 b,
             );
             let draws = b.draws(rr.len(), 3);
-            let rs = resampled(&rr, &draws, &space);
-            let sm = resampled(&ss, &draws, &space);
+            let rs = resampled(rr, &draws, &space);
+            let sm = resampled(ss, &draws, &space);
             let per: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> = rs
                 .into_iter()
                 .zip(sm)
@@ -546,31 +547,27 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
             real_rows.len(),
             sim_rows.len(),
         );
-        let p_perm = if paired {
-            // The steps both logs analysed, each real row with its replayed one.
-            let (rr, ss): (Vec<&StepRow>, Vec<&StepRow>) = real_rows
-                .iter()
-                .filter_map(|r| sim_rows.iter().find(|q| q.step == r.step).map(|q| (r, q)))
-                .unzip();
-            tf_grid.permutation_p(
-                &rr,
-                &ss,
+        let p_perm = match &common {
+            Some((rr, ss)) => tf_grid.permutation_p(
+                &rr.iter().collect::<Vec<_>>(),
+                &ss.iter().collect::<Vec<_>>(),
                 true,
+                &sim_fields,
                 &halves,
                 &transfer,
                 opts.tf_permutations,
                 b.seed ^ 0x7e57,
-            )
-        } else {
-            tf_grid.permutation_p(
+            ),
+            None => tf_grid.permutation_p(
                 &all_real,
                 &all_sim,
                 false,
+                &sim_fields,
                 &halves,
                 &transfer,
                 opts.tf_permutations,
                 b.seed ^ 0x7e57,
-            )
+            ),
         };
         let adjusted = holm(&p_perm.iter().map(|p| p.unwrap_or(f64::NAN)).collect::<Vec<_>>());
         for ((t, p), a) in transfer.iter_mut().zip(&p_perm).zip(adjusted) {

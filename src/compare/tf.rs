@@ -109,13 +109,16 @@ impl TfSetup {
     /// Permutation p-values of each channel's RMS difference between `real` and `sim` (module
     /// doc): `permutations` exchanges of the steps, seeded with `seed`, the RMS of each over
     /// the observed comparison's points; `p = (1 + #{RMS ≥ observed}) / (1 + permutations)`.
-    /// `paired`: `real[i]` and `sim[i]` are the same step. `None` where a channel has no point.
+    /// `paired`: `real[i]` and `sim[i]` are the same step. `sim_fields` are the simulated run's
+    /// fields the observed comparison used (they and the halves give its points). `None` where
+    /// a channel has no point.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn permutation_p(
         &self,
         real: &[&StepRow],
         sim: &[&StepRow],
         paired: bool,
+        sim_fields: &Smoothed,
         halves: &(Smoothed, Smoothed),
         observed: &[TfDiff],
         permutations: usize,
@@ -126,7 +129,7 @@ impl TfSetup {
         if permutations == 0 || real.is_empty() || sim.is_empty() {
             return vec![None; CHANNELS.len()];
         }
-        let mask = self.joint_support(&self.fields(sim), halves);
+        let mask = self.joint_support(sim_fields, halves);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         let mut exceed = vec![0usize; CHANNELS.len()];
         let pooled: Vec<&StepRow> = real.iter().chain(sim).copied().collect();

@@ -73,17 +73,6 @@ impl RunRequest {
         if let Some(n) = &self.name {
             crate::output::check_file_name("--name", n)?;
         }
-        if let Some(a) = &self.safe_area {
-            for (what, v) in [("length", a.length_m), ("width", a.width_m)] {
-                if !(v.is_finite() && (1.0..=10_000.0).contains(&v)) {
-                    return Err(Error::config(
-                        cl,
-                        "--safe-area",
-                        format!("the {what} must be in [1, 10000] m, got {v}"),
-                    ));
-                }
-            }
-        }
         Ok(())
     }
 }
@@ -181,7 +170,10 @@ fn record(
     req.validate()?;
     let (mut robot, robot_file) = Robot::resolve(&req.robot)?;
     if let Some(a) = &req.safe_area {
+        // The robot file's own rules judge the deployment's area (its range, in metres).
         robot.safe_area = a.clone();
+        crate::config::Validate::validate(&robot)
+            .map_err(|(field, why)| Error::config("--safe-area", field, why))?;
     }
     let (terrain, terrain_file) = Terrain::resolve(&req.terrain)?;
     let seed = req.sim.seed;

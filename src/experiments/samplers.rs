@@ -7,6 +7,7 @@ use super::simulate::{
 };
 use crate::analysis::analyze;
 use crate::analysis::smoother::KernelCovariance;
+use crate::analysis::stats::mean_sd;
 use crate::error::{Error, Result};
 use crate::protocol::ground_truth::{transfer_error, TransferError, TruthField};
 use crate::protocol::sampler::SAMPLERS;
@@ -81,21 +82,6 @@ pub struct MeanSd {
     pub sd: f64,
     /// Mean over the baseline's mean (NaN without a baseline).
     pub ratio_to_baseline: f64,
-}
-
-fn mean_sd(xs: &[f64]) -> (f64, f64) {
-    let x: Vec<f64> = xs.iter().copied().filter(|v| v.is_finite()).collect();
-    if x.is_empty() {
-        return (f64::NAN, f64::NAN);
-    }
-    let n = x.len() as f64;
-    let m = x.iter().sum::<f64>() / n;
-    let sd = if x.len() > 1 {
-        (x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-    } else {
-        0.0
-    };
-    (m, sd)
 }
 
 /// Names of the metrics of the table, their units, and how to read them off a run.

@@ -55,7 +55,7 @@ use crate::sim::SensorNoise;
 use rayon::prelude::*;
 use search::{SearchOptions, SearchSummary};
 use serde::{Deserialize, Serialize};
-use std::sync::Mutex;
+use std::cell::RefCell;
 
 /// Offset of the check seeds from the choosing ones.
 pub const CHECK_SEED_OFFSET: u64 = 1000;
@@ -183,13 +183,18 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
     }
     let chosen_half = opts.choose_on.select(real);
     let n_choose = crate::compare::analysis_of(&chosen_half)?.steps.len();
-    let heldout_half = opts.choose_on.other_half().map(|h| (h, h.select(real)));
-    for (name, n) in std::iter::once((opts.choose_on.as_str(), n_choose)).chain(
-        heldout_half
-            .as_ref()
-            .map(|(h, log)| crate::compare::analysis_of(log).map(|a| (h.as_str(), a.steps.len())))
-            .transpose()?,
-    ) {
+    // The held-out half, with its analysed steps.
+    let heldout_half = opts
+        .choose_on
+        .other_half()
+        .map(|h| {
+            let log = h.select(real);
+            crate::compare::analysis_of(&log).map(|a| (h, log, a.steps.len()))
+        })
+        .transpose()?;
+    for (name, n) in std::iter::once((opts.choose_on.as_str(), n_choose))
+        .chain(heldout_half.as_ref().map(|(h, _, n)| (h.as_str(), *n)))
+    {
         if n < MIN_STEPS_FOR_INTERVAL {
             return Err(Error::config(
                 "--choose-on",
@@ -238,45 +243,40 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
         choose_seeds.len(),
         opts.search.max_evaluations
     ));
-    let evaluations: Mutex<Vec<PointEvaluation>> = Mutex::new(Vec::new());
-    let best_so_far = Mutex::new(f64::INFINITY);
+    // Every point evaluated, in order (the search calls this closure from one thread at a time;
+    // each call runs its points' seeds in parallel).
+    let evaluations: RefCell<Vec<PointEvaluation>> = RefCell::new(Vec::new());
     let cost_many = |zs: &[Vec<f64>]| -> Vec<Option<f64>> {
         let jobs: Vec<(usize, u64)> = (0..zs.len())
             .flat_map(|i| choose_seeds.iter().map(move |s| (i, *s)))
             .collect();
-        let mut runs: Vec<(usize, SeedRun)> = jobs
+        // In the order of `jobs`: each point's seeds side by side.
+        let runs: Vec<SeedRun> = jobs
             .par_iter()
-            .map(|&(i, seed)| {
-                let x = to_x(&zs[i]);
-                let run = match model_at(&x) {
-                    Ok(m) => seed_run(&chosen_half, &m, steps, seed, opts.loss_resamples),
-                    Err(e) => SeedRun {
-                        outcome: Err(e.to_string()),
-                    },
-                };
-                (i, run)
+            .map(|&(i, seed)| match model_at(&to_x(&zs[i])) {
+                Ok(m) => seed_run(&chosen_half, &m, steps, seed, opts.loss_resamples),
+                Err(e) => SeedRun {
+                    outcome: Err(e.to_string()),
+                },
             })
             .collect();
+        let mut evals = evaluations.borrow_mut();
         let mut out = Vec::new();
-        for (i, z) in zs.iter().enumerate() {
-            let (mine, rest): (Vec<_>, Vec<_>) = runs.into_iter().partition(|(j, _)| *j == i);
-            runs = rest;
-            let mine: Vec<SeedRun> = mine.into_iter().map(|(_, r)| r).collect();
-            let e = evaluation(to_x(z), &mine);
-            let mut best = best_so_far.lock().unwrap_or_else(|p| p.into_inner());
-            let mut evals = evaluations.lock().unwrap_or_else(|p| p.into_inner());
-            if let Some(l) = e.loss.filter(|l| *l < *best) {
-                *best = l;
-            }
+        for (z, mine) in zs.iter().zip(runs.chunks(choose_seeds.len())) {
+            let e = evaluation(to_x(z), mine);
+            let best = evals
+                .iter()
+                .chain(std::iter::once(&e))
+                .filter_map(|p| p.loss)
+                .fold(f64::INFINITY, f64::min);
             progress(&format!(
-                "tune: point {} {} -> loss {} (best {:.2})",
+                "tune: point {} {} -> loss {} (best {best:.2})",
                 evals.len() + 1,
                 format_values(&specs, &e.values),
                 e.loss.map_or_else(
                     || format!("failed ({})", e.error.clone().unwrap_or_default()),
                     |l| format!("{l:.2}")
                 ),
-                *best
             ));
             out.push(e.loss);
             evals.push(e);
@@ -298,7 +298,7 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
         )
     ));
     let (z_best, chosen_loss, summary) = search::minimise(&z0, &opts.search, &cost_many);
-    let evaluations = evaluations.into_inner().unwrap_or_else(|p| p.into_inner());
+    let evaluations = evaluations.into_inner();
     let x_best = to_x(&z_best);
     let chosen_model = model_at(&x_best)?;
     let same_point = chosen_model == start_model;
@@ -343,66 +343,67 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
     // 3. The judgement: on the other half when the choice used one (held out), else on the
     // choosing steps themselves with fresh seeds (labelled: not a held-out result).
     let judge_seeds = opts.seeds(JUDGE_SEED_OFFSET, opts.check_seeds);
-    let judge_on = |half: UseSteps, log: &DriveLog, halves: Option<&DriveLog>| -> Result<HeldOut> {
-        let reps: Vec<(u64, std::result::Result<ComparisonReport, String>)> = judge_seeds
-            .par_iter()
-            .map(|&s| {
-                let r = run_against(
-                    log,
-                    &[&start_model, &chosen_model],
-                    steps,
-                    s,
+    let judge_on =
+        |half: UseSteps, log: &DriveLog, real_steps: usize, halves: Option<&DriveLog>| -> HeldOut {
+            let reps: Vec<(u64, std::result::Result<ComparisonReport, String>)> = judge_seeds
+                .par_iter()
+                .map(|&s| {
+                    let r = run_against(
+                        log,
+                        &[&start_model, &chosen_model],
+                        steps,
+                        s,
+                        &CompareOptions::default(),
+                    )
+                    .map_err(|e| e.to_string());
+                    (s, r)
+                })
+                .collect();
+            let real_halves = halves.map(|other| {
+                let c = compare(
+                    Input { log, file: None },
+                    &[Input {
+                        log: other,
+                        file: None,
+                    }],
                     &CompareOptions::default(),
                 )
                 .map_err(|e| e.to_string());
-                (s, r)
-            })
-            .collect();
-        let real_halves = halves.map(|other| {
-            let c = compare(
-                Input { log, file: None },
-                &[Input {
-                    log: other,
-                    file: None,
-                }],
-                &CompareOptions::default(),
-            )
-            .map_err(|e| e.to_string());
-            judged(c.as_ref(), 0, 0)
-        });
-        let h = HeldOut {
-            real_halves,
-            steps: half,
-            real_steps: crate::compare::analysis_of(log)?.steps.len(),
-            start: reps.iter().map(|(s, r)| judged(r.as_ref(), 0, *s)).collect(),
-            chosen: reps.iter().map(|(s, r)| judged(r.as_ref(), 1, *s)).collect(),
-            reports: reps.into_iter().filter_map(|(_, r)| r.ok()).collect(),
+                judged(c.as_ref(), 0, 0)
+            });
+            let h = HeldOut {
+                real_halves,
+                steps: half,
+                real_steps,
+                start: reps.iter().map(|(s, r)| judged(r.as_ref(), 0, *s)).collect(),
+                chosen: reps.iter().map(|(s, r)| judged(r.as_ref(), 1, *s)).collect(),
+                reports: reps.into_iter().filter_map(|(_, r)| r.ok()).collect(),
+            };
+            let mean = |runs: &[JudgedRun]| {
+                let v: Vec<f64> = runs
+                    .iter()
+                    .filter_map(|r| r.loss.as_ref().map(|l| l.total))
+                    .collect();
+                v.iter().sum::<f64>() / v.len().max(1) as f64
+            };
+            progress(&format!(
+                "tune: judged on the {} {} steps{} ({} seeds): mean loss start {:.2}, chosen {:.2}",
+                h.real_steps,
+                half.as_str(),
+                if halves.is_some() {
+                    ""
+                } else {
+                    " it was chosen on (not held out)"
+                },
+                h.start.len(),
+                mean(&h.start),
+                mean(&h.chosen)
+            ));
+            h
         };
-        let mean = |runs: &[JudgedRun]| {
-            let v: Vec<f64> = runs
-                .iter()
-                .filter_map(|r| r.loss.as_ref().map(|l| l.total))
-                .collect();
-            v.iter().sum::<f64>() / v.len().max(1) as f64
-        };
-        progress(&format!(
-            "tune: judged on the {} {} steps{} ({} seeds): mean loss start {:.2}, chosen {:.2}",
-            h.real_steps,
-            half.as_str(),
-            if halves.is_some() {
-                ""
-            } else {
-                " it was chosen on (not held out)"
-            },
-            h.start.len(),
-            mean(&h.start),
-            mean(&h.chosen)
-        ));
-        Ok(h)
-    };
     let (heldout, same_steps) = match &heldout_half {
-        Some((half, log)) => (Some(judge_on(*half, log, Some(&chosen_half))?), None),
-        None => (None, Some(judge_on(opts.choose_on, &chosen_half, None)?)),
+        Some((half, log, n)) => (Some(judge_on(*half, log, *n, Some(&chosen_half))), None),
+        None => (None, Some(judge_on(opts.choose_on, &chosen_half, n_choose, None))),
     };
     let mut notes = Vec::new();
     if heldout.is_none() {

@@ -167,9 +167,7 @@ pub(super) fn check_rule(
         finite.iter().sum::<f64>() / n.max(1.0)
     };
     let se = if finite.len() >= 2 {
-        let m = finite.iter().sum::<f64>() / finite.len() as f64;
-        let var = finite.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (finite.len() as f64 - 1.0);
-        (var / finite.len() as f64).sqrt()
+        crate::analysis::stats::mean_sd(&finite).1 / (finite.len() as f64).sqrt()
     } else {
         f64::NAN
     };

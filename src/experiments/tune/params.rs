@@ -24,12 +24,8 @@ pub fn tuned_specs(names: &[String], start: &ModelParams, reach: &CommandReach) 
                 .map(|e| e.name().to_string())
                 .chain(base.iter().map(|s| s.param.name()))
                 .collect();
-            let hint = known
-                .iter()
-                .map(|k| (k, strsim::jaro_winkler(name, k)))
-                .filter(|(_, s)| *s >= 0.8)
-                .max_by(|a, b| a.1.total_cmp(&b.1))
-                .map(|(k, _)| format!("did you mean `{k}`? "))
+            let hint = crate::config::did_you_mean(name, known.iter().map(String::as_str))
+                .map(|k| format!("did you mean `{k}`? "))
                 .unwrap_or_default();
             return Err(Error::config(
                 "--tune",
