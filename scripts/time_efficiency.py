@@ -1,15 +1,16 @@
 #!/usr/bin/env python3
-"""Where the simulated DRIVE's time goes, for the declared Warthog and a twin, on the paper's
-minimum safe area and on a site as large as the paper's for that terrain.
+"""Where the simulated DRIVE's time goes, for a declared robot and optionally a twin, on the
+paper's minimum safe area and on a site as large as the paper's for that terrain.
 
-For each model (the declared `warthog` on TERRAIN, and the twin given by --twin, a directory
-holding robot.toml and terrain.toml) and each safe area (the robot file's 45 x 20 m, and
---site, e.g. 50x25 for the paper's 1250 m2 asphalt site), runs `drive-sim run` for 150 steps
-with seeds 0, 1, 2 and prints the paper's "time data gathering" (run.json
-summary.data_gathering_fraction), the interruptions per step and the re-orientation breakdown.
+For each model (the declared ROBOT on TERRAIN, and the twin given by --twin, a directory holding
+robot.toml and terrain.toml) and each safe area (the robot file's minimum, 45 x 20 m for the
+Warthog, 9 x 6 m for the Husky, and --site, e.g. 50x25 for the paper's 1250 m2 asphalt site),
+runs `drive-sim run` for 150 steps with seeds 0, 1, 2 and prints the paper's "time data
+gathering" (run.json summary.data_gathering_fraction), the interruptions per step and the
+re-orientation breakdown.
 
-    python3 scripts/time_efficiency.py --terrain asphalt --site 50x25 \\
-        --twin out/tune_table/warthog_asphalt/tune_1/twin [--bin target/release/drive-sim] [--out out/time_efficiency]
+    python3 scripts/time_efficiency.py [--robot warthog] --terrain asphalt --site 50x25 \\
+        [--twin out/tune_table/warthog_asphalt/tune_all/twin] [--bin target/release/drive-sim] [--out out/time_efficiency]
 
 Writes OUT/table.md and every command to OUT/commands.txt; runs whose log exists are reused.
 """
@@ -28,17 +29,17 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--bin", default=os.path.join(REPO, "target", "release", "drive-sim"))
     ap.add_argument("--out", default=os.path.join(REPO, "out", "time_efficiency"))
+    ap.add_argument("--robot", default="warthog")
     ap.add_argument("--terrain", default="asphalt")
     ap.add_argument("--site", default="50x25", help="LENGTHxWIDTH of the paper's site, metres")
-    ap.add_argument("--twin", required=True, help="directory with robot.toml and terrain.toml")
+    ap.add_argument("--twin", default=None, help="directory with robot.toml and terrain.toml")
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
-    models = [
-        ("declared warthog + " + args.terrain, "warthog", args.terrain),
-        ("twin " + os.path.relpath(args.twin, REPO), os.path.join(args.twin, "robot.toml"),
-         os.path.join(args.twin, "terrain.toml")),
-    ]
-    sites = [("45 x 20 m (robot file)", None), (args.site.replace("x", " x ") + " m", args.site)]
+    models = [("declared " + args.robot + " + " + args.terrain, args.robot, args.terrain)]
+    if args.twin:
+        models.append(("twin " + os.path.relpath(args.twin, REPO), os.path.join(args.twin, "robot.toml"),
+                       os.path.join(args.twin, "terrain.toml")))
+    sites = [("robot file's minimum", None), (args.site.replace("x", " x ") + " m", args.site)]
     lines = [
         "| model | safe area | data gathering (seeds 0, 1, 2) | mean | interruptions / step | "
         "re-orientation turning / driving / stopping, % of time |",

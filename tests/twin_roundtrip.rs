@@ -179,10 +179,11 @@ fn bad_twin_effects_are_refused_with_a_suggestion() {
 }
 
 /// A twin that cannot run its own DRIVE is reported, not hidden and not a crash: a body term
-/// that adds five times the forward speed (the body goes six times as fast as its wheels) runs
-/// out of the safe area on every command, so no attempt of a step can complete. (A constant
-/// drift no longer does: discovered terms are silent on a stop command, so the operator can
-/// stop it.)
+/// that adds ten times the forward speed (the body goes eleven times as fast as its wheels)
+/// runs out of the safe area on every command, so no attempt of a step can complete. (A
+/// constant drift no longer does: discovered terms are silent on a stop command, so the
+/// operator can stop it. Nor does five times since the operator plans on the motion it saw: it
+/// completes 10 steps with 18 interruptions each.)
 #[test]
 fn a_twin_that_cannot_run_is_reported_by_its_check() {
     use drive_sim::calibration::twin::check_twin;
@@ -193,7 +194,7 @@ fn a_twin_that_cannot_run_is_reported_by_its_check() {
     assert_eq!(good.steps_completed, 10);
 
     let mut drifting = robot;
-    drifting.effects.set("term_body_vx__vx", 5.0).unwrap();
+    drifting.effects.set("term_body_vx__vx", 10.0).unwrap();
     let bad = check_twin(&drifting, &terrain, 10, 1).unwrap();
     assert!(!bad.ran, "{bad:?}");
     assert!(bad.steps_completed < 10, "{bad:?}");

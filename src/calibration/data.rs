@@ -31,7 +31,8 @@ pub struct StepSet<'a> {
 
 impl<'a> StepSet<'a> {
     /// Selects `which` steps of `all` (in that order; a step may repeat, as in a bootstrap
-    /// resample).
+    /// resample). A step's start is measured from the steps of `which` only (see
+    /// [`step_start_in`]): the sets of a calibration share no measurement.
     pub fn new(all: &[StepSlice<'a>], which: &[u32], rate_hz: f64) -> Result<Self> {
         let steps: Vec<StepSlice<'a>> = which
             .iter()
@@ -48,7 +49,7 @@ impl<'a> StepSet<'a> {
             .collect::<Result<_>>()?;
         let starts = steps
             .iter()
-            .map(|s| step_start_in(all, *s))
+            .map(|s| step_start_in(all, *s, |k| which.contains(&k)))
             .collect::<Result<_>>()?;
         Ok(Self {
             steps,

@@ -128,7 +128,7 @@ pub fn replay_steps(
 ) -> Result<Vec<Vec<Sample>>> {
     let starts = steps
         .iter()
-        .map(|s| step_start_in(steps, *s))
+        .map(|s| step_start_in(steps, *s, |_| true))
         .collect::<Result<Vec<_>>>()?;
     replay_map(steps, &starts, factory, params, rate_hz, |_, s| Ok(s))
 }

@@ -282,8 +282,12 @@ impl Runner<'_> {
                             });
                         }
                         attempts_of_cmd += 1;
+                        // What the operator has just watched this command do, once it was past
+                        // its transient: the body's velocity when it was interrupted.
+                        let seen = (self.plant.time_s() - t_attempt >= self.cfg.window_s)
+                            .then(|| self.plant.true_velocity());
                         let t_reorient = self.plant.time_s();
-                        self.reorient(step, cmd)?;
+                        self.reorient(step, cmd, seen)?;
                         self.summary.reorientation_time_s += self.plant.time_s() - t_reorient;
                         if attempts_of_cmd >= self.cfg.max_attempts {
                             self.summary.abandoned_commands += 1;
@@ -463,6 +467,82 @@ mod tests {
         let (c, _, _) = run_ideal(5, 10);
         assert_eq!(a, b);
         assert_ne!(a, c);
+    }
+
+    /// An ideal plant whose turns fail while it drives (its wheels' difference is cut to a
+    /// twentieth once their mean exceeds 1 rad/s), as on ice, but which still pivots in place.
+    struct TurnsFailAtSpeed(IdealPlant);
+
+    impl Plant for TurnsFailAtSpeed {
+        fn command(&mut self, c: WheelSpeeds) {
+            let (mean, half_diff) = (
+                0.5 * (c.left_rad_s + c.right_rad_s),
+                0.5 * (c.right_rad_s - c.left_rad_s),
+            );
+            let half_diff = if mean.abs() > 1.0 {
+                0.05 * half_diff
+            } else {
+                half_diff
+            };
+            self.0
+                .command(WheelSpeeds::new(mean - half_diff, mean + half_diff))
+        }
+        fn advance(&mut self, dt_s: f64) -> Result<()> {
+            self.0.advance(dt_s)
+        }
+        fn measure(&mut self) -> Measurement {
+            self.0.measure()
+        }
+        fn true_pose(&self) -> Pose {
+            self.0.true_pose()
+        }
+        fn true_velocity(&self) -> BodyVelocity {
+            self.0.true_velocity()
+        }
+        fn time_s(&self) -> f64 {
+            self.0.time_s()
+        }
+        fn reset(&mut self, pose: Pose, velocity: BodyVelocity, wheels: WheelSpeeds) {
+            self.0.reset(pose, velocity, wheels)
+        }
+    }
+
+    /// The operator re-orients on what it saw the command do: where the body goes straight
+    /// instead of turning, the robot is placed for a straight line. Planned on the ideal
+    /// differential drive (the first operator), the same runs placed the robot for the circle
+    /// the command should have driven, and interrupted it again until it was abandoned.
+    #[test]
+    fn the_operator_plans_on_the_motion_it_saw() {
+        let (robot, _) = Robot::resolve("warthog").unwrap();
+        for seed in [1, 2] {
+            let mut plant = TurnsFailAtSpeed(IdealPlant::new(robot.idd(), 0.1));
+            let mut sampler = sampler::UniformWheel::new(seed);
+            let cfg = ProtocolConfig {
+                steps: 40,
+                ..Default::default()
+            };
+            let s = run_drive(&mut plant, &robot, &mut sampler, &cfg, &mut Vec::new()).unwrap();
+            eprintln!("seed {seed}: {s:?}");
+            // Measured: 25 interruptions and 1-2 abandoned commands; planned on the ideal drive,
+            // 54 and 9 (seed 1).
+            assert!(s.interruptions <= 36, "seed {seed}: {s:?}");
+            assert!(s.abandoned_commands <= 3, "seed {seed}: {s:?}");
+        }
+    }
+
+    /// The call to interrupt and the planning share one rule: a robot beyond the shrunk border
+    /// is stopped only if it is heading further out.
+    #[test]
+    fn a_robot_heading_back_in_is_not_interrupted() {
+        let half = (22.5, 10.0);
+        // Beyond the shrunk border (x = 22.2 > 22.0), stopping further out: interrupted.
+        assert!(operator::stops_outside(half, 0.5, (22.2, 0.0), (22.6, 0.0)));
+        // Same place, standing or heading back in: not.
+        assert!(!operator::stops_outside(half, 0.5, (22.2, 0.0), (22.2, 0.0)));
+        assert!(!operator::stops_outside(half, 0.5, (22.2, 0.0), (21.0, 0.5)));
+        // Inside, stopping beyond the border in y: interrupted; stopping inside: not.
+        assert!(operator::stops_outside(half, 0.5, (0.0, 8.0), (0.0, -9.6)));
+        assert!(!operator::stops_outside(half, 0.5, (0.0, 8.0), (3.0, 9.4)));
     }
 
     /// A plant whose state turns to NaN after `fail_at_s`: the run must stop with an error

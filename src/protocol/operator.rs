@@ -1,11 +1,30 @@
 //! The simulated safety operator: the call to interrupt an attempt, and the re-orientation
-//! after it (stop, drive back towards the centre when no heading fits, turn to the heading from
-//! which the command stays inside longest, stop).
+//! after it (stop, drive back towards the centre when no heading fits and the centre is better,
+//! turn to the heading from which the command stays inside longest, stop).
+//!
+//! The operator plans a re-orientation on the motion it has just watched the command produce
+//! (the body's velocity when it was interrupted, once past the transient), not on the ideal
+//! differential drive's: on ice a command the ideal drive turns on a 3 m circle goes straight,
+//! and an operator who planned the circle placed the robot where the straight line left the area
+//! again, three times in a row.
 
 use super::*;
 
+/// The operator's best heading for a planned motion from a pose.
+struct Heading {
+    /// World-frame heading to turn to, rad.
+    heading_rad: f64,
+    /// How long the planned motion stays inside from there (at most a step and a second), s.
+    time_inside_s: f64,
+    /// Whether that is a whole step with half a second to spare.
+    fits: bool,
+}
+
 impl Runner<'_> {
-    /// The operator's call: would the robot, braking now, stop outside the shrunk safe area?
+    /// The operator's call: would the robot, braking now, stop outside the shrunk safe area,
+    /// moving outwards? (A robot left beyond the shrunk border by a stop or a turn is not
+    /// interrupted for heading back in: the first operator stopped it at the first tick, up to
+    /// five times in a row on mud.)
     pub(super) fn would_leave(&self) -> bool {
         let p = self.plant.true_pose();
         let v = self.plant.true_velocity();
@@ -14,18 +33,25 @@ impl Runner<'_> {
         // World-frame direction of travel.
         let heading = p.yaw_rad + v.vy_m_s.atan2(v.vx_m_s);
         let (sx, sy) = (p.x_m + stop * heading.cos(), p.y_m + stop * heading.sin());
-        let (hx, hy) = self.half_extents();
-        let m = self.cfg.border_margin_m;
-        sx.abs() > hx - m || sy.abs() > hy - m
+        stops_outside(
+            self.half_extents(),
+            self.cfg.border_margin_m,
+            (p.x_m, p.y_m),
+            (sx, sy),
+        )
     }
 
-    /// The operator's re-orientation after an interruption: stop; if no heading lets `cmd`
-    /// run a whole step inside the area from where the robot stands (it stopped near the
-    /// border, or slid out), drive it towards the centre until one does; then turn it to the
-    /// heading from which the command stays inside longest (ties: facing the centre with the
-    /// side the command drives towards, the paper's rule).
-    pub(super) fn reorient(&mut self, step: u32, cmd: WheelSpeeds) -> Result<()> {
+    /// The operator's re-orientation after an interruption of `cmd`, planned on `seen` (the
+    /// body velocity the command had reached when interrupted; `None` if it was still in its
+    /// transient, then the ideal differential drive's): stop; if no heading lets the command run
+    /// a whole step inside the area from where the robot stands and it would stay inside longer
+    /// from the centre, drive it towards the centre until it fits; then turn it to the heading
+    /// from which it stays inside longest (ties: facing the centre with the side the command
+    /// drives towards, the paper's rule: "reorient the vehicle to complete the interrupted
+    /// command in the direction of the center of the safe zone").
+    pub(super) fn reorient(&mut self, step: u32, cmd: WheelSpeeds, seen: Option<BodyVelocity>) -> Result<()> {
         let phase = Phase::Reorient { step };
+        let plan = seen.unwrap_or_else(|| self.space.idd.body_from_wheels(cmd));
         self.plant.begin_manoeuvre();
         let max_wz = (0.5 * self.space.max_ang_rad_s).min(self.cfg.reorient_yaw_rate_rad_s);
         let mut t = self.plant.time_s();
@@ -38,15 +64,26 @@ impl Runner<'_> {
         let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
         self.stop(phase, step, deadline)?;
         self.summary.reorientation_stopping_s += lap(self.plant, &mut t);
-        if !self.best_heading(self.plant.true_pose(), cmd).1 {
-            let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
-            self.drive_towards_centre(phase, step, cmd, max_wz, deadline)?;
-            self.summary.reorientation_driving_s += lap(self.plant, &mut t);
-            let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
-            self.stop(phase, step, deadline)?;
-            self.summary.reorientation_stopping_s += lap(self.plant, &mut t);
+        let here = self.best_heading(self.plant.true_pose(), plan);
+        if !here.fits {
+            // A straight fast command has more room from the border, facing across the area,
+            // than from the centre; a tight circle near the border has less.
+            let centre = Pose {
+                x_m: 0.0,
+                y_m: 0.0,
+                ..self.plant.true_pose()
+            };
+            let from_centre = self.best_heading(centre, plan);
+            if from_centre.time_inside_s > here.time_inside_s + 0.5 {
+                let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
+                self.drive_towards_centre(phase, step, plan, from_centre.time_inside_s, max_wz, deadline)?;
+                self.summary.reorientation_driving_s += lap(self.plant, &mut t);
+                let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
+                self.stop(phase, step, deadline)?;
+                self.summary.reorientation_stopping_s += lap(self.plant, &mut t);
+            }
         }
-        let (heading, _) = self.best_heading(self.plant.true_pose(), cmd);
+        let heading = self.best_heading(self.plant.true_pose(), plan).heading_rad;
         let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
         self.turn_to(phase, step, move |_| heading, max_wz, deadline)?;
         self.summary.reorientation_turning_s += lap(self.plant, &mut t);
@@ -56,8 +93,9 @@ impl Runner<'_> {
         Ok(())
     }
 
-    /// Drives towards the centre of the safe area at the operator's pace until `cmd` fits from the
-    /// robot's position (checked every 0.5 s) or it is within 1 m of the centre. It drives
+    /// Drives towards the centre of the safe area at the operator's pace until the planned
+    /// motion fits from the robot's position or stays inside within half a second of
+    /// `centre_time_inside_s` (checked every 0.5 s), or it is within 1 m of the centre. It drives
     /// straight, forward or backward, whichever faces the centre, steering only gently, and
     /// turns in place first only if the centre is nearly abeam: a skid-steer on soft ground may
     /// not turn at all, but it can drive straight.
@@ -65,7 +103,8 @@ impl Runner<'_> {
         &mut self,
         phase: Phase,
         step: u32,
-        cmd: WheelSpeeds,
+        plan: BodyVelocity,
+        centre_time_inside_s: f64,
         max_wz: f64,
         deadline: f64,
     ) -> Result<()> {
@@ -77,8 +116,11 @@ impl Runner<'_> {
             if p.x_m.hypot(p.y_m) < 1.0 {
                 return Ok(());
             }
-            if ticks % check_every == 0 && ticks > 0 && self.best_heading(p, cmd).1 {
-                return Ok(());
+            if ticks % check_every == 0 && ticks > 0 {
+                let here = self.best_heading(p, plan);
+                if here.fits || here.time_inside_s >= centre_time_inside_s - 0.5 {
+                    return Ok(());
+                }
             }
             let err = wrap_angle((-p.y_m).atan2(-p.x_m) - p.yaw_rad);
             let (dir, err) = if err.abs() <= std::f64::consts::FRAC_PI_2 {
@@ -103,13 +145,18 @@ impl Runner<'_> {
         }
     }
 
-    /// The heading (every 5°) from which the ideal differential-drive path of `cmd` stays
-    /// longest inside the safe area shrunk by the margin and the stopping distance, and whether
-    /// it fits a whole step with time to spare; among equals, the one closest to facing the
-    /// centre with the side the command drives towards.
-    fn best_heading(&self, p: Pose, cmd: WheelSpeeds) -> (f64, bool) {
-        let v = self.space.idd.body_from_wheels(cmd);
-        let backward = v.vx_m_s < 0.0;
+    /// The heading (every 5°) from which the planned motion (the body velocity `plan`, held)
+    /// stays longest inside the safe area, judged as [`Self::would_leave`] judges the run: a
+    /// point of the path counts as inside while the robot, braking there at the operator's
+    /// deceleration, would stop inside the area shrunk by the margin. Among equals, the one
+    /// closest to facing the centre with the side the command drives towards.
+    ///
+    /// The stopping distance lies along the direction of travel only. (The first operator
+    /// shrank the area by it on every side: on ice, where it is 13 m at 3.8 m/s, that left no
+    /// heading for any fast command, and the robot was driven back to the centre and
+    /// interrupted at the same place again.)
+    fn best_heading(&self, p: Pose, plan: BodyVelocity) -> Heading {
+        let backward = plan.vx_m_s < 0.0;
         let to_centre = (-p.y_m).atan2(-p.x_m);
         let preferred = if backward {
             wrap_angle(to_centre + std::f64::consts::PI)
@@ -117,7 +164,18 @@ impl Runner<'_> {
             to_centre
         };
         let (hx, hy) = self.half_extents();
-        let m = self.cfg.border_margin_m + v.vx_m_s.powi(2) / (2.0 * self.cfg.operator_decel_m_s2);
+        let m = self.cfg.border_margin_m;
+        let speed = plan.vx_m_s.hypot(plan.vy_m_s);
+        let stop_m = speed * speed / (2.0 * self.cfg.operator_decel_m_s2);
+        // Direction of travel relative to the heading (sideways slide included).
+        let course = plan.vy_m_s.atan2(plan.vx_m_s);
+        let inside = |x: f64, y: f64, yaw: f64| {
+            let stop = (
+                x + stop_m * (yaw + course).cos(),
+                y + stop_m * (yaw + course).sin(),
+            );
+            !stops_outside((hx, hy), m, (x, y), stop)
+        };
         // One second beyond the step: the real robot lags the ideal path it is planned on.
         let step_s = self.cfg.window_s * self.cfg.windows_per_step as f64;
         let horizon_s = step_s + 1.0;
@@ -126,10 +184,10 @@ impl Runner<'_> {
             let (mut x, mut y, mut yaw) = (p.x_m, p.y_m, heading);
             let mut t = 0.0;
             while t < horizon_s - 1e-9 {
-                x += v.vx_m_s * yaw.cos() * dt;
-                y += v.vx_m_s * yaw.sin() * dt;
-                yaw += v.wz_rad_s * dt;
-                if x.abs() > hx - m || y.abs() > hy - m {
+                x += (plan.vx_m_s * yaw.cos() - plan.vy_m_s * yaw.sin()) * dt;
+                y += (plan.vx_m_s * yaw.sin() + plan.vy_m_s * yaw.cos()) * dt;
+                yaw += plan.wz_rad_s * dt;
+                if !inside(x, y, yaw) {
                     break;
                 }
                 t += dt;
@@ -145,7 +203,11 @@ impl Runner<'_> {
                 best = (t, off, h);
             }
         }
-        (best.2, best.0 >= step_s + 0.5)
+        Heading {
+            heading_rad: best.2,
+            time_inside_s: best.0,
+            fits: best.0 >= step_s + 0.5,
+        }
     }
 
     fn stuck_error(&self, step: u32) -> Error {
@@ -215,4 +277,12 @@ impl Runner<'_> {
             }
         }
     }
+}
+
+/// Whether a robot at `at` that would stop at `stop` ends outside the safe area of half extents
+/// `half_m` shrunk by `margin_m`, further out than it is: the operator's rule, shared by the call
+/// to interrupt and the planning of a re-orientation so that the two agree.
+pub(super) fn stops_outside(half_m: (f64, f64), margin_m: f64, at: (f64, f64), stop: (f64, f64)) -> bool {
+    let out = |s: f64, a: f64, h: f64| s.abs() > h - margin_m && s.abs() > a.abs();
+    out(stop.0, at.0, half_m.0) || out(stop.1, at.1, half_m.1)
 }
