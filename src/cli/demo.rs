@@ -55,6 +55,7 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<()> {
             bar = ProgressBar::new(args.steps as u64).with_style(style.clone());
             bar.set_prefix(format!("{robot} on {terrain}"));
         }
+        DemoEvent::Run(RunEvent::Started { .. }) => {}
         DemoEvent::Run(RunEvent::StepDone(n)) => bar.set_position(n as u64),
         DemoEvent::Run(RunEvent::Failed { partial }) => {
             bar.abandon();

@@ -77,6 +77,23 @@ pub enum Command {
 }
 
 /// Runs the command line; returns the process exit code.
+/// An error and its causes, `outer: inner`, each said once: a cause whose text the message
+/// before it already ends with (a file error that names its I/O error) is not repeated.
+fn describe_error(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if out.ends_with(&text) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&text);
+    }
+    out
+}
+
 pub fn main() -> i32 {
     let cli = Cli::parse();
     match dispatch(cli) {
@@ -96,11 +113,11 @@ pub fn main() -> i32 {
                 )
             }) =>
         {
-            eprintln!("drive-sim: {e:#}");
+            eprintln!("drive-sim: {}", describe_error(&e));
             crate::interrupt::EXIT_CODE
         }
         Err(e) => {
-            eprintln!("drive-sim: error: {e:#}");
+            eprintln!("drive-sim: error: {}", describe_error(&e));
             // Exit code 2 for bad input (as clap does for bad arguments), 1 for a failed run.
             if e.chain().any(|c| {
                 c.downcast_ref::<crate::Error>()
@@ -126,10 +143,6 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         }
         Some(Command::Run(a)) => {
             crate::interrupt::install();
-            eprintln!(
-                "drive-sim: running DRIVE: {} on {}, {} steps, seed {}, sampler {}",
-                a.robot, a.terrain, a.steps, a.seed, a.sampler
-            );
             let r = run::run(&a)?;
             println!("{}", run::describe(&r));
             Ok(())

@@ -109,6 +109,16 @@ pub fn run(args: &RunArgs) -> Result<RunReport> {
     );
     bar.set_prefix(format!("{} on {}", args.robot, args.terrain));
     let report = record_run(&req, &mut |event| match event {
+        // Said once the inputs are loaded and valid: bad input is reported without it.
+        RunEvent::Started { robot, terrain, log } => bar.suspend(|| {
+            eprintln!(
+                "drive-sim: running DRIVE: {robot} on {terrain}, {} steps, seed {}, sampler {}, log {}",
+                args.steps,
+                args.seed,
+                args.sampler,
+                log.display()
+            )
+        }),
         RunEvent::StepDone(n) => bar.set_position(n as u64),
         RunEvent::Interrupted { log } => {
             bar.abandon();

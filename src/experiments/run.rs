@@ -109,6 +109,15 @@ pub struct RunReport {
 /// What [`record_run`] tells its caller while it runs.
 #[derive(Debug, Clone, Copy)]
 pub enum RunEvent<'a> {
+    /// Every input is valid and loaded and the log is open: the simulation starts.
+    Started {
+        /// The robot's name.
+        robot: &'a str,
+        /// The terrain's name.
+        terrain: &'a str,
+        /// The log being written.
+        log: &'a Path,
+    },
     /// This many steps are complete.
     StepDone(u32),
     /// The run failed; what was simulated is kept in this (not complete) log.
@@ -229,6 +238,11 @@ fn record(
         kept: keep_frames.then(Vec::new),
         progress,
     };
+    (sink.progress)(RunEvent::Started {
+        robot: &robot.name,
+        terrain: &terrain.name,
+        log: &mcap_path,
+    });
     let t0 = Instant::now();
     let summary = match run_drive(&mut sim, &robot, sampler.as_mut(), &protocol, &mut sink) {
         Ok(s) => s,
