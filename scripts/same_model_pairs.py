@@ -32,10 +32,11 @@ def main():
     args = ap.parse_args()
     lines = [
         "| terrain | seeds | significant (Holm) | T/U areas beyond 5 pp | TF RMS / yardstick (vx, vy, wz, left, right) "
-        "| beyond 1.5× | maps' permutation p (Holm) | maps differing (permutation) | verdict |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| beyond 1.5× | maps' permutation p (Holm) | maps differing (permutation) | loss | verdict |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     counts = {"pairs": 0, "reproduces": 0, "yardstick": 0, "permutation": 0, "metrics": 0, "areas": 0}
+    losses = []
     for t in args.terrains.split(","):
         runs = os.path.join(args.out, t)
         for s in range(6):
@@ -66,16 +67,22 @@ def main():
             ratios = ", ".join("%.2f" % x["ratio"] for x in c["transfer"])
             ps = ", ".join("%.3f" % x["p_permutation_holm"] for x in c["transfer"])
             verdict = "reproduces" if v["reproduces"] else "differs"
+            # compare's loss (what `drive-sim tune` minimises); comparisons written before it
+            # existed have none: delete them to recompute.
+            loss = (c.get("loss") or {}).get("total")
+            if loss is not None:
+                losses.append(loss)
             lines.append(
                 f"| {t} | {b} vs {a} | {short(v['significant'])} | {short(v['areas_beyond_tolerance'])} | "
                 f"{ratios} | {short(v['tf_beyond_yardstick'])} | {ps} | {short(v.get('tf_significant', []))} | "
-                f"{verdict} |")
+                f"{'%.1f' % loss if loss is not None else '-'} | {verdict} |")
     lines.append("")
     lines.append(
         f"{counts['pairs']} pairs of runs of one model: {counts['reproduces']} 'reproduces'; "
         f"a map beyond 1.5× its yardstick in {counts['yardstick']}, a map differing by the permutation "
         f"test in {counts['permutation']}, a metric significant in {counts['metrics']}, an area beyond "
-        f"5 pp in {counts['areas']}.")
+        f"5 pp in {counts['areas']}." + (
+            f" Loss {min(losses):.1f}-{max(losses):.1f}, mean {sum(losses) / len(losses):.1f}." if losses else ""))
     table = "\n".join(lines)
     print(table)
     os.makedirs(args.out, exist_ok=True)

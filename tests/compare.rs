@@ -31,6 +31,8 @@ fn a_log_against_itself_and_its_halves_shows_no_difference() {
         .iter()
         .all(|m| m.difference == 0.0 && m.difference_ci95.unwrap().contains(0.0)));
     assert!(c.transfer.iter().all(|t| t.rms == 0.0 && t.points > 0));
+    // The loss `tune` minimises, carried by the comparison: nothing to pay against itself.
+    assert_eq!(c.loss.as_ref().map(|l| l.total), Some(0.0), "{:?}", c.loss);
     // Every exchange of steps between two identical runs differs at least as much: p = 1.
     assert!(
         c.transfer.iter().all(|t| t.p_permutation == Some(1.0)),
@@ -100,6 +102,13 @@ fn another_terrain_differs() {
         c.verdict
     );
     assert!(!c.verdict.tf_beyond_yardstick.is_empty(), "{:#?}", c.transfer);
+    // Failing verdicts cost: at least one term above 1.
+    let loss = c.loss.as_ref().unwrap();
+    assert!(
+        loss.terms.iter().any(|t| t.value.is_some_and(|v| v.abs() > 1.0)),
+        "{loss:?}"
+    );
+    assert!(loss.total > 1.0, "{loss:?}");
     // Ice's maps against asphalt's are beyond any exchange of their steps (the smallest p a
     // test of 200 permutations gives, 1/201, Holm-adjusted over five maps).
     assert!(c.verdict.tf_significant.len() >= 3, "{:#?}", c.transfer);

@@ -144,6 +144,7 @@ mod tests {
                 tf_beyond_yardstick: vec![],
                 tf_significant: vec![],
             },
+            loss: None,
         }
     }
 

@@ -215,6 +215,12 @@ pub struct SimComparison {
     pub curvature: curvature::CurvatureBreakdown,
     /// Verdict.
     pub verdict: Verdict,
+    /// The verdict in one number ([`loss::loss`]: each term 1 at its threshold, squared and
+    /// summed), what `tune` minimises. Two 100-step runs of one exact model score 3.0-10.1
+    /// against each other, mean 5.4 (`scripts/same_model_pairs.py`, nine pairs). Absent from
+    /// files written before it existed.
+    #[serde(default)]
+    pub loss: Option<loss::Loss>,
 }
 
 /// A named warning in the report (never a silent fallback).
@@ -624,7 +630,7 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
                 && verdict.tf_beyond_yardstick.is_empty(),
             ..verdict
         };
-        out.push(SimComparison {
+        let mut c = SimComparison {
             sim: sim_info,
             pairing,
             steps_used,
@@ -634,7 +640,10 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
             time,
             curvature,
             verdict,
-        });
+            loss: None,
+        };
+        c.loss = Some(loss::loss(&c, opts));
+        out.push(c);
     }
     Ok(ComparisonReport {
         real: run_info(real.log, &real_a, real.file.map(|f| f.to_path_buf())),

@@ -89,6 +89,13 @@ pub fn verdict_text(r: &ComparisonReport) -> String {
                     .unwrap_or_default()
             );
         }
+        if let Some(l) = &c.loss {
+            let _ = writeln!(
+                s,
+                "  loss {:.2} (each term 1 at its verdict's threshold, squared and summed: what `tune` minimises)",
+                l.total
+            );
+        }
         // The body against its wheels, by curvature: of the ratios whose interval excludes no
         // difference, the one that differs most (a diagnostic; the report has the whole table).
         let worst = c
