@@ -26,6 +26,7 @@ pub mod tf;
 pub mod write;
 
 use crate::analysis::bootstrap::{holm, two_sided_p, Bootstrap, Interval, MIN_STEPS_FOR_INTERVAL};
+use crate::analysis::smoother::Smoothed;
 use crate::analysis::{analyze, spaces, stats, Analysis, AnalysisParams, SmootherParams};
 use crate::error::{Error, Result};
 use crate::kinematics::CommandSpace;
@@ -395,6 +396,14 @@ pub struct Input<'a> {
 /// Compares `real` with each of `sims` (see the module doc). Refuses logs of another robot
 /// than the real one's (bad input); warns, by name, of runs too short for an interval.
 pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<ComparisonReport> {
+    // The cheap checks first: bad input is reported before the real log is analysed.
+    check_inputs(real, sims)?;
+    check_options(opts)?;
+    compare_prepared(&PreparedReal::new(real, opts)?, sims)
+}
+
+/// Refuses an empty list of simulated logs and logs of another robot than the real one's.
+fn check_inputs(real: Input, sims: &[Input]) -> Result<()> {
     if sims.is_empty() {
         return Err(Error::config("compare", "SIM", "give at least one simulated log"));
     }
@@ -414,6 +423,10 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
             ));
         }
     }
+    Ok(())
+}
+
+fn check_options(opts: &CompareOptions) -> Result<()> {
     if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
         return Err(Error::config(
             "compare",
@@ -421,46 +434,100 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
             format!("must be in (0, 1), got {}", opts.alpha),
         ));
     }
-    let real_a = analysis_of(real.log)?;
-    let real_rows = rows(&real_a);
-    let space = real.log.meta.nominal.command_space();
-    let mut warnings = Vec::new();
-    let few = |name: &str, n: usize, warnings: &mut Vec<Warning>| {
-        if n < MIN_STEPS_FOR_INTERVAL {
+    Ok(())
+}
+
+/// The real side of a comparison, computed once: its analysis, its steps' bootstrap
+/// statistics, its transfer-function maps and its halves' (the yardstick). A closed-loop
+/// search (`tune`) compares hundreds of simulated runs with one real log; preparing it once
+/// saves about half of each comparison (a 49-step half against a 49-step run, 500 resamples:
+/// 0.034 of 0.071 s).
+pub struct PreparedReal<'a> {
+    input: Input<'a>,
+    opts: CompareOptions,
+    analysis: Analysis,
+    rows: Vec<StepRow>,
+    space: CommandSpace,
+    stats: Vec<Vec<f64>>,
+    tf_grid: tf::TfSetup,
+    fields: Smoothed,
+    halves: (Smoothed, Smoothed),
+    warnings: Vec<Warning>,
+}
+
+impl<'a> PreparedReal<'a> {
+    /// Analyses `real` for comparisons with `opts` (bad options are refused here).
+    pub fn new(real: Input<'a>, opts: &CompareOptions) -> Result<Self> {
+        check_options(opts)?;
+        let analysis = analysis_of(real.log)?;
+        let rows = rows(&analysis);
+        let space = real.log.meta.nominal.command_space();
+        let mut warnings = Vec::new();
+        too_few(&real.log.meta.name, rows.len(), &mut warnings);
+        if !records_time(real.log) {
             warnings.push(Warning {
-                name: "too_few_steps".into(),
+                name: "time_not_recorded".into(),
                 message: format!(
-                    "`{name}` has {n} analysed steps (fewer than {MIN_STEPS_FOR_INTERVAL}): its intervals are unreliable"
+                    "`{}` does not record interruptions or protocol time (a CSV export): time efficiency is not compared",
+                    real.log.meta.name
                 ),
             });
         }
-    };
-    few(&real.log.meta.name, real_rows.len(), &mut warnings);
-    if !records_time(real.log) {
+        let stats = resampled(&rows, &opts.bootstrap.draws(rows.len(), 1), &space);
+        let tf_grid = tf::TfSetup::new(real.log, opts);
+        let fields = tf_grid.fields(&rows.iter().collect::<Vec<_>>());
+        // Halves by alternating position (not step number: a log may already hold only the
+        // odd or the even steps, `--real-steps`).
+        let odd: Vec<&StepRow> = rows.iter().skip(1).step_by(2).collect();
+        let even: Vec<&StepRow> = rows.iter().step_by(2).collect();
+        let halves = (tf_grid.fields(&odd), tf_grid.fields(&even));
+        Ok(Self {
+            input: real,
+            opts: *opts,
+            analysis,
+            rows,
+            space,
+            stats,
+            tf_grid,
+            fields,
+            halves,
+            warnings,
+        })
+    }
+}
+
+/// A named warning when a run has too few analysed steps for its intervals.
+fn too_few(name: &str, n: usize, warnings: &mut Vec<Warning>) {
+    if n < MIN_STEPS_FOR_INTERVAL {
         warnings.push(Warning {
-            name: "time_not_recorded".into(),
+            name: "too_few_steps".into(),
             message: format!(
-                "`{}` does not record interruptions or protocol time (a CSV export): time efficiency is not compared",
-                real.log.meta.name
+                "`{name}` has {n} analysed steps (fewer than {MIN_STEPS_FOR_INTERVAL}): its intervals are unreliable"
             ),
         });
     }
+}
+
+/// [`compare`] against a real side prepared once (with its options).
+pub fn compare_prepared(prepared: &PreparedReal, sims: &[Input]) -> Result<ComparisonReport> {
+    let real = prepared.input;
+    check_inputs(real, sims)?;
+    let opts = &prepared.opts;
+    let real_a = &prepared.analysis;
+    let real_rows = &prepared.rows;
+    let space = prepared.space;
+    let mut warnings = prepared.warnings.clone();
     let b = &opts.bootstrap;
-    let real_draws = b.draws(real_rows.len(), 1);
-    let real_stats = resampled(&real_rows, &real_draws, &space);
-    let tf_grid = tf::TfSetup::new(real.log, opts);
-    let real_fields = tf_grid.fields(&real_rows.iter().collect::<Vec<_>>());
-    // Halves by alternating position (not step number: a log may already hold only the odd
-    // or the even steps, `--real-steps`).
-    let odd: Vec<&StepRow> = real_rows.iter().skip(1).step_by(2).collect();
-    let even: Vec<&StepRow> = real_rows.iter().step_by(2).collect();
-    let halves = (tf_grid.fields(&odd), tf_grid.fields(&even));
+    let real_stats = &prepared.stats;
+    let tf_grid = &prepared.tf_grid;
+    let real_fields = &prepared.fields;
+    let halves = &prepared.halves;
 
     let mut out = Vec::new();
     for s in sims {
         let sim_a = analysis_of(s.log)?;
         let sim_rows = rows(&sim_a);
-        few(&s.log.meta.name, sim_rows.len(), &mut warnings);
+        too_few(&s.log.meta.name, sim_rows.len(), &mut warnings);
         let paired = matches!(&s.log.meta.origin, Origin::Replayed { of, .. } if *of == real.log.meta.name);
         let all_real: Vec<&StepRow> = real_rows.iter().collect();
         let all_sim: Vec<&StepRow> = sim_rows.iter().collect();
@@ -546,20 +613,15 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
             m.significant = p.is_finite() && p < opts.alpha;
         }
         let sim_fields = tf_grid.fields(&all_sim);
-        let (mut transfer, maps) = tf_grid.compare(
-            &real_fields,
-            &sim_fields,
-            &halves,
-            real_rows.len(),
-            sim_rows.len(),
-        );
+        let (mut transfer, maps) =
+            tf_grid.compare(real_fields, &sim_fields, halves, real_rows.len(), sim_rows.len());
         let p_perm = match &common {
             Some((rr, ss)) => tf_grid.permutation_p(
                 &rr.iter().collect::<Vec<_>>(),
                 &ss.iter().collect::<Vec<_>>(),
                 true,
                 &sim_fields,
-                &halves,
+                halves,
                 &transfer,
                 opts.tf_permutations,
                 b.seed ^ 0x7e57,
@@ -569,7 +631,7 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
                 &all_sim,
                 false,
                 &sim_fields,
-                &halves,
+                halves,
                 &transfer,
                 opts.tf_permutations,
                 b.seed ^ 0x7e57,
@@ -646,7 +708,7 @@ pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<Com
         out.push(c);
     }
     Ok(ComparisonReport {
-        real: run_info(real.log, &real_a, real.file.map(|f| f.to_path_buf())),
+        real: run_info(real.log, real_a, real.file.map(|f| f.to_path_buf())),
         options: *opts,
         sims: out,
         warnings,

@@ -40,14 +40,16 @@ use outcome::check_rule;
 pub use outcome::{HeldOut, JudgedRun, PointEvaluation, SeedCheck, TuneOutcome, TunedParam};
 pub use params::{apply_boxes, tuned_specs, BoxOverride};
 pub use runs::twin_run;
-use runs::{evaluation, judged, run_against, seed_run, SeedRun};
+use runs::{evaluation, judged, loss_opts, run_against, seed_run, SeedRun};
 pub use write::twin_of;
 
 use crate::analysis::bootstrap::{Bootstrap, MIN_STEPS_FOR_INTERVAL};
 use crate::calibration::params::{Param, ParamSpec};
 use crate::calibration::{twin, ModelParams, PlantFactory, SimFactory};
 use crate::compare::loss::{loss, Loss};
-use crate::compare::{compare, CompareOptions, ComparisonReport, Input, MetricDiff, TfDiff, Verdict};
+use crate::compare::{
+    compare_prepared, CompareOptions, ComparisonReport, Input, MetricDiff, PreparedReal, TfDiff, Verdict,
+};
 use crate::effects::{self, CommandReach, REGISTRY};
 use crate::error::{Error, Result};
 use crate::log::{DriveLog, UseSteps};
@@ -232,6 +234,14 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
     // is then mid-box, but the check compares the choice with this model).
     let start_model = req.start.clone();
 
+    // The real steps the search and the check compare with, analysed once.
+    let loss_real = PreparedReal::new(
+        Input {
+            log: &chosen_half,
+            file: None,
+        },
+        &loss_opts(opts.loss_resamples),
+    )?;
     let choose_seeds = opts.seeds(0, opts.choose_seeds);
     progress(&format!(
         "tune: {} parameter(s) on {} {} steps of `{}`, {} DRIVE steps x {} seed(s) per point, at most {} points",
@@ -254,7 +264,7 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
         let runs: Vec<SeedRun> = jobs
             .par_iter()
             .map(|&(i, seed)| match model_at(&to_x(&zs[i])) {
-                Ok(m) => seed_run(&chosen_half, &m, steps, seed, opts.loss_resamples),
+                Ok(m) => seed_run(&loss_real, &m, steps, seed),
                 Err(e) => SeedRun {
                     outcome: Err(e.to_string()),
                 },
@@ -286,7 +296,7 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
     // The start model on the search's seeds: the baseline the search's losses compare with.
     let start_runs: Vec<SeedRun> = choose_seeds
         .par_iter()
-        .map(|&s| seed_run(&chosen_half, &start_model, steps, s, opts.loss_resamples))
+        .map(|&s| seed_run(&loss_real, &start_model, steps, s))
         .collect();
     let start_eval = evaluation(req.start.values_of(&specs), &start_runs);
     let start_loss = start_eval.loss;
@@ -316,8 +326,8 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
         .par_iter()
         .map(|&s| {
             (
-                seed_run(&chosen_half, &start_model, steps, s, opts.loss_resamples),
-                seed_run(&chosen_half, &chosen_model, steps, s, opts.loss_resamples),
+                seed_run(&loss_real, &start_model, steps, s),
+                seed_run(&loss_real, &chosen_model, steps, s),
             )
         })
         .collect();
@@ -345,30 +355,28 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
     let judge_seeds = opts.seeds(JUDGE_SEED_OFFSET, opts.check_seeds);
     let judge_on =
         |half: UseSteps, log: &DriveLog, real_steps: usize, halves: Option<&DriveLog>| -> HeldOut {
+            let prepared = PreparedReal::new(Input { log, file: None }, &CompareOptions::default())
+                .map_err(|e| e.to_string());
             let reps: Vec<(u64, std::result::Result<ComparisonReport, String>)> = judge_seeds
                 .par_iter()
                 .map(|&s| {
-                    let r = run_against(
-                        log,
-                        &[&start_model, &chosen_model],
-                        steps,
-                        s,
-                        &CompareOptions::default(),
-                    )
-                    .map_err(|e| e.to_string());
+                    let r = prepared.as_ref().map_err(Clone::clone).and_then(|p| {
+                        run_against(p, &[&start_model, &chosen_model], steps, s).map_err(|e| e.to_string())
+                    });
                     (s, r)
                 })
                 .collect();
             let real_halves = halves.map(|other| {
-                let c = compare(
-                    Input { log, file: None },
-                    &[Input {
-                        log: other,
-                        file: None,
-                    }],
-                    &CompareOptions::default(),
-                )
-                .map_err(|e| e.to_string());
+                let c = prepared.as_ref().map_err(Clone::clone).and_then(|p| {
+                    compare_prepared(
+                        p,
+                        &[Input {
+                            log: other,
+                            file: None,
+                        }],
+                    )
+                    .map_err(|e| e.to_string())
+                });
                 judged(c.as_ref(), 0, 0)
             });
             let h = HeldOut {

@@ -29,36 +29,24 @@ pub(super) fn loss_opts(resamples: usize) -> CompareOptions {
     }
 }
 
+/// DRIVE runs of `models` with `seed`, compared with the real steps prepared once.
 pub(super) fn run_against(
-    real: &DriveLog,
+    real: &PreparedReal,
     models: &[&ModelParams],
     steps: u32,
     seed: u64,
-    opts: &CompareOptions,
 ) -> Result<ComparisonReport> {
     let logs = models
         .iter()
         .map(|m| twin_run(m, steps, seed))
         .collect::<Result<Vec<_>>>()?;
     let inputs: Vec<Input> = logs.iter().map(|log| Input { log, file: None }).collect();
-    compare(
-        Input {
-            log: real,
-            file: None,
-        },
-        &inputs,
-        opts,
-    )
+    compare_prepared(real, &inputs)
 }
 
-pub(super) fn seed_run(
-    real: &DriveLog,
-    model: &ModelParams,
-    steps: u32,
-    seed: u64,
-    resamples: usize,
-) -> SeedRun {
-    let outcome = run_against(real, &[model], steps, seed, &loss_opts(resamples))
+/// The loss of one seeded run of `model` against `real` (prepared with [`loss_opts`]).
+pub(super) fn seed_run(real: &PreparedReal, model: &ModelParams, steps: u32, seed: u64) -> SeedRun {
+    let outcome = run_against(real, &[model], steps, seed)
         .map(|r| loss(&r.sims[0], &r.options))
         .map_err(|e| e.to_string());
     SeedRun { outcome }
