@@ -9,6 +9,7 @@ that is exactly right.
 
     python3 scripts/same_model_pairs.py [--bin target/release/drive-sim] [--out out/same_model_pairs]
                                         [--terrains asphalt,gravel,ice] [--steps 100]
+                                        [--tf-smoother kernel|local-linear]
 
 Prints a Markdown table (OUT/table.md) and a count of the verdicts; runs and comparisons that
 exist are reused.
@@ -29,6 +30,7 @@ def main():
     ap.add_argument("--out", default=os.path.join(REPO, "out", "same_model_pairs"))
     ap.add_argument("--terrains", default="asphalt,gravel,ice")
     ap.add_argument("--steps", type=int, default=100)
+    ap.add_argument("--tf-smoother", default="kernel", help="compare's smoother of the maps")
     args = ap.parse_args()
     lines = [
         "| terrain | seeds | significant (Holm) | T/U areas beyond 5 pp | TF RMS / yardstick (vx, vy, wz, left, right) "
@@ -47,11 +49,13 @@ def main():
                                stdout=subprocess.DEVNULL)
         for a in (0, 2, 4):
             b = a + 1
-            out = os.path.join(args.out, f"compare_{t}_{a}_{b}")
+            suffix = "" if args.tf_smoother == "kernel" else "_" + args.tf_smoother
+            out = os.path.join(args.out, f"compare_{t}_{a}_{b}{suffix}")
             path = os.path.join(out, "comparison.json")
             if not os.path.exists(path):
                 subprocess.run([args.bin, "compare", os.path.join(runs, f"warthog_{t}_s{a}.mcap"),
-                                os.path.join(runs, f"warthog_{t}_s{b}.mcap"), "--out", out], check=True,
+                                os.path.join(runs, f"warthog_{t}_s{b}.mcap"), "--out", out,
+                                "--tf-smoother", args.tf_smoother], check=True,
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             with open(path) as f:
                 c = json.load(f)["sims"][0]
@@ -86,7 +90,8 @@ def main():
     table = "\n".join(lines)
     print(table)
     os.makedirs(args.out, exist_ok=True)
-    with open(os.path.join(args.out, "table.md"), "w") as f:
+    name = "table.md" if args.tf_smoother == "kernel" else f"table_{args.tf_smoother}.md"
+    with open(os.path.join(args.out, name), "w") as f:
         f.write(table + "\n")
 
 

@@ -20,7 +20,7 @@ areas (sim − real, percentage points), transfer-function RMS over the yardstic
 many of the seeds compare's verdict is "reproduces".
 
     python3 scripts/tune_table.py [--bin target/release/drive-sim] [--out out/tune_table]
-                                  [--datasets warthog_asphalt,...]
+                                  [--datasets warthog_asphalt,...] [--tf-smoother kernel|local-linear]
 
 Writes OUT/table.md and every command to OUT/commands.txt; a stage whose output exists is
 skipped (delete OUT to start over).
@@ -94,6 +94,7 @@ def main():
     ap.add_argument("--bin", default=os.path.join(REPO, "target", "release", "drive-sim"))
     ap.add_argument("--out", default=os.path.join(REPO, "out", "tune_table"))
     ap.add_argument("--datasets", default=",".join(DATASETS))
+    ap.add_argument("--tf-smoother", default="kernel", help="the maps' smoother in tune's loss and judgement")
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
     data = lambda d: os.path.join(DATA, d + ".csv")
@@ -122,7 +123,7 @@ def main():
                 out = os.path.join(args.out, d, f"tune_{i}")
                 if not os.path.exists(os.path.join(out, "tune.json")):
                     s = run([args.bin, "tune", data(d), "--robot", r, "--terrain", t, "--tune", tune,
-                             "--choose-on", "odd", "--out", out], log)
+                             "--choose-on", "odd", "--tf-smoother", args.tf_smoother, "--out", out], log)
                     print(f"{d}: tune from {label} {s:.0f} s")
                 with open(os.path.join(out, "tune.json")) as f:
                     o = json.load(f)
@@ -141,7 +142,7 @@ def main():
             if not os.path.exists(os.path.join(out, "tune.json")):
                 s = run([args.bin, "tune", data(d), "--robot", os.path.join(cal_all, "twin", "robot.toml"),
                          "--terrain", os.path.join(cal_all, "twin", "terrain.toml"), "--tune", tune,
-                         "--choose-on", "all", "--out", out], log)
+                         "--choose-on", "all", "--tf-smoother", args.tf_smoother, "--out", out], log)
                 print(f"{d}: tune on all steps {s:.0f} s")
             with open(os.path.join(out, "tune.json")) as f:
                 o = json.load(f)

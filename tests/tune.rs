@@ -56,6 +56,7 @@ fn tuned(limit_rad_s: f64) -> drive_sim::experiments::tune::TuneOutcome {
             ..SearchOptions::default()
         },
         loss_resamples: 200,
+        ..TuneOptions::default()
     };
     let names = vec!["wheel_speed_saturation_rad_s".to_string()];
     tune(

@@ -489,6 +489,79 @@ pub fn smooth(
     }
 }
 
+/// Local-linear kernel regression: at each grid point, the intercept of the kernel-weighted
+/// least-squares plane through the points (the same Gaussian kernel as [`smooth`]), instead of
+/// the kernel-weighted mean.
+///
+/// Why: the weighted mean of a sloped surface is biased by the slope times the weighted mean
+/// offset of the points from the grid point, and that offset depends on which commands a run
+/// drew. Beyond a wheel-speed limit the wheel slip is a ramp (command − limit); two runs of one
+/// exact model then differ there by their designs, not by noise. A plane is unbiased on a plane
+/// whatever the design; what is left is the curvature's bias (at the limit's kink).
+///
+/// Computed from kernel-weighted moments, each a channel of [`smooth`]: with `E` the
+/// kernel-weighted mean at the grid point `g`, `x` the point, `y` a channel, the value is
+/// `E[y] + βᵀ(g − E[x])` with `Cov(x) β = Cov(x, y)`. Where the points are nearly collinear
+/// under the kernel (the smaller eigenvalue of `Cov(x)`, in units of the kernel's variances,
+/// below 1e-6) the plane is not determined and the weighted mean is kept. `error_bound` is
+/// `None`.
+pub fn smooth_local_linear(
+    grid: &Grid,
+    cov: &KernelCovariance,
+    fast: &FastParams,
+    points: &[(f64, f64)],
+    channels: &[&[f64]],
+) -> Smoothed {
+    check_inputs(points, channels);
+    // Moments in kernel-variance units (so that the collinearity threshold is scale-free).
+    let (sv, sw) = (cov.var_vx.sqrt(), cov.var_wz.sqrt());
+    let u: Vec<f64> = points.iter().map(|p| p.0 / sv).collect();
+    let w: Vec<f64> = points.iter().map(|p| p.1 / sw).collect();
+    let uu: Vec<f64> = u.iter().map(|a| a * a).collect();
+    let uw: Vec<f64> = u.iter().zip(&w).map(|(a, b)| a * b).collect();
+    let ww: Vec<f64> = w.iter().map(|b| b * b).collect();
+    let mut derived: Vec<Vec<f64>> = vec![u.clone(), w.clone(), uu, uw, ww];
+    for c in channels {
+        derived.push(c.iter().zip(&u).map(|(y, a)| y * a).collect());
+        derived.push(c.iter().zip(&w).map(|(y, b)| y * b).collect());
+    }
+    let mut refs: Vec<&[f64]> = derived.iter().map(|c| c.as_slice()).collect();
+    refs.extend_from_slice(channels);
+    let (_, m) = smooth(grid, cov, fast, points, &refs);
+    let nv = grid.vx_m_s.len();
+    let nc = channels.len();
+    let first_y = 5 + 2 * nc;
+    let mut values = vec![vec![f64::NAN; grid.len()]; nc];
+    let supported = |g: usize| grid.inside[g] && m.weight_sum[g] > 0.0;
+    for g in (0..grid.len()).filter(|&g| supported(g)) {
+        let at = |k: usize| m.values[k][g];
+        let (eu, ew) = (at(0), at(1));
+        let (cuu, cuw, cww) = (at(2) - eu * eu, at(3) - eu * ew, at(4) - ew * ew);
+        let det = cuu * cww - cuw * cuw;
+        let half_trace = 0.5 * (cuu + cww);
+        let smallest = half_trace - (half_trace * half_trace - det).max(0.0).sqrt();
+        let plane = smallest > 1e-6 && det > 0.0;
+        let (gu, gw) = (grid.vx_m_s[g % nv] / sv, grid.wz_rad_s[g / nv] / sw);
+        for (c, out) in values.iter_mut().enumerate() {
+            let ey = at(first_y + c);
+            out[g] = if plane {
+                let cuy = at(5 + 2 * c) - eu * ey;
+                let cwy = at(6 + 2 * c) - ew * ey;
+                let bu = (cww * cuy - cuw * cwy) / det;
+                let bw = (cuu * cwy - cuw * cuy) / det;
+                ey + bu * (gu - eu) + bw * (gw - ew)
+            } else {
+                ey
+            };
+        }
+    }
+    Smoothed {
+        values,
+        weight_sum: m.weight_sum,
+        error_bound: None,
+    }
+}
+
 /// The cheaper implementation for `s` samples and `n_channels` channels (cost model of [`smooth`]).
 pub fn choose_method(
     grid: &Grid,
@@ -590,6 +663,50 @@ mod tests {
                 } else {
                     assert!(v.is_nan());
                 }
+            }
+        }
+    }
+
+    /// A plane is reproduced exactly by the local-linear smoother wherever the points
+    /// determine it, however one-sided they are; the kernel-weighted mean of the same points is
+    /// off by the slope times their mean offset. Collinear points fall back to the mean.
+    #[test]
+    fn local_linear_reproduces_a_plane_whatever_the_design() {
+        let grid = Grid::over_space(&space(), 0.1, 0.1);
+        let cov = KernelCovariance::default();
+        // One-sided design: only points with vx > 1 (the grid's points below are extrapolated
+        // from one side).
+        let pts: Vec<(f64, f64)> = samples(400, 4).into_iter().filter(|p| p.0 > 1.0).collect();
+        let plane = |p: &(f64, f64)| 2.0 + 3.0 * p.0 - 0.5 * p.1;
+        let y: Vec<f64> = pts.iter().map(plane).collect();
+        let ll = smooth_local_linear(&grid, &cov, &FastParams::default(), &pts, &[&y]);
+        let nw = smooth_exact(&grid, &cov, &pts, &[&y]);
+        let nv = grid.vx_m_s.len();
+        let (mut worst_ll, mut worst_nw, mut n) = (0.0f64, 0.0f64, 0);
+        for g in 0..grid.len() {
+            if !grid.inside[g] || nw.weight_sum[g] < 0.5 {
+                continue;
+            }
+            let truth = plane(&(grid.vx_m_s[g % nv], grid.wz_rad_s[g / nv]));
+            worst_ll = worst_ll.max((ll.values[0][g] - truth).abs());
+            worst_nw = worst_nw.max((nw.values[0][g] - truth).abs());
+            n += 1;
+        }
+        assert!(n > 100, "{n}");
+        assert!(worst_ll < 1e-8, "local-linear off a plane by {worst_ll}");
+        assert!(
+            worst_nw > 0.1,
+            "the weighted mean was expected off by the slope: {worst_nw}"
+        );
+        // Every point on the vx axis: the plane's wz slope is not determined; the mean is kept.
+        let line: Vec<(f64, f64)> = (0..50).map(|i| (-2.0 + 0.08 * i as f64, 0.0)).collect();
+        let y: Vec<f64> = line.iter().map(plane).collect();
+        let ll = smooth_local_linear(&grid, &cov, &FastParams::default(), &line, &[&y]);
+        let nw = smooth_exact(&grid, &cov, &line, &[&y]);
+        for g in 0..grid.len() {
+            if grid.inside[g] && nw.weight_sum[g] > 0.5 {
+                assert!(ll.values[0][g].is_finite());
+                assert!((ll.values[0][g] - nw.values[0][g]).abs() < 1e-12);
             }
         }
     }

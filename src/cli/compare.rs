@@ -30,6 +30,10 @@ pub struct CompareArgs {
     /// Permutations of the maps' test (0: skip it).
     #[arg(long, default_value_t = CompareOptions::default().tf_permutations)]
     pub permutations: usize,
+    /// Smoother of the compared maps: `kernel` (the paper's weighted mean) or `local-linear`
+    /// (a weighted plane: no bias from which commands a run drew on a sloped map).
+    #[arg(long, value_enum, default_value = "kernel")]
+    pub tf_smoother: crate::compare::TfSmoother,
     /// Compare only the real log's odd or even steps (e.g. those a twin was not calibrated on,
     /// `calibrate --use-steps`), or all of them.
     #[arg(long, value_enum, default_value = "all")]
@@ -69,6 +73,7 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<()> {
         },
         alpha: args.alpha,
         tf_permutations: args.permutations,
+        tf_smoother: args.tf_smoother,
         ..CompareOptions::default()
     };
     let inputs: Vec<Input> = sims

@@ -48,6 +48,9 @@ pub struct TuneArgs {
     /// compare's 2000).
     #[arg(long, default_value_t = TuneOptions::default().loss_resamples)]
     pub loss_resamples: usize,
+    /// Smoother of the compared maps, in the loss and the judgement (as `compare --tf-smoother`).
+    #[arg(long, value_enum, default_value = "kernel")]
+    pub tf_smoother: crate::compare::TfSmoother,
     /// Output directory.
     #[arg(long, default_value = "out/tune")]
     pub out: PathBuf,
@@ -70,6 +73,7 @@ impl TuneArgs {
                 ..SearchOptions::default()
             },
             loss_resamples: self.loss_resamples,
+            tf_smoother: self.tf_smoother,
         }
     }
 
@@ -88,6 +92,9 @@ impl TuneArgs {
             self.max_evaluations,
             self.loss_resamples
         );
+        if self.tf_smoother != crate::compare::TfSmoother::Kernel {
+            s.push_str(" --tf-smoother local-linear");
+        }
         for i in &self.inject {
             s.push_str(&format!(" --inject {i}"));
         }

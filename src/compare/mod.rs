@@ -56,6 +56,24 @@ pub struct CompareOptions {
     /// Permutations of the transfer functions' test (0: not computed).
     #[serde(default)]
     pub tf_permutations: usize,
+    /// How the transfer-function maps are smoothed (the paper's kernel-weighted mean, or a
+    /// local-linear fit with the same kernel).
+    #[serde(default)]
+    pub tf_smoother: TfSmoother,
+}
+
+/// The smoother of the compared transfer-function maps.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum TfSmoother {
+    /// The paper's: the kernel-weighted mean of the steps' slips
+    /// ([`crate::analysis::smoother::smooth`]).
+    #[default]
+    Kernel,
+    /// The intercept of a kernel-weighted plane
+    /// ([`crate::analysis::smoother::smooth_local_linear`]): no bias on a sloped map whatever
+    /// commands a run drew, such as the wheel slip's ramp beyond a wheel-speed limit.
+    LocalLinear,
 }
 
 impl Default for CompareOptions {
@@ -69,6 +87,7 @@ impl Default for CompareOptions {
             kernel_var: None,
             min_weight: 0.5,
             tf_permutations: 200,
+            tf_smoother: TfSmoother::Kernel,
         }
     }
 }

@@ -17,7 +17,7 @@
 //! swapped with probability ½), Holm-adjusted over the five maps.
 
 use super::{CompareOptions, StepRow, TfDiff};
-use crate::analysis::smoother::{smooth, FastParams, Grid, KernelCovariance, Smoothed};
+use crate::analysis::smoother::{smooth, smooth_local_linear, FastParams, Grid, KernelCovariance, Smoothed};
 use crate::log::DriveLog;
 use serde::{Deserialize, Serialize};
 
@@ -58,6 +58,7 @@ pub struct TfSetup {
     fast: FastParams,
     min_weight: f64,
     tolerance: f64,
+    smoother: super::TfSmoother,
 }
 
 impl TfSetup {
@@ -76,6 +77,7 @@ impl TfSetup {
             fast: FastParams::default(),
             min_weight: opts.min_weight,
             tolerance: opts.tf_tolerance,
+            smoother: opts.tf_smoother,
         }
     }
 
@@ -86,7 +88,12 @@ impl TfSetup {
             .map(|k| rows.iter().map(|r| r.values[k]).collect())
             .collect();
         let refs: Vec<&[f64]> = cols.iter().map(|c| c.as_slice()).collect();
-        smooth(&self.grid, &self.cov, &self.fast, &pts, &refs).1
+        match self.smoother {
+            super::TfSmoother::Kernel => smooth(&self.grid, &self.cov, &self.fast, &pts, &refs).1,
+            super::TfSmoother::LocalLinear => {
+                smooth_local_linear(&self.grid, &self.cov, &self.fast, &pts, &refs)
+            }
+        }
     }
 
     fn supported(&self, f: &Smoothed, i: usize) -> bool {

@@ -48,7 +48,8 @@ use crate::calibration::params::{Param, ParamSpec};
 use crate::calibration::{twin, ModelParams, PlantFactory, SimFactory};
 use crate::compare::loss::{loss, Loss};
 use crate::compare::{
-    compare_prepared, CompareOptions, ComparisonReport, Input, MetricDiff, PreparedReal, TfDiff, Verdict,
+    compare_prepared, CompareOptions, ComparisonReport, Input, MetricDiff, PreparedReal, TfDiff, TfSmoother,
+    Verdict,
 };
 use crate::effects::{self, CommandReach, REGISTRY};
 use crate::error::{Error, Result};
@@ -89,6 +90,9 @@ pub struct TuneOptions {
     /// Bootstrap resamples of the loss's intervals during the search and the check (the
     /// judgement uses `compare`'s default).
     pub loss_resamples: usize,
+    /// Smoother of the compared maps, in the loss and in the judgement (`compare`'s).
+    #[serde(default)]
+    pub tf_smoother: TfSmoother,
 }
 
 impl Default for TuneOptions {
@@ -101,6 +105,7 @@ impl Default for TuneOptions {
             check_seeds: 3,
             search: SearchOptions::default(),
             loss_resamples: 500,
+            tf_smoother: TfSmoother::Kernel,
         }
     }
 }
@@ -240,7 +245,7 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
             log: &chosen_half,
             file: None,
         },
-        &loss_opts(opts.loss_resamples),
+        &loss_opts(opts.loss_resamples, opts.tf_smoother),
     )?;
     let choose_seeds = opts.seeds(0, opts.choose_seeds);
     progress(&format!(
@@ -355,8 +360,11 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
     let judge_seeds = opts.seeds(JUDGE_SEED_OFFSET, opts.check_seeds);
     let judge_on =
         |half: UseSteps, log: &DriveLog, real_steps: usize, halves: Option<&DriveLog>| -> HeldOut {
-            let prepared = PreparedReal::new(Input { log, file: None }, &CompareOptions::default())
-                .map_err(|e| e.to_string());
+            let judging = CompareOptions {
+                tf_smoother: opts.tf_smoother,
+                ..CompareOptions::default()
+            };
+            let prepared = PreparedReal::new(Input { log, file: None }, &judging).map_err(|e| e.to_string());
             let reps: Vec<(u64, std::result::Result<ComparisonReport, String>)> = judge_seeds
                 .par_iter()
                 .map(|&s| {

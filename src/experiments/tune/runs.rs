@@ -15,16 +15,18 @@ pub fn twin_run(model: &ModelParams, steps: u32, seed: u64) -> Result<DriveLog> 
         .map(|r| r.log)
 }
 
-/// Compare's options for the loss of the search and the check: `resamples` bootstrap draws and
-/// no permutation test of the maps (the loss does not use it, and it would cost every run a few
-/// hundred smoothings). The judgement uses compare's defaults.
-pub(super) fn loss_opts(resamples: usize) -> CompareOptions {
+/// Compare's options for the loss of the search and the check: `resamples` bootstrap draws,
+/// the maps smoothed by `smoother`, and no permutation test of the maps (the loss does not use
+/// it, and it would cost every run a few hundred smoothings). The judgement uses compare's
+/// defaults with the same smoother.
+pub(super) fn loss_opts(resamples: usize, smoother: TfSmoother) -> CompareOptions {
     CompareOptions {
         bootstrap: Bootstrap {
             resamples,
             ..Bootstrap::default()
         },
         tf_permutations: 0,
+        tf_smoother: smoother,
         ..CompareOptions::default()
     }
 }
