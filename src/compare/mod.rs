@@ -22,10 +22,15 @@
 
 pub mod curvature;
 pub mod loss;
+mod report;
 pub mod tf;
 pub mod write;
 
-use crate::analysis::bootstrap::{holm, two_sided_p, Bootstrap, Interval, MIN_STEPS_FOR_INTERVAL};
+pub use report::{
+    ComparisonReport, MetricDiff, Pairing, RunInfo, SimComparison, TfDiff, TimeDiff, Verdict, Warning,
+};
+
+use crate::analysis::bootstrap::{holm, two_sided_p, Bootstrap, MIN_STEPS_FOR_INTERVAL};
 use crate::analysis::smoother::Smoothed;
 use crate::analysis::{analyze, spaces, stats, Analysis, AnalysisParams, SmootherParams};
 use crate::error::{Error, Result};
@@ -90,179 +95,6 @@ impl Default for CompareOptions {
             tf_smoother: TfSmoother::Kernel,
         }
     }
-}
-
-/// One log as the comparison sees it.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RunInfo {
-    /// Dataset name.
-    pub name: String,
-    /// File it was read from.
-    pub file: Option<PathBuf>,
-    /// Robot.
-    pub robot: String,
-    /// Terrain.
-    pub terrain: String,
-    /// Steps analysed.
-    pub steps: usize,
-    /// Interruptions, when the log records the protocol's state.
-    pub interruptions: Option<usize>,
-    /// Time efficiency (productive share of protocol time), when recorded.
-    pub time_efficiency: Option<f64>,
-}
-
-/// How the two runs' steps were resampled.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Pairing {
-    /// The simulated log replays the real commands: steps drawn together (same step numbers).
-    Paired,
-    /// Independent runs: each run's steps drawn on their own.
-    TwoSample,
-}
-
-/// A scalar metric of both runs and its difference.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct MetricDiff {
-    /// Metric key, e.g. `median_rho`, `median_slip_vx`, `t_area_pct_body`.
-    pub metric: String,
-    /// Unit.
-    pub unit: String,
-    /// Value on the real run.
-    pub real: f64,
-    /// Its interval.
-    pub real_ci95: Option<Interval>,
-    /// Value on the simulated run.
-    pub sim: f64,
-    /// Its interval.
-    pub sim_ci95: Option<Interval>,
-    /// `sim − real`.
-    pub difference: f64,
-    /// Interval of the difference (both runs' sampling error).
-    pub difference_ci95: Option<Interval>,
-    /// Two-sided bootstrap p-value of a zero difference.
-    pub p: f64,
-    /// Holm-adjusted p-value over this simulated log's verdicts.
-    pub p_holm: f64,
-    /// The difference is significant at the family-wise level.
-    pub significant: bool,
-    /// Tolerance the target sets on |difference| (T/U areas: 5 percentage points).
-    pub tolerance: Option<f64>,
-    /// |difference| within the tolerance.
-    pub within_tolerance: Option<bool>,
-}
-
-/// Transfer-function difference of one channel.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TfDiff {
-    /// Channel, e.g. `slip_vx_m_s`.
-    pub channel: String,
-    /// Unit.
-    pub unit: String,
-    /// RMS over the compared grid points of (sim − real).
-    pub rms: f64,
-    /// RMS between the real run's odd and even steps (same grid points).
-    pub split_half_rms: f64,
-    /// The split-half RMS scaled to the two full runs' sizes: the RMS expected from sampling
-    /// alone.
-    pub yardstick: f64,
-    /// `rms / yardstick`.
-    pub ratio: f64,
-    /// `ratio ≤ tf_tolerance`.
-    pub within: bool,
-    /// Grid points compared.
-    pub points: usize,
-    /// Permutation p-value of the RMS difference (steps exchanged between the runs, see
-    /// [`tf`]); `None` when not computed (`tf_permutations` 0).
-    #[serde(default)]
-    pub p_permutation: Option<f64>,
-    /// The same, Holm-adjusted over the five channels.
-    #[serde(default)]
-    pub p_permutation_holm: Option<f64>,
-}
-
-/// Interruptions and time efficiency of both runs (one value per run: no interval).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TimeDiff {
-    /// Interruptions per completed step, real run.
-    pub real_interruptions_per_step: f64,
-    /// Same, simulated run.
-    pub sim_interruptions_per_step: f64,
-    /// Time efficiency of the real run.
-    pub real_time_efficiency: f64,
-    /// Time efficiency of the simulated run.
-    pub sim_time_efficiency: f64,
-}
-
-/// The verdict on one simulated log.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Verdict {
-    /// No significant difference, T/U areas within tolerance, every transfer function within
-    /// its yardstick.
-    pub reproduces: bool,
-    /// Metrics with a significant difference (Holm).
-    pub significant: Vec<String>,
-    /// T/U areas beyond the tolerance.
-    pub areas_beyond_tolerance: Vec<String>,
-    /// Transfer functions beyond the yardstick.
-    pub tf_beyond_yardstick: Vec<String>,
-    /// Transfer functions whose difference is beyond what exchanging the steps between the
-    /// runs gives (permutation test, Holm over the five, at `alpha`): a calibrated diagnostic
-    /// beside the yardstick, not part of `reproduces` (the criterion is the yardstick).
-    #[serde(default)]
-    pub tf_significant: Vec<String>,
-}
-
-/// One simulated log against the real one.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SimComparison {
-    /// The simulated log.
-    pub sim: RunInfo,
-    /// Resampling used.
-    pub pairing: Pairing,
-    /// Steps drawn together (paired) or the two runs' step counts (two-sample).
-    pub steps_used: (usize, usize),
-    /// Scalar metrics.
-    pub metrics: Vec<MetricDiff>,
-    /// Transfer-function differences.
-    pub transfer: Vec<TfDiff>,
-    /// Difference maps (sim − real) on the real run's grid.
-    pub maps: tf::DiffMaps,
-    /// Interruptions and time efficiency, when both logs record them.
-    pub time: Option<TimeDiff>,
-    /// Body against wheels by commanded curvature (a diagnostic, not in the verdict).
-    #[serde(default)]
-    pub curvature: curvature::CurvatureBreakdown,
-    /// Verdict.
-    pub verdict: Verdict,
-    /// The verdict in one number ([`loss::loss`]: each term 1 at its threshold, squared and
-    /// summed), what `tune` minimises. Two 100-step runs of one exact model score 3.0-10.1
-    /// against each other, mean 5.4 (`scripts/same_model_pairs.py`, nine pairs). Absent from
-    /// files written before it existed.
-    #[serde(default)]
-    pub loss: Option<loss::Loss>,
-}
-
-/// A named warning in the report (never a silent fallback).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Warning {
-    /// Stable name, e.g. `too_few_steps`.
-    pub name: String,
-    /// What and where.
-    pub message: String,
-}
-
-/// Everything [`compare`] found (`comparison.json`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ComparisonReport {
-    /// The real run.
-    pub real: RunInfo,
-    /// Options used.
-    pub options: CompareOptions,
-    /// One entry per simulated log.
-    pub sims: Vec<SimComparison>,
-    /// Named warnings.
-    pub warnings: Vec<Warning>,
 }
 
 /// What one step contributes to the metrics.
