@@ -76,7 +76,6 @@ pub enum Command {
     SweepMerge(crate::sweep::MergeArgs),
 }
 
-/// Runs the command line; returns the process exit code.
 /// An error and its causes, `outer: inner`, each said once: a cause whose text the message
 /// before it already ends with (a file error that names its I/O error) is not repeated.
 fn describe_error(e: &anyhow::Error) -> String {
@@ -94,6 +93,7 @@ fn describe_error(e: &anyhow::Error) -> String {
     out
 }
 
+/// Runs the command line; returns the process exit code.
 pub fn main() -> i32 {
     let cli = Cli::parse();
     match dispatch(cli) {

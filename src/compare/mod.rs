@@ -247,9 +247,9 @@ pub struct Input<'a> {
 /// Compares `real` with each of `sims` (see the module doc). Refuses logs of another robot
 /// than the real one's (bad input); warns, by name, of runs too short for an interval.
 pub fn compare(real: Input, sims: &[Input], opts: &CompareOptions) -> Result<ComparisonReport> {
-    // The cheap checks first: bad input is reported before the real log is analysed.
+    // The cheap checks first: bad input is reported before the real log is analysed (the
+    // options are checked first thing by `PreparedReal::new`).
     check_inputs(real, sims)?;
-    check_options(opts)?;
     compare_prepared(&PreparedReal::new(real, opts)?, sims)
 }
 
@@ -291,8 +291,7 @@ fn check_options(opts: &CompareOptions) -> Result<()> {
 /// The real side of a comparison, computed once: its analysis, its steps' bootstrap
 /// statistics, its transfer-function maps and its halves' (the yardstick). A closed-loop
 /// search (`tune`) compares hundreds of simulated runs with one real log; preparing it once
-/// saves about half of each comparison (a 49-step half against a 49-step run, 500 resamples:
-/// 0.034 of 0.071 s).
+/// cut the asphalt tune of the README from 27.4-27.7 s to 25.2-25.6 s.
 pub struct PreparedReal<'a> {
     input: Input<'a>,
     opts: CompareOptions,

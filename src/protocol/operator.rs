@@ -64,7 +64,7 @@ impl Runner<'_> {
         let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
         self.stop(phase, step, deadline)?;
         self.summary.reorientation_stopping_s += lap(self.plant, &mut t);
-        let here = self.best_heading(self.plant.true_pose(), plan);
+        let mut here = self.best_heading(self.plant.true_pose(), plan);
         if !here.fits {
             // A straight fast command has more room from the border, facing across the area,
             // than from the centre; a tight circle near the border has less.
@@ -81,9 +81,10 @@ impl Runner<'_> {
                 let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
                 self.stop(phase, step, deadline)?;
                 self.summary.reorientation_stopping_s += lap(self.plant, &mut t);
+                here = self.best_heading(self.plant.true_pose(), plan);
             }
         }
-        let heading = self.best_heading(self.plant.true_pose(), plan).heading_rad;
+        let heading = here.heading_rad;
         let deadline = self.plant.time_s() + self.cfg.max_reorient_s;
         self.turn_to(phase, step, move |_| heading, max_wz, deadline)?;
         self.summary.reorientation_turning_s += lap(self.plant, &mut t);

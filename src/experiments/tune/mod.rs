@@ -46,7 +46,7 @@ pub use write::twin_of;
 use crate::analysis::bootstrap::{Bootstrap, MIN_STEPS_FOR_INTERVAL};
 use crate::calibration::params::{Param, ParamSpec};
 use crate::calibration::{twin, ModelParams, PlantFactory, SimFactory};
-use crate::compare::loss::{loss, Loss};
+use crate::compare::loss::Loss;
 use crate::compare::{
     compare_prepared, CompareOptions, ComparisonReport, Input, MetricDiff, PreparedReal, TfDiff, TfSmoother,
     Verdict,

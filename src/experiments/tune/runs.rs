@@ -49,8 +49,13 @@ pub(super) fn run_against(
 /// The loss of one seeded run of `model` against `real` (prepared with [`loss_opts`]).
 pub(super) fn seed_run(real: &PreparedReal, model: &ModelParams, steps: u32, seed: u64) -> SeedRun {
     let outcome = run_against(real, &[model], steps, seed)
-        .map(|r| loss(&r.sims[0], &r.options))
-        .map_err(|e| e.to_string());
+        .map_err(|e| e.to_string())
+        .and_then(|r| {
+            r.sims[0]
+                .loss
+                .clone()
+                .ok_or_else(|| "compare gave no loss".to_string())
+        });
     SeedRun { outcome }
 }
 
@@ -81,7 +86,7 @@ pub(super) fn judged(r: std::result::Result<&ComparisonReport, &String>, i: usiz
             let c = &rep.sims[i];
             JudgedRun {
                 seed,
-                loss: Some(loss(c, &rep.options)),
+                loss: c.loss.clone(),
                 metrics: c.metrics.clone(),
                 transfer: c.transfer.clone(),
                 verdict: Some(c.verdict.clone()),
