@@ -42,8 +42,9 @@ def main():
     sites = [("robot file's minimum", None), (args.site.replace("x", " x ") + " m", args.site)]
     lines = [
         "| model | safe area | data gathering (seeds 0, 1, 2) | mean | interruptions / step | "
-        "re-orientation turning / driving / stopping, % of time |",
-        "|---|---|---|---|---|---|",
+        "re-orientation turning / driving / stopping, % of time | "
+        "re-orientation per interruption, s (stop / drive / turn) |",
+        "|---|---|---|---|---|---|---|",
     ]
     with open(os.path.join(args.out, "commands.txt"), "a") as log:
         for mi, (label, robot, terrain) in enumerate(models):
@@ -63,11 +64,15 @@ def main():
                 g = [100 * r["data_gathering_fraction"] for r in rows]
                 ips = [r["interruptions"] / r["steps_completed"] for r in rows]
                 share = lambda k: sum(100 * r[k] / r["total_time_s"] for r in rows) / len(rows)
+                # Seconds per interruption over the three seeds together.
+                per = lambda k: sum(r[k] for r in rows) / max(1, sum(r["interruptions"] for r in rows))
                 lines.append(
                     f"| {label} | {site_label} | {', '.join(f'{x:.1f} %' for x in g)} | "
                     f"{sum(g) / len(g):.1f} % | {', '.join(f'{x:.2f}' for x in ips)} | "
                     f"{share('reorientation_turning_s'):.1f} / {share('reorientation_driving_s'):.1f} / "
-                    f"{share('reorientation_stopping_s'):.1f} |")
+                    f"{share('reorientation_stopping_s'):.1f} | {per('reorientation_time_s'):.1f} "
+                    f"({per('reorientation_stopping_s'):.1f} / {per('reorientation_driving_s'):.1f} / "
+                    f"{per('reorientation_turning_s'):.1f}) |")
     table = "\n".join(lines)
     print(table)
     with open(os.path.join(args.out, "table.md"), "w") as f:
