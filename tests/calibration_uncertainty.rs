@@ -34,11 +34,11 @@ fn spec(seed: u64) -> TestRobotSpec {
 /// SD). Open since session 13: on the run the simulated operator now gives (fewer
 /// interruptions, more steps that follow each other without a break), at 200 resamples the
 /// right gain's ±1.96 SE is 1.23 of the refits' 95 % interval (the refits' 2.5-97.5 % of 200
-/// carry about 7 % of Monte Carlo error); at 500 it is 1.15, but the effective baseline's SE
-/// is then 0.72 of its refits' SD (0.79 at 200: the refits have heavier tails than a normal
-/// law). Run with `--ignored`.
+/// carry about 7 % of Monte Carlo error), and the effective baseline's SE 0.79 of its refits'
+/// SD (the refits have heavier tails than a normal law). `cargo test --test
+/// calibration_uncertainty -- --nocapture` prints them. Run with `--ignored`.
 #[test]
-#[ignore = "open: the baseline's sandwich SE under its refits' spread (see the doc comment)"]
+#[ignore = "open: the right gain's interval 1.23 of its refits' (see the doc comment)"]
 fn standard_errors_match_the_spread_of_refits_at_the_design_bounds() {
     standard_errors_against_refits(0.2, 0.25);
 }
