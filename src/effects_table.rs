@@ -17,7 +17,7 @@
 
 use crate::effects::{param_keys, param_owner, Effects, REGISTRY};
 use crate::error::{Error, Result};
-use serde::{Deserialize, Deserializer};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::collections::BTreeMap;
 
 /// The registry's parameter name closest to `name` (by Jaro-Winkler similarity), when it is
@@ -62,6 +62,24 @@ pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> std::result::Result<Effec
         set_checked(&mut effects, &k, v).map_err(serde::de::Error::custom)?;
     }
     Ok(effects)
+}
+
+/// Serializes an `[effects]` table (`serde(serialize_with = ...)`): every parameter of a named
+/// effect that is on, and of a discovered term only the features it uses (a term has a
+/// coefficient for each of its 22–25 features, all but a few at 0, which would bury the file's
+/// few real values). Reads back to the same effects: an absent coefficient is 0.
+pub fn serialize<S: Serializer>(effects: &Effects, s: S) -> std::result::Result<S::Ok, S::Error> {
+    let map: BTreeMap<&str, f64> = effects
+        .values()
+        .into_iter()
+        .filter(|&(k, v)| {
+            param_owner(k).is_none_or(|(i, j)| {
+                let e = REGISTRY[i];
+                !(e.generic() && e.params()[j].is_neutral(v))
+            })
+        })
+        .collect();
+    map.serialize(s)
 }
 
 /// The effects a simulator runs with: the robot's, then the terrain's, then the run's own

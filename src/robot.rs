@@ -41,6 +41,7 @@ pub struct Robot {
     #[serde(
         default,
         skip_serializing_if = "Effects::is_empty",
+        serialize_with = "crate::effects_table::serialize",
         deserialize_with = "crate::effects_table::deserialize"
     )]
     pub effects: Effects,

@@ -294,6 +294,55 @@ fn wider_baseline_in_reverse() {
     assert_at_floor(&r, "steady wz");
 }
 
+/// The localisation is a point 0.1 m ahead of the turning centre (the generator's lidar
+/// mount; the husky_2023 run shows about 0.09 m, see the README): discovery finds `vy` in `wz`,
+/// reads it as a turning centre behind the origin, and the named effect replaces the term.
+#[test]
+fn pose_ahead_of_the_turning_centre() {
+    let r = run(
+        "lidar",
+        Unmodelled {
+            lidar_ahead_m: 0.1,
+            ..Unmodelled::default()
+        },
+        9,
+    );
+    assert_found(&r, "body_vy", "wz");
+    assert!(
+        added(&r).iter().any(|a| a == "icr_longitudinal_offset"),
+        "added {:?}",
+        added(&r)
+    );
+    assert_close(&r, "icr_x_m", -0.1);
+    assert_at_floor(&r, "steady vy");
+}
+
+/// Two lateral effects at once, as on the husky_2023 run: one equation with two parts, which
+/// no named effect alone matches. The named effects it reads come in together (not the term),
+/// each with its value, and the backward pass keeps both.
+#[test]
+fn an_equation_with_two_parts_brings_in_both_named_effects() {
+    let r = run(
+        "lidar_centripetal",
+        Unmodelled {
+            lidar_ahead_m: 0.1,
+            centripetal_s: 0.15,
+            ..Unmodelled::default()
+        },
+        10,
+    );
+    assert_found(&r, "body_vy", "wz");
+    assert_found(&r, "body_vy", "vx_wz");
+    assert!(
+        r.effects.iter().all(|p| !p.name.starts_with("effect.term_")),
+        "a term was kept: {:?}",
+        r.effects
+    );
+    assert_close(&r, "icr_x_m", -0.1);
+    assert_close(&r, "centripetal_slip_s", 0.15);
+    assert_at_floor(&r, "steady vy");
+}
+
 #[test]
 fn noise_alone_proposes_nothing() {
     let r = run("null", Unmodelled::default(), 8);

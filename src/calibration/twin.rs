@@ -441,6 +441,7 @@ mod tests {
         m.effects.set("wheel_speed_saturation_rad_s", 12.6).unwrap();
         m.effects.set("turning_resistance_scale", 1.37).unwrap();
         m.effects.set("motor_gain_left", 0.93).unwrap();
+        m.effects.set("term_body_vy__wz", 0.085).unwrap();
         m
     }
 
@@ -490,5 +491,14 @@ mod tests {
         assert_eq!(back.terrain, m.terrain);
         assert_eq!(back.robot, m.robot);
         assert_eq!(back.effects.declared(), m.effects.declared());
+        // A discovered term lists the features it uses, not its 21 others at 0; a named
+        // effect all its parameters (the right motor's gain of 1 beside the left's).
+        assert!(files.robot_toml.contains("term_body_vy__wz = 0.085"));
+        assert!(
+            !files.robot_toml.contains("term_body_vy__abs_wz"),
+            "{}",
+            files.robot_toml
+        );
+        assert!(files.robot_toml.contains("motor_gain_right = 1.0"));
     }
 }

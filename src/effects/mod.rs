@@ -21,6 +21,7 @@ mod controller_kinematics;
 mod controller_wheel_limit;
 mod dead_time;
 mod encoder_scale;
+mod icr_longitudinal_offset;
 mod imu_yaw_rate_bias;
 mod imu_yaw_rate_scale;
 mod imu_yaw_rate_sign_flip;
@@ -407,6 +408,7 @@ pub static REGISTRY: LazyLock<Vec<&'static dyn Effect>> = LazyLock::new(|| {
         &reverse_baseline_scale::ReverseBaselineScale,
         &lateral_drift::LateralDrift,
         &centripetal_slip::CentripetalSlip,
+        &icr_longitudinal_offset::IcrLongitudinalOffset,
     ]);
     r.extend(terms[2..5].iter().map(|t| t as &'static dyn Effect));
     r.extend([

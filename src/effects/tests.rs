@@ -27,10 +27,11 @@ fn registry_names_and_keys_are_unique_and_documented() {
         }
     }
     // 16 effects of session 3, 5 structural ones that discovery points to, the motor's
-    // torque-speed line (session 11), 6 generic terms.
-    assert_eq!(REGISTRY.iter().filter(|e| !e.generic()).count(), 22);
-    assert_eq!(REGISTRY.len(), 28);
-    assert_eq!(n, 25 + 2 * 25 + 4 * 22);
+    // torque-speed line (session 11), the turning centre's offset (session 14), 6 generic
+    // terms.
+    assert_eq!(REGISTRY.iter().filter(|e| !e.generic()).count(), 23);
+    assert_eq!(REGISTRY.len(), 29);
+    assert_eq!(n, 26 + 2 * 25 + 4 * 22);
 }
 
 #[test]
@@ -175,6 +176,12 @@ fn structural_effects_and_terms_by_hand() {
         (o.vy_m_s - (0.1 - 0.04)).abs() < 1e-12 && (o.wz_rad_s + 0.2).abs() < 1e-12,
         "{o:?}"
     );
+    // A turning centre 0.1 m behind the origin: it slides at -x_ICR * wz = 0.1 * 0.4 sideways
+    // (the body's yaw rate before any body term, as every offset reads it).
+    let mut icr = Effects::default();
+    icr.set("icr_x_m", -0.1).unwrap();
+    assert!((icr.body_offset(&x).vy_m_s - 0.04).abs() < 1e-12);
+    assert!(icr.acts_on_body());
     assert!(e.acts_on_body());
     // Forward, the reverse baseline does nothing.
     let fwd = TermInput {

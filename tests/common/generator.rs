@@ -47,6 +47,12 @@ pub struct Unmodelled {
     /// Each motor clips its wheel-speed target at this magnitude, rad/s (0: no limit; the
     /// generator's own clamp, for the joint calibration's robot effect).
     pub wheel_limit_rad_s: f64,
+    /// The pose is that of a point this far ahead of the turning centre, m (a lidar mounted
+    /// forward): the robot itself turns about its centre; only the localisation moves
+    /// sideways, at `d · wz` in the body frame. The project models this as a turning centre
+    /// behind the origin (`icr_x_m = -d`), a body slide: another mechanism with the same
+    /// pose.
+    pub lidar_ahead_m: f64,
     /// Not an effect: noise on the pose's yaw, rad (a lidar pose has some; without it the
     /// transient yaw-rate floor is the estimator's round-off and any lag mismatch flags).
     pub pose_yaw_noise_rad: f64,
@@ -174,9 +180,10 @@ impl Plant for TestRobot {
             ..Pose::default()
         };
         let (pn, en, imn) = (self.spec.pose_noise, self.spec.enc_noise, self.spec.imu_noise);
+        let d = self.extra.lidar_ahead_m;
         let pose = Pose {
-            x_m: self.x + self.noise(pn),
-            y_m: self.y + self.noise(pn),
+            x_m: self.x + d * self.yaw.cos() + self.noise(pn),
+            y_m: self.y + d * self.yaw.sin() + self.noise(pn),
             yaw_rad: self.yaw + self.noise(self.extra.pose_yaw_noise_rad),
             ..Pose::default()
         };

@@ -223,6 +223,7 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
             };
             let mut candidates: Vec<Candidate> = Vec::new();
             let mut terms: Vec<Candidate> = Vec::new();
+            let mut together: Vec<Vec<String>> = Vec::new();
             for src in SOURCES.iter().filter(|s| stage_of(s.target) == stage) {
                 if !src.channels().iter().any(|c| flagged.contains(c)) {
                     continue;
@@ -260,14 +261,24 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
                     Ok(eq) => {
                         let (reading, suggests) = read(src.target, &eq);
                         let term = term_candidate(src.target, &eq);
+                        let mut named_here: Vec<String> = Vec::new();
                         for s in &suggests {
                             let selected = out.selected.iter().any(|c| c.name == *s);
                             let listed = candidates.iter().any(|c| c.name == *s);
                             if let Some(i) = effects::REGISTRY.iter().position(|e| e.name() == *s) {
-                                if !selected && !listed && factory.supports(effects::REGISTRY[i]) {
-                                    candidates.push(Candidate::of_effect(i, &ctx.reach));
+                                let e = effects::REGISTRY[i];
+                                if !selected && factory.supports(e) {
+                                    if !listed {
+                                        candidates.push(Candidate::of_effect(i, &ctx.reach));
+                                    }
+                                    if e.stage() == src.target.stage() {
+                                        named_here.push(s.clone());
+                                    }
                                 }
                             }
+                        }
+                        if named_here.len() > 1 {
+                            together.push(named_here);
                         }
                         this.equations.push(FoundEquation {
                             target: src.target.name().into(),
@@ -286,6 +297,24 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
                     .iter()
                     .fold(terms[0].clone(), |acc, t| Candidate::pair(&acc, t));
                 terms.push(all);
+            }
+            // The named effects one equation reads, together: the physical counterpart of its
+            // term when its structure has several parts (a turning centre off the origin and a
+            // centripetal slip), which one effect alone cannot match.
+            for names in &together {
+                let members: Vec<&Candidate> = names
+                    .iter()
+                    .filter_map(|n| candidates.iter().find(|c| c.name == *n))
+                    .collect();
+                if members.len() < 2 {
+                    continue;
+                }
+                let joint = members[1..]
+                    .iter()
+                    .fold(members[0].clone(), |acc, c| Candidate::pair(&acc, c));
+                if !candidates.iter().any(|c| c.name == joint.name) {
+                    candidates.push(joint);
+                }
             }
             let structural = candidates.len();
             candidates.extend(terms);
@@ -361,7 +390,13 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
             };
             out.current = model.clone();
             out.current_validation = ctx.validation.errors(factory, &out.current)?;
-            out.selected.push(candidate);
+            if is_structural(&candidate.name) {
+                // Named effects taken together are judged one by one by the backward pass: a
+                // member the data do not need is dropped there.
+                out.selected.extend(candidate.members());
+            } else {
+                out.selected.push(candidate);
+            }
             out.added = true;
             added_this_round = true;
             (ctx.progress)(&format!("discovery: added {}", chosen_ev.effect));
@@ -551,6 +586,17 @@ fn read(target: TermTarget, eq: &Equation) -> (Vec<String>, Vec<String>) {
             coef(Feature::VxWz)
         ));
         suggests.push("centripetal_slip");
+    }
+    if target == TermTarget::BodyVy && has(Feature::Wz) {
+        // A rigid body turning about a point x_ICR along its axis moves its origin sideways
+        // at -x_ICR · wz, whichever way it drives.
+        reading.push(format!(
+            "lateral slip with the yaw rate ({:.3} m · wz): the robot turns about a point {:.3} m {} its origin (load nearer one axle, or a pose frame off the turning centre)",
+            coef(Feature::Wz),
+            coef(Feature::Wz).abs(),
+            if coef(Feature::Wz) > 0.0 { "behind" } else { "ahead of" }
+        ));
+        suggests.push("icr_longitudinal_offset");
     }
     if has(Feature::ReverseVx)
         || has(Feature::ReverseWz)
