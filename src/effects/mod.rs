@@ -19,6 +19,7 @@ mod command_speed_limit;
 mod command_yaw_rate_limit;
 mod controller_kinematics;
 mod controller_wheel_limit;
+mod crab_angle;
 mod dead_time;
 mod encoder_scale;
 mod icr_longitudinal_offset;
@@ -409,6 +410,7 @@ pub static REGISTRY: LazyLock<Vec<&'static dyn Effect>> = LazyLock::new(|| {
         &lateral_drift::LateralDrift,
         &centripetal_slip::CentripetalSlip,
         &icr_longitudinal_offset::IcrLongitudinalOffset,
+        &crab_angle::CrabAngle,
     ]);
     r.extend(terms[2..5].iter().map(|t| t as &'static dyn Effect));
     r.extend([

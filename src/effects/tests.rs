@@ -27,11 +27,11 @@ fn registry_names_and_keys_are_unique_and_documented() {
         }
     }
     // 16 effects of session 3, 5 structural ones that discovery points to, the motor's
-    // torque-speed line (session 11), the turning centre's offset (session 14), 6 generic
-    // terms.
-    assert_eq!(REGISTRY.iter().filter(|e| !e.generic()).count(), 23);
-    assert_eq!(REGISTRY.len(), 29);
-    assert_eq!(n, 26 + 2 * 25 + 4 * 22);
+    // torque-speed line (session 11), the turning centre's offset and the crab angle (session
+    // 14), 6 generic terms.
+    assert_eq!(REGISTRY.iter().filter(|e| !e.generic()).count(), 24);
+    assert_eq!(REGISTRY.len(), 30);
+    assert_eq!(n, 27 + 2 * 25 + 4 * 22);
 }
 
 #[test]
@@ -41,7 +41,7 @@ fn default_declares_nothing_and_every_name_round_trips() {
     for n in param_keys() {
         let v = match n {
             "imu_yaw_rate_sign_flip" => 1.0,
-            "dead_time_s" | "pose_latency_s" | "suspension_torsion_m" => 0.3,
+            "dead_time_s" | "pose_latency_s" | "suspension_torsion_m" | "crab_angle_rad" => 0.3,
             "motor_gain_drift_per_step" => 0.01,
             _ => 0.7,
         };
@@ -182,6 +182,10 @@ fn structural_effects_and_terms_by_hand() {
     icr.set("icr_x_m", -0.1).unwrap();
     assert!((icr.body_offset(&x).vy_m_s - 0.04).abs() < 1e-12);
     assert!(icr.acts_on_body());
+    // A crab angle of atan(0.1): the origin slides at 0.1 * vx = -0.05 m/s, backwards here.
+    let mut crab = Effects::default();
+    crab.set("crab_angle_rad", 0.1f64.atan()).unwrap();
+    assert!((crab.body_offset(&x).vy_m_s + 0.05).abs() < 1e-12);
     assert!(e.acts_on_body());
     // Forward, the reverse baseline does nothing.
     let fwd = TermInput {

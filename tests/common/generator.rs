@@ -53,6 +53,10 @@ pub struct Unmodelled {
     /// behind the origin (`icr_x_m = -d`), a body slide: another mechanism with the same
     /// pose.
     pub lidar_ahead_m: f64,
+    /// The pose's yaw reads this much more than the body's, rad (a lidar mounted yawed against
+    /// the robot's axis): driving straight, the localisation sees the robot slide sideways at
+    /// `-sin(ψ) · vx`. The project models it as a crab angle of `-ψ`, a body slide.
+    pub lidar_yaw_rad: f64,
     /// Not an effect: noise on the pose's yaw, rad (a lidar pose has some; without it the
     /// transient yaw-rate floor is the estimator's round-off and any lag mismatch flags).
     pub pose_yaw_noise_rad: f64,
@@ -184,7 +188,7 @@ impl Plant for TestRobot {
         let pose = Pose {
             x_m: self.x + d * self.yaw.cos() + self.noise(pn),
             y_m: self.y + d * self.yaw.sin() + self.noise(pn),
-            yaw_rad: self.yaw + self.noise(self.extra.pose_yaw_noise_rad),
+            yaw_rad: self.yaw + self.extra.lidar_yaw_rad + self.noise(self.extra.pose_yaw_noise_rad),
             ..Pose::default()
         };
         let enc = WheelSpeeds::new(self.wheels[0] + self.noise(en), self.wheels[1] + self.noise(en));

@@ -598,6 +598,14 @@ fn read(target: TermTarget, eq: &Equation) -> (Vec<String>, Vec<String>) {
         ));
         suggests.push("icr_longitudinal_offset");
     }
+    if target == TermTarget::BodyVy && has(Feature::Vx) {
+        reading.push(format!(
+            "lateral slip with the forward speed ({:.3} · vx): the robot moves {:.1}° off its axis (axles out of square, or a pose frame yawed against the body)",
+            coef(Feature::Vx),
+            coef(Feature::Vx).atan().to_degrees()
+        ));
+        suggests.push("crab_angle");
+    }
     if has(Feature::ReverseVx)
         || has(Feature::ReverseWz)
         || has(Feature::ReverseCmdWheel)
