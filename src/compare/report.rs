@@ -57,9 +57,11 @@ pub struct MetricDiff {
     pub difference_ci95: Option<Interval>,
     /// Two-sided bootstrap p-value of a zero difference.
     pub p: f64,
-    /// Holm-adjusted p-value over this simulated log's verdicts.
+    /// Holm-adjusted p-value over this simulated log's six medians; not a number (`null`) for a
+    /// T/U area, which is judged by its tolerance (its bootstrap is biased: a resampled hull
+    /// never exceeds the run's).
     pub p_holm: f64,
-    /// The difference is significant at the family-wise level.
+    /// The difference is significant at the family-wise level (never for a T/U area).
     pub significant: bool,
     /// Tolerance the target sets on |difference| (T/U areas: 5 percentage points).
     pub tolerance: Option<f64>,
@@ -112,10 +114,10 @@ pub struct TimeDiff {
 /// The verdict on one simulated log.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Verdict {
-    /// No significant difference, T/U areas within tolerance, every transfer function within
-    /// its yardstick.
+    /// No significant difference in the medians, T/U areas within tolerance, every transfer
+    /// function within its yardstick: the target.
     pub reproduces: bool,
-    /// Metrics with a significant difference (Holm).
+    /// Medians with a significant difference (Holm).
     pub significant: Vec<String>,
     /// T/U areas beyond the tolerance.
     pub areas_beyond_tolerance: Vec<String>,

@@ -19,10 +19,10 @@ fn ci(i: &Option<Interval>) -> String {
 
 fn verdict_word(m: &MetricDiff) -> &'static str {
     match (m.significant, m.within_tolerance) {
-        (true, Some(true)) => "differs (within tolerance)",
-        (true, _) => "differs",
-        (false, Some(false)) => "beyond tolerance",
-        (false, _) => "no difference",
+        (_, Some(true)) => "within tolerance",
+        (_, Some(false)) => "beyond tolerance",
+        (true, None) => "differs",
+        (false, None) => "no difference",
     }
 }
 
@@ -32,7 +32,7 @@ pub fn verdict_text(r: &ComparisonReport) -> String {
     for c in &r.sims {
         let _ = writeln!(
             s,
-            "{} vs {} ({} bootstrap, {} resamples, Holm over {} metrics at {}): {}",
+            "{} vs {} ({} bootstrap, {} resamples, Holm over {} medians at {}; T/U areas within {} pp): {}",
             c.sim.name,
             r.real.name,
             match c.pairing {
@@ -40,8 +40,9 @@ pub fn verdict_text(r: &ComparisonReport) -> String {
                 super::Pairing::TwoSample => "two-sample",
             },
             r.options.bootstrap.resamples,
-            c.metrics.len(),
+            c.metrics.iter().filter(|m| m.tolerance.is_none()).count(),
             r.options.alpha,
+            r.options.area_tolerance_pp,
             if c.verdict.reproduces {
                 "REPRODUCES"
             } else {
@@ -338,7 +339,7 @@ pub fn write_comparison(r: &ComparisonReport, real_u: &[(f64, f64)], dir: &Path)
         }
     }
     html.section("How to read this").paragraph(format!(
-        "Each difference is sim − real with a {:.0} % bootstrap-by-step interval ({} resamples; paired by step when the simulated log replays the real commands, two-sample otherwise). p-values are Holm-adjusted over each simulated log's metrics; a metric differs when its adjusted p is below {}. T/U areas must also agree within {} percentage points. A transfer function's RMS difference is judged against the real run's split-half RMS scaled to full size (at most {}×).",
+        "Each difference is sim − real with a {:.0} % bootstrap-by-step interval ({} resamples; paired by step when the simulated log replays the real commands, two-sample otherwise). p-values are Holm-adjusted over each simulated log's six medians (ρ and the five slips); a median differs when its adjusted p is below {}. A T/U area is judged by its tolerance: it must agree within {} percentage points. Its interval is shown but is not a test: a resample's hull is the hull of a subset of the steps, so its area is never above the run's, and the resampled difference is shifted by how much each run's hull shrinks (the estimate can lie outside its own interval). A transfer function's RMS difference is judged against the real run's split-half RMS scaled to full size (at most {}×).",
         100.0 * r.options.bootstrap.level,
         r.options.bootstrap.resamples,
         r.options.alpha,
