@@ -34,12 +34,14 @@ import os
 from twin_table import DATA, DATASETS, REPO, declared_models, run
 
 # What each robot's twins tune: the motor's torque-speed line, the lateral (turning) friction
-# scale and the wheel-speed limit for the Warthog; for the Husky as its run was configured, the
-# velocity controller's yaw-rate limit in place of the wheel limit (its run's wheels reach the
-# whole of U; its controller's yaw clamp is what its declared file carries).
+# scale and the wheel-speed limit for the Warthog; for the Husky as its run was configured
+# (session 14), the wheel-speed limit its file declares, its velocity controller's yaw-rate
+# limit, and the rolling-radius scale its replay calibrations select (0.75-0.78: with the limit
+# it caps the straight-line speed at 0.7 m/s where the run reaches 0.96 m/s, a stand-in the
+# closed loop judges).
 TUNE = {
     "warthog": "motor_torque_speed,turning_resistance_scale,wheel_speed_saturation_rad_s",
-    "husky": "motor_torque_speed,turning_resistance_scale,command_yaw_rate_limit_rad_s",
+    "husky": "wheel_radius_scale,wheel_speed_saturation_rad_s,command_yaw_rate_limit_rad_s",
 }
 
 

@@ -153,8 +153,8 @@ pub struct SimComparison {
     /// Verdict.
     pub verdict: Verdict,
     /// The verdict in one number ([`loss::loss`]: each term 1 at its threshold, squared and
-    /// summed), what `tune` minimises. Two 100-step runs of one exact model score 3.0-10.1
-    /// against each other, mean 5.4 (`scripts/same_model_pairs.py`, nine pairs). Absent from
+    /// summed), what `tune` minimises. Two 100-step runs of one exact model score 2.7-9.2
+    /// against each other, mean 4.8 (`scripts/same_model_pairs.py`, nine pairs). Absent from
     /// files written before it existed.
     #[serde(default)]
     pub loss: Option<loss::Loss>,
