@@ -21,6 +21,7 @@ pub mod baseline;
 pub mod candidates;
 pub mod discovery;
 pub mod final_fit;
+mod reading;
 pub mod report;
 pub mod screening;
 pub mod selection;
