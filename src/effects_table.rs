@@ -41,7 +41,7 @@ pub fn set_checked(effects: &mut Effects, name: &str, value: f64) -> std::result
             .unwrap_or_default();
         return Err(format!(
             "unknown effect parameter `{name}`; {hint}known: {} (`drive-sim effects` lists them)",
-            param_keys().join(", ")
+            crate::effects::known_params_text()
         ));
     };
     let def = &REGISTRY[i].params()[j];
@@ -108,6 +108,9 @@ mod tests {
         let mut e = Effects::default();
         let msg = set_checked(&mut e, "motor_gain_lft", 0.9).unwrap_err();
         assert!(msg.contains("did you mean `motor_gain_left`"), "{msg}");
+        // The named effects' parameters are listed; the terms' 140 coefficients as one pattern.
+        assert!(msg.contains("crab_angle_rad") && msg.contains("term_<target>__<feature>"));
+        assert!(!msg.contains("term_body_vy__abs_wz"), "{msg}");
     }
 
     #[test]

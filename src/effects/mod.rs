@@ -442,6 +442,26 @@ pub fn param_owner(key: &str) -> Option<(usize, usize)> {
         .find_map(|(i, e)| e.params().iter().position(|p| p.key == key).map(|j| (i, j)))
 }
 
+/// The known parameter names as an error message lists them: every named effect's, then the
+/// discovered terms' as one pattern (six targets times 22–25 features would bury the rest).
+pub fn known_params_text() -> String {
+    let named: Vec<&str> = REGISTRY
+        .iter()
+        .filter(|e| !e.generic())
+        .flat_map(|e| e.params().iter().map(|p| p.key))
+        .collect();
+    let targets: Vec<String> = REGISTRY
+        .iter()
+        .filter(|e| e.generic())
+        .map(|e| e.name().trim_start_matches("term_").to_string())
+        .collect();
+    format!(
+        "{}, and the discovered terms' term_<target>__<feature> (targets {})",
+        named.join(", "),
+        targets.join(", ")
+    )
+}
+
 /// Every parameter name, in registry order.
 pub fn param_keys() -> Vec<&'static str> {
     REGISTRY
@@ -486,7 +506,7 @@ impl Effects {
             Error::config(
                 "--inject",
                 key,
-                format!("unknown effect; known: {}", param_keys().join(", ")),
+                format!("unknown effect; known: {}", known_params_text()),
             )
         })?;
         let def = &REGISTRY[index].params()[j];
