@@ -9,7 +9,12 @@ that is exactly right.
 
     python3 scripts/same_model_pairs.py [--bin target/release/drive-sim] [--out out/same_model_pairs]
                                         [--terrains asphalt,gravel,ice] [--steps 100]
-                                        [--tf-smoother kernel|local-linear]
+                                        [--tf-smoother kernel|local-linear] [--pairs 3]
+                                        [--yardstick-splits K]
+
+`--pairs N` judges seeds 1 vs 0, 3 vs 2, ... up to 2N-1 vs 2N-2 (the same seeds on every terrain,
+so the terrains' rows share their commands). `--yardstick-splits K` is passed to `compare` (its
+default when absent; 1 is the yardstick of one odd/even split, as before session 15).
 
 Prints a Markdown table (OUT/table.md) and a count of the verdicts; runs and comparisons that
 exist are reused.
@@ -31,6 +36,9 @@ def main():
     ap.add_argument("--terrains", default="asphalt,gravel,ice")
     ap.add_argument("--steps", type=int, default=100)
     ap.add_argument("--tf-smoother", default="kernel", help="compare's smoother of the maps")
+    ap.add_argument("--pairs", type=int, default=3, help="pairs of seeds per terrain")
+    ap.add_argument("--yardstick-splits", type=int, default=None,
+                    help="compare's --yardstick-splits (its default when absent)")
     args = ap.parse_args()
     lines = [
         "| terrain | seeds | significant (Holm) | T/U areas beyond 5 pp | TF RMS / yardstick (vx, vy, wz, left, right) "
@@ -41,21 +49,21 @@ def main():
     losses = []
     for t in args.terrains.split(","):
         runs = os.path.join(args.out, t)
-        for s in range(6):
+        for s in range(2 * args.pairs):
             mcap = os.path.join(runs, f"warthog_{t}_s{s}.mcap")
             if not os.path.exists(mcap):
                 subprocess.run([args.bin, "run", "--robot", "warthog", "--terrain", t, "--steps", str(args.steps),
                                 "--seed", str(s), "--out", runs, "--quiet"], check=True,
                                stdout=subprocess.DEVNULL)
-        for a in (0, 2, 4):
+        for a in range(0, 2 * args.pairs, 2):
             b = a + 1
-            suffix = "" if args.tf_smoother == "kernel" else "_" + args.tf_smoother
-            out = os.path.join(args.out, f"compare_{t}_{a}_{b}{suffix}")
+            out = os.path.join(args.out, f"compare_{t}_{a}_{b}{suffix(args)}")
             path = os.path.join(out, "comparison.json")
             if not os.path.exists(path):
+                extra = [] if args.yardstick_splits is None else ["--yardstick-splits", str(args.yardstick_splits)]
                 subprocess.run([args.bin, "compare", os.path.join(runs, f"warthog_{t}_s{a}.mcap"),
                                 os.path.join(runs, f"warthog_{t}_s{b}.mcap"), "--out", out,
-                                "--tf-smoother", args.tf_smoother], check=True,
+                                "--tf-smoother", args.tf_smoother] + extra, check=True,
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             with open(path) as f:
                 c = json.load(f)["sims"][0]
@@ -90,9 +98,15 @@ def main():
     table = "\n".join(lines)
     print(table)
     os.makedirs(args.out, exist_ok=True)
-    name = "table.md" if args.tf_smoother == "kernel" else f"table_{args.tf_smoother}.md"
+    name = f"table{suffix(args)}.md"
     with open(os.path.join(args.out, name), "w") as f:
         f.write(table + "\n")
+
+
+def suffix(args):
+    """Output names of a non-default smoother or yardstick (the default's have none)."""
+    s = "" if args.tf_smoother == "kernel" else "_" + args.tf_smoother
+    return s + ("" if args.yardstick_splits is None else f"_ys{args.yardstick_splits}")
 
 
 if __name__ == "__main__":

@@ -34,6 +34,10 @@ pub struct CompareArgs {
     /// (a weighted plane: no bias from which commands a run drew on a sloped map).
     #[arg(long, value_enum, default_value = "kernel")]
     pub tf_smoother: crate::compare::TfSmoother,
+    /// Halvings of the real run whose mean split-half RMS is the maps' yardstick (its odd and
+    /// even steps, then random balanced halvings); 1: the odd and even steps alone.
+    #[arg(long, default_value_t = crate::compare::DEFAULT_YARDSTICK_SPLITS)]
+    pub yardstick_splits: usize,
     /// Compare only the real log's odd or even steps (e.g. those a twin was not calibrated on,
     /// `calibrate --use-steps`), or all of them.
     #[arg(long, value_enum, default_value = "all")]
@@ -50,6 +54,14 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<()> {
             "--resamples",
             "resamples",
             format!("must be at least 100, got {}", args.resamples),
+        )
+        .into());
+    }
+    if args.yardstick_splits == 0 {
+        return Err(crate::Error::config(
+            "--yardstick-splits",
+            "yardstick_splits",
+            "must be at least 1 (1: the odd and even steps alone), got 0",
         )
         .into());
     }
@@ -74,6 +86,7 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<()> {
         alpha: args.alpha,
         tf_permutations: args.permutations,
         tf_smoother: args.tf_smoother,
+        tf_yardstick_splits: args.yardstick_splits,
         ..CompareOptions::default()
     };
     let inputs: Vec<Input> = sims

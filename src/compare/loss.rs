@@ -106,6 +106,8 @@ mod tests {
             unit: "m/s".into(),
             rms: ratio,
             split_half_rms: 1.0,
+            split_half_rms_mean: Some(1.0),
+            yardstick_splits: Some(1),
             yardstick: 1.0,
             ratio,
             within: ratio <= 1.5,

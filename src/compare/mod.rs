@@ -16,8 +16,10 @@
 //! a family-wise statement at the chosen level. A T/U area is judged by its tolerance (the
 //! issue's target: within 5 percentage points); its bootstrap interval is reported but is not
 //! a test (a resampled hull never exceeds the run's, see [`compare`]). The transfer-function RMS difference has no
-//! bootstrap: it is judged against a yardstick, the same RMS between the two halves (odd and
-//! even steps) of the real run, scaled to full size ([`tf::yardstick_scale`]).
+//! bootstrap: it is judged against a yardstick, the same RMS between two halves of the real run
+//! (its odd and even steps, and random balanced halvings: the quadratic mean over
+//! `tf_yardstick_splits` of them, [`tf::SplitHalves`]), scaled to full size
+//! ([`tf::yardstick_scale`]).
 //!
 //! The library computes ([`compare`] → [`ComparisonReport`]); [`mod@write`] writes
 //! `comparison.json`, the figures and the report.
@@ -67,6 +69,19 @@ pub struct CompareOptions {
     /// local-linear fit with the same kernel).
     #[serde(default)]
     pub tf_smoother: TfSmoother,
+    /// Halvings of the real run behind the yardstick (the alternate steps, then random
+    /// balanced ones); 1 is the alternate steps alone, the yardstick before session 15.
+    #[serde(default = "default_yardstick_splits")]
+    pub tf_yardstick_splits: usize,
+}
+
+/// [`CompareOptions::tf_yardstick_splits`]'s default: the quadratic mean of 64 halvings has a
+/// relative standard error of a few per cent where one halving's is tens of per cent (README,
+/// "Twins and compare").
+pub const DEFAULT_YARDSTICK_SPLITS: usize = 64;
+
+fn default_yardstick_splits() -> usize {
+    DEFAULT_YARDSTICK_SPLITS
 }
 
 /// The smoother of the compared transfer-function maps.
@@ -95,6 +110,7 @@ impl Default for CompareOptions {
             min_weight: 0.5,
             tf_permutations: 200,
             tf_smoother: TfSmoother::Kernel,
+            tf_yardstick_splits: DEFAULT_YARDSTICK_SPLITS,
         }
     }
 }
@@ -280,6 +296,13 @@ fn check_inputs(real: Input, sims: &[Input]) -> Result<()> {
 }
 
 fn check_options(opts: &CompareOptions) -> Result<()> {
+    if opts.tf_yardstick_splits == 0 {
+        return Err(Error::config(
+            "compare",
+            "tf_yardstick_splits",
+            "must be at least 1 (1: the odd and even steps alone), got 0",
+        ));
+    }
     if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
         return Err(Error::config(
             "compare",
@@ -304,6 +327,7 @@ pub struct PreparedReal<'a> {
     tf_grid: tf::TfSetup,
     fields: Smoothed,
     halves: (Smoothed, Smoothed),
+    splits: tf::SplitHalves,
     warnings: Vec<Warning>,
 }
 
@@ -333,6 +357,13 @@ impl<'a> PreparedReal<'a> {
         let odd: Vec<&StepRow> = rows.iter().skip(1).step_by(2).collect();
         let even: Vec<&StepRow> = rows.iter().step_by(2).collect();
         let halves = (tf_grid.fields(&odd), tf_grid.fields(&even));
+        let splits = tf::SplitHalves::new(
+            &tf_grid,
+            &rows.iter().collect::<Vec<_>>(),
+            &halves,
+            opts.tf_yardstick_splits,
+            opts.bootstrap.seed ^ 0x5917,
+        );
         Ok(Self {
             input: real,
             opts: *opts,
@@ -343,6 +374,7 @@ impl<'a> PreparedReal<'a> {
             tf_grid,
             fields,
             halves,
+            splits,
             warnings,
         })
     }
@@ -473,8 +505,14 @@ pub fn compare_prepared(prepared: &PreparedReal, sims: &[Input]) -> Result<Compa
             m.significant = p.is_finite() && p < opts.alpha;
         }
         let sim_fields = tf_grid.fields(&all_sim);
-        let (mut transfer, maps) =
-            tf_grid.compare(real_fields, &sim_fields, halves, real_rows.len(), sim_rows.len());
+        let (mut transfer, maps) = tf_grid.compare(
+            real_fields,
+            &sim_fields,
+            halves,
+            &prepared.splits,
+            real_rows.len(),
+            sim_rows.len(),
+        );
         let p_perm = match &common {
             Some((rr, ss)) => tf_grid.permutation_p(
                 &rr.iter().collect::<Vec<_>>(),

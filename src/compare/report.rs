@@ -80,8 +80,17 @@ pub struct TfDiff {
     pub rms: f64,
     /// RMS between the real run's odd and even steps (same grid points).
     pub split_half_rms: f64,
-    /// The split-half RMS scaled to the two full runs' sizes: the RMS expected from sampling
-    /// alone.
+    /// Quadratic mean of the split-half RMS over `yardstick_splits` halvings of the real run
+    /// (the alternate steps and random balanced halvings, [`tf::SplitHalves`]; same grid
+    /// points). `None` in files written before it existed, whose yardstick used
+    /// `split_half_rms`.
+    #[serde(default)]
+    pub split_half_rms_mean: Option<f64>,
+    /// Halvings behind `split_half_rms_mean`.
+    #[serde(default)]
+    pub yardstick_splits: Option<usize>,
+    /// `split_half_rms_mean` scaled to the two full runs' sizes: the RMS expected from
+    /// sampling alone.
     pub yardstick: f64,
     /// `rms / yardstick`.
     pub ratio: f64,

@@ -9,6 +9,13 @@
 //! σ²(1/n_r + 1/n_s). The yardstick is therefore the split-half RMS times
 //! √((1 + n_r/n_s)/4) ([`yardstick_scale`]); √½ for runs of equal size.
 //!
+//! One split is one draw of a statistic with few degrees of freedom: the alternate-step split of
+//! one 100-step run gave a left-wheel RMS of 0.13 rad/s, another seed's 0.42 (README, "Twins and
+//! compare"), and the ratio inherited that noise in its denominator. The yardstick therefore
+//! uses the quadratic mean of the split-half RMS over `tf_yardstick_splits` halvings of the real
+//! run ([`SplitHalves`]): the alternate steps first, then random balanced halvings (seeded), each
+//! evaluated on the comparison's own grid points. One halving is the alternate split alone.
+//!
 //! The yardstick is a scale, not a test: a map's RMS over a few dozen kernel footprints is a
 //! statistic with few degrees of freedom, and two runs of the same model exceed 1.5× it often
 //! (README, "Twins and compare"). A permutation test gives each map a calibrated p-value
@@ -19,6 +26,8 @@
 use super::{CompareOptions, StepRow, TfDiff};
 use crate::analysis::smoother::{smooth, smooth_local_linear, FastParams, Grid, KernelCovariance, Smoothed};
 use crate::log::DriveLog;
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
 use serde::{Deserialize, Serialize};
 
 /// Channels compared: the steady slips in both frames.
@@ -34,6 +43,41 @@ pub const CHANNELS: &[(&str, &str)] = &[
 /// and an independent run of `n_sim` steps (module doc).
 pub fn yardstick_scale(n_real: usize, n_sim: usize) -> f64 {
     ((1.0 + n_real as f64 / n_sim.max(1) as f64) / 4.0).sqrt()
+}
+
+/// The real run's halvings for the yardstick: per halving, per channel, per grid point, the
+/// difference of the two halves' maps (NaN where either half lacks support). The first halving
+/// is the alternate steps (`halves` of [`super::PreparedReal`]).
+#[derive(Debug, Clone, Default)]
+pub struct SplitHalves {
+    diffs: Vec<Vec<Vec<f64>>>,
+}
+
+impl SplitHalves {
+    /// Halvings of the real run's `rows`: the alternate-step split `halves`, then `count − 1`
+    /// random balanced ones drawn with `seed`.
+    pub(crate) fn new(
+        setup: &TfSetup,
+        rows: &[&StepRow],
+        halves: &(Smoothed, Smoothed),
+        count: usize,
+        seed: u64,
+    ) -> Self {
+        let mut diffs = vec![setup.difference(&halves.0, &halves.1)];
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        for _ in 1..count {
+            let mut order: Vec<&StepRow> = rows.to_vec();
+            order.shuffle(&mut rng);
+            let b = order.split_off(order.len() / 2);
+            diffs.push(setup.difference(&setup.fields(&order), &setup.fields(&b)));
+        }
+        Self { diffs }
+    }
+
+    /// Halvings held.
+    pub fn count(&self) -> usize {
+        self.diffs.len()
+    }
 }
 
 /// Difference maps `sim − real` on the real run's grid (`wz` major, `vx` minor; NaN where a
@@ -168,6 +212,51 @@ impl TfSetup {
             .collect()
     }
 
+    /// `a − b` per channel and grid point, NaN where either lacks support.
+    fn difference(&self, a: &Smoothed, b: &Smoothed) -> Vec<Vec<f64>> {
+        (0..CHANNELS.len())
+            .map(|c| {
+                (0..self.grid.len())
+                    .map(|i| {
+                        if self.supported(a, i) && self.supported(b, i) {
+                            a.values[c][i] - b.values[c][i]
+                        } else {
+                            f64::NAN
+                        }
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Per channel, the quadratic mean over `splits` of each halving's RMS on the points `mask`
+    /// supports (halvings with no such point are skipped); NaN without any.
+    fn split_half_mean(&self, splits: &SplitHalves, mask: &Smoothed) -> Vec<f64> {
+        (0..CHANNELS.len())
+            .map(|c| {
+                let (mut sum, mut n) = (0.0, 0usize);
+                for d in &splits.diffs {
+                    let (mut s2, mut m) = (0.0, 0usize);
+                    for (i, v) in d[c].iter().enumerate() {
+                        if v.is_finite() && self.supported(mask, i) {
+                            s2 += v * v;
+                            m += 1;
+                        }
+                    }
+                    if m > 0 {
+                        sum += s2 / m as f64;
+                        n += 1;
+                    }
+                }
+                if n > 0 {
+                    (sum / n as f64).sqrt()
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect()
+    }
+
     /// RMS of `a − b` per channel over the points both support (and `extra` supports), with
     /// the point count.
     fn rms(&self, a: &Smoothed, b: &Smoothed, extra: &Smoothed) -> Vec<(f64, usize)> {
@@ -190,12 +279,13 @@ impl TfSetup {
     }
 
     /// The transfer-function differences of `sim` against `real`, judged against the
-    /// split-half yardstick of `real`'s `halves`, and the difference maps.
+    /// split-half yardstick of `real`'s `halves` and `splits`, and the difference maps.
     pub(crate) fn compare(
         &self,
         real: &Smoothed,
         sim: &Smoothed,
         halves: &(Smoothed, Smoothed),
+        splits: &SplitHalves,
         n_real: usize,
         n_sim: usize,
     ) -> (Vec<TfDiff>, DiffMaps) {
@@ -204,12 +294,15 @@ impl TfSetup {
         let both = self.joint_support(sim, halves);
         let main = self.rms(sim, real, &both);
         let split = self.rms(&halves.0, &halves.1, &both);
+        let mean = self.split_half_mean(splits, &both);
         let scale = yardstick_scale(n_real, n_sim);
         let diffs = CHANNELS
             .iter()
-            .zip(main.iter().zip(&split))
-            .map(|((name, unit), (&(rms, points), &(sh, _)))| {
-                let yardstick = sh * scale;
+            .zip(main.iter().zip(split.iter().zip(&mean)))
+            .map(|((name, unit), (&(rms, points), (&(sh, _), &mean)))| {
+                // Before any halving is held (count 0), the alternate split alone.
+                let base = if splits.count() == 0 { sh } else { mean };
+                let yardstick = base * scale;
                 let ratio = if yardstick > 0.0 {
                     rms / yardstick
                 } else if rms == 0.0 {
@@ -222,6 +315,8 @@ impl TfSetup {
                     unit: unit.to_string(),
                     rms,
                     split_half_rms: sh,
+                    split_half_rms_mean: Some(base),
+                    yardstick_splits: Some(splits.count().max(1)),
                     yardstick,
                     ratio,
                     within: points > 0 && ratio <= self.tolerance,
@@ -231,19 +326,7 @@ impl TfSetup {
                 }
             })
             .collect();
-        let values = (0..CHANNELS.len())
-            .map(|c| {
-                (0..self.grid.len())
-                    .map(|i| {
-                        if self.supported(real, i) && self.supported(sim, i) {
-                            sim.values[c][i] - real.values[c][i]
-                        } else {
-                            f64::NAN
-                        }
-                    })
-                    .collect()
-            })
-            .collect();
+        let values = self.difference(sim, real);
         (
             diffs,
             DiffMaps {
@@ -265,5 +348,49 @@ mod tests {
         assert!((yardstick_scale(150, 150) - 0.5f64.sqrt()).abs() < 1e-12);
         // A twice longer simulated run: (1 + 1/2)/4.
         assert!((yardstick_scale(150, 300) - (0.375f64).sqrt()).abs() < 1e-12);
+    }
+
+    /// Three grid points, two halvings: the yardstick's split-half RMS is the quadratic mean
+    /// of each halving's RMS on the points the comparison keeps, by hand.
+    #[test]
+    fn the_yardstick_is_the_quadratic_mean_over_halvings_on_the_compared_points() {
+        let grid = Grid {
+            vx_m_s: vec![0.0, 1.0, 2.0],
+            wz_rad_s: vec![0.0],
+            inside: vec![true; 3],
+        };
+        let setup = TfSetup {
+            grid,
+            cov: KernelCovariance {
+                var_vx: 1.0,
+                var_wz: 1.0,
+            },
+            fast: FastParams::default(),
+            min_weight: 0.5,
+            tolerance: 1.5,
+            smoother: super::super::TfSmoother::Kernel,
+        };
+        let channel = |v: [f64; 3]| vec![v.to_vec(); CHANNELS.len()];
+        // Halving 1 differs by (1, 2, 100), halving 2 by (3, NaN: a half without support, 5).
+        let splits = SplitHalves {
+            diffs: vec![channel([1.0, 2.0, 100.0]), channel([3.0, f64::NAN, 5.0])],
+        };
+        // The comparison keeps the first two points only (the third lacks weight).
+        let mask = Smoothed {
+            values: channel([0.0; 3]),
+            weight_sum: vec![1.0, 1.0, 0.1],
+            error_bound: None,
+        };
+        let got = setup.split_half_mean(&splits, &mask);
+        // Halving 1: RMS² = (1 + 4) / 2 = 2.5; halving 2: 9 / 1 = 9; mean 5.75.
+        for g in got {
+            assert!((g - 5.75f64.sqrt()).abs() < 1e-12, "{g}");
+        }
+        // No halving with a kept point: NaN, not zero.
+        let none = Smoothed {
+            weight_sum: vec![0.0; 3],
+            ..mask
+        };
+        assert!(setup.split_half_mean(&splits, &none).iter().all(|g| g.is_nan()));
     }
 }

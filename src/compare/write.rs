@@ -70,11 +70,13 @@ pub fn verdict_text(r: &ComparisonReport) -> String {
         for t in &c.transfer {
             let _ = writeln!(
                 s,
-                "  TF {:<17} RMS {:.4} {}, yardstick {:.4} (split-half {:.4}), ratio {:.2} on {} points: {}{}",
+                "  TF {:<17} RMS {:.4} {}, yardstick {:.4} (split-half {:.4} over {} halvings; odd/even {:.4}), ratio {:.2} on {} points: {}{}",
                 t.channel,
                 t.rms,
                 t.unit,
                 t.yardstick,
+                t.split_half_rms_mean.unwrap_or(t.split_half_rms),
+                t.yardstick_splits.unwrap_or(1),
                 t.split_half_rms,
                 t.ratio,
                 t.points,
@@ -339,11 +341,12 @@ pub fn write_comparison(r: &ComparisonReport, real_u: &[(f64, f64)], dir: &Path)
         }
     }
     html.section("How to read this").paragraph(format!(
-        "Each difference is sim − real with a {:.0} % bootstrap-by-step interval ({} resamples; paired by step when the simulated log replays the real commands, two-sample otherwise). p-values are Holm-adjusted over each simulated log's six medians (ρ and the five slips); a median differs when its adjusted p is below {}. A T/U area is judged by its tolerance: it must agree within {} percentage points. Its interval is shown but is not a test: a resample's hull is the hull of a subset of the steps, so its area is never above the run's, and the resampled difference is shifted by how much each run's hull shrinks (the estimate can lie outside its own interval). A transfer function's RMS difference is judged against the real run's split-half RMS scaled to full size (at most {}×).",
+        "Each difference is sim − real with a {:.0} % bootstrap-by-step interval ({} resamples; paired by step when the simulated log replays the real commands, two-sample otherwise). p-values are Holm-adjusted over each simulated log's six medians (ρ and the five slips); a median differs when its adjusted p is below {}. A T/U area is judged by its tolerance: it must agree within {} percentage points. Its interval is shown but is not a test: a resample's hull is the hull of a subset of the steps, so its area is never above the run's, and the resampled difference is shifted by how much each run's hull shrinks (the estimate can lie outside its own interval). A transfer function's RMS difference is judged against the real run's split-half RMS (the quadratic mean over {} halvings: its odd and even steps, then random balanced halvings) scaled to full size (at most {}×).",
         100.0 * r.options.bootstrap.level,
         r.options.bootstrap.resamples,
         r.options.alpha,
         r.options.area_tolerance_pp,
+        r.options.tf_yardstick_splits,
         r.options.tf_tolerance
     ));
     if !figures.is_empty() {
