@@ -260,7 +260,10 @@ pub fn twin_files(params: &ModelParams, prov: &Provenance) -> Result<TwinFiles> 
 }
 
 /// Every fitted parameter of a report whose value is in the final model, latest fit first:
-/// the final joint fit (when kept), the effects added, the base fit (when kept).
+/// the final joint fit, the effects added, the base fit (when kept). The final joint fit holds
+/// the final model's values whether or not it replaced the selection (not kept, it is the
+/// covariance at the selected model), which a joint refit of an earlier round may have moved
+/// away from the base fit's.
 pub fn fitted_params(report: &CalibrationReport) -> Vec<FittedParam> {
     let mut out: Vec<FittedParam> = Vec::new();
     let mut push = |p: &FittedParam| {
@@ -268,7 +271,7 @@ pub fn fitted_params(report: &CalibrationReport) -> Vec<FittedParam> {
             out.push(p.clone());
         }
     };
-    if let Some(f) = report.final_fit.as_ref().filter(|_| report.final_fit_kept) {
+    if let Some(f) = &report.final_fit {
         f.params.iter().for_each(&mut push);
     }
     report.effects.iter().for_each(&mut push);

@@ -510,10 +510,13 @@ fn print_report(r: &CalibrationReport) -> Result<(), std::io::Error> {
             if b.dropped { ", dropped" } else { ", kept" }
         )?;
     }
-    if let Some(f) = r.terrain_fit.as_ref().filter(|_| r.terrain_fit_kept) {
-        for p in &f.params {
-            writeln!(out, "base parameter: {} = {}", p.name, with_interval(p))?;
-        }
+    // The values the final model holds (and the twin writes): the final joint fit's when it
+    // refitted them beside the effects, else the base fit's.
+    for p in calibration::twin::fitted_params(r)
+        .iter()
+        .filter(|p| !p.name.starts_with("effect."))
+    {
+        writeln!(out, "base parameter: {} = {}", p.name, with_interval(p))?;
     }
     if r.effects.is_empty() {
         writeln!(out, "effects added: none")?;

@@ -151,7 +151,18 @@ pub fn minimise(
             best = (p.iter().map(|b| f64::from_bits(*b)).collect(), *c);
         }
     }
-    let converged = converged && evaluations < opts.max_evaluations;
+    // Points beyond the budget are refused at a prohibitive cost, and the simplex then
+    // shrinks about its best vertex until its own criterion stops it: that stop is the budget's.
+    let within_budget = evaluations < opts.max_evaluations;
+    let stop = if converged && !within_budget {
+        format!(
+            "all {} evaluations spent (the simplex stopped only after points beyond them were refused)",
+            opts.max_evaluations
+        )
+    } else {
+        stop
+    };
+    let converged = converged && within_budget;
     (
         best.0,
         best.1,
