@@ -6,11 +6,19 @@ bins): the median ratio measured / commanded and the largest measured speed per 
 Reads the `rows` of a `summary.json` written by `drive-sim analyze`, one block per dataset:
 
     drive-sim analyze ../shared/data/measured/warthog_asphalt.csv --out out/an
-    python3 scripts/wheel_tracking.py out/an/summary.json
+    python3 scripts/wheel_tracking.py out/an/summary.json [--ceiling-cmd 13]
 
 Why: a motor that holds its speed whatever the load tracks 1.00 in every bin; one whose torque
 falls with its speed gives up speed where the ground resists (the "turn" bins) and reaches a
 lower ceiling there (README, "Twins and compare").
+
+A second table per dataset: the ceiling against the load. For steps whose faster wheel is
+commanded beyond 13 rad/s (above every measured Warthog ceiling; `--ceiling-cmd 6.5` for the
+Husky's 6.1 rad/s), the faster wheel's steady speed binned
+by the other wheel's command over the faster one's (below 0.1: pivoting about a nearly stopped
+side, the skid-steer's heaviest load; above 0.6: nearly straight). A fixed clamp gives one speed
+in every bin; a motor whose torque falls with its speed gives less where the load is heavier
+(README, "A ceiling that falls with the load").
 """
 import json
 import statistics
@@ -18,9 +26,14 @@ import sys
 
 
 def main():
-    if len(sys.argv) != 2:
-        sys.exit("usage: wheel_tracking.py SUMMARY_JSON")
-    summary = json.load(open(sys.argv[1]))
+    args = sys.argv[1:]
+    global CEILING_CMD
+    if len(args) == 3 and args[1] == "--ceiling-cmd":
+        CEILING_CMD = float(args[2])
+        args = args[:1]
+    if len(args) != 1:
+        sys.exit("usage: wheel_tracking.py SUMMARY_JSON [--ceiling-cmd RAD_S]")
+    summary = json.load(open(args[0]))
     for d in summary["datasets"]:
         print(f"== {d['dataset']}  (T/U wheels {d['t_area_pct_wheels']:.1f} %)")
         bins = {}
@@ -39,6 +52,38 @@ def main():
                 f"  {kind:5} {top:>4}-{top + 4:<5} {len(v):>7} "
                 f"{statistics.median(x[0] for x in v):>13.2f} {max(x[1] for x in v):>8.1f}"
             )
+        ceiling_by_load(d["rows"])
+
+
+# Bins of the other wheel's command over the faster one's, and the faster wheel's command beyond
+# which it is at its ceiling on every measured run.
+SHARE_BINS = [(-1.0, 0.1, "pivot/turn (< 0.1)"), (0.1, 0.3, "0.1-0.3"), (0.3, 0.6, "0.3-0.6"), (0.6, 1.01, "straight (> 0.6)")]
+CEILING_CMD = 13.0
+
+
+def ceiling_by_load(rows):
+    """The faster wheel's steady speed, one value per step, by the other wheel's share."""
+    seen, bins = set(), {b[2]: [] for b in SHARE_BINS}
+    for r in rows:
+        if (r["window"] or 0) < 1 or r["excluded"] is not None or r["step"] in seen:
+            continue
+        seen.add(r["step"])
+        cl, cr = r["cmd_left_rad_s"], r["cmd_right_rad_s"]
+        fast_cmd, fast, other = (cl, r["left_rad_s"], cr) if abs(cl) >= abs(cr) else (cr, r["right_rad_s"], cl)
+        if abs(fast_cmd) <= CEILING_CMD:
+            continue
+        share = other / fast_cmd
+        for lo, hi, name in SHARE_BINS:
+            if lo <= share < hi:
+                bins[name].append(abs(fast))
+    print(f"  faster wheel commanded beyond {CEILING_CMD:g} rad/s, by the other wheel's share of its command:")
+    print(f"  {'share':>17} {'steps':>6} {'median |w|':>11} {'range':>12}")
+    for _, _, name in SHARE_BINS:
+        v = bins[name]
+        if v:
+            print(f"  {name:>17} {len(v):>6} {statistics.median(v):>11.1f} {min(v):>5.1f}-{max(v):<5.1f}")
+        else:
+            print(f"  {name:>17} {0:>6} {'-':>11}")
 
 
 if __name__ == "__main__":
