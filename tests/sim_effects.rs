@@ -139,6 +139,33 @@ fn the_motor_torque_speed_line_lowers_the_ceiling_and_the_wheels_under_load() {
     assert!(loaded_wz < free_wz, "{loaded_wz} vs {free_wz}");
 }
 
+/// The speed loop's droop: in a gentle curve on asphalt the ground couples the two sides, so
+/// the body drags the slow side forward (its motor brakes) and holds the fast side back (its
+/// motor drives). An ideal loop holds both commands; a drooping one lets the slow side run
+/// faster than commanded and the fast side slower, as the Warthog's asphalt run does (README, "A
+/// speed loop that gives way"); driving straight, with no such coupling, it barely moves.
+#[test]
+fn a_drooping_speed_loop_lets_the_ground_pull_both_sides_together() {
+    let curve = |effects: &[(&str, f64)]| {
+        let (_, mut s) = setup("warthog", "asphalt", effects);
+        let run = hold(&mut s, WheelSpeeds::new(5.0, 8.0), 6.0);
+        (
+            mean_tail(&run, 40, |x| x.0.enc.left_rad_s),
+            mean_tail(&run, 40, |x| x.0.enc.right_rad_s),
+        )
+    };
+    let (l0, r0) = curve(&[]);
+    assert!((l0 - 5.0).abs() < 0.05 && (r0 - 8.0).abs() < 0.05, "{l0} {r0}");
+    let (l, r) = curve(&[("speed_droop_rad_s_per_knm", 2.0)]);
+    eprintln!("droop: left {l:.3} right {r:.3}; ideal {l0:.3} {r0:.3}");
+    assert!(l > 5.15, "slow side dragged faster than its 5 rad/s: {l}");
+    assert!(r < 7.85, "fast side held back from its 8 rad/s: {r}");
+    let (_, mut s) = setup("warthog", "asphalt", &[("speed_droop_rad_s_per_knm", 2.0)]);
+    let run = hold(&mut s, WheelSpeeds::new(8.0, 8.0), 6.0);
+    let straight = mean_tail(&run, 40, |x| x.0.enc.left_rad_s);
+    assert!((straight - 8.0).abs() < 0.15, "{straight}");
+}
+
 #[test]
 fn more_turning_resistance_turns_slower() {
     let wz = |effects: &[(&str, f64)]| {

@@ -32,6 +32,7 @@ mod motor_gain_drift;
 pub mod motor_torque_speed;
 mod pose_latency;
 mod reverse_baseline_scale;
+pub mod speed_droop;
 mod suspension_torsion;
 pub mod term;
 mod time_constant_scale;
@@ -269,6 +270,9 @@ pub struct PlantModifiers {
     pub motor_stall_torque_nm: f64,
     /// Speed at which that motor's torque falls to zero, rad/s (infinite: none).
     pub motor_no_load_speed_rad_s: f64,
+    /// The speed loop's droop: each side aims this many rad/s below its command per N·m it
+    /// delivers (0: an ideal loop).
+    pub speed_droop_rad_s_per_nm: f64,
 }
 
 impl Default for PlantModifiers {
@@ -283,6 +287,7 @@ impl Default for PlantModifiers {
             body_time_constant_s: 0.0,
             motor_stall_torque_nm: f64::INFINITY,
             motor_no_load_speed_rad_s: f64::INFINITY,
+            speed_droop_rad_s_per_nm: 0.0,
         }
     }
 }
@@ -397,6 +402,7 @@ pub static REGISTRY: LazyLock<Vec<&'static dyn Effect>> = LazyLock::new(|| {
         &motor_gain_drift::MotorGainDrift,
         &wheel_speed_saturation::WheelSpeedSaturation,
         &motor_torque_speed::MotorTorqueSpeed,
+        &speed_droop::SpeedDroop,
         &time_constant_scale::TimeConstantScale,
     ];
     // Discovered wheel terms act on the targets the motors receive, after the catalogue's

@@ -219,9 +219,16 @@ impl Simulator {
             self.omega[1],
         ];
         let tc = self.time_constant_s;
+        // A drooping speed loop (an effect) aims below its command by the torque it delivered
+        // at the previous step: explicit, like the torque-speed line.
+        let droop = self.mods.speed_droop_rad_s_per_nm;
+        let aim = [
+            self.ramp[0] - droop * self.motor_torque_nm[0],
+            self.ramp[1] - droop * self.motor_torque_nm[1],
+        ];
         let target = [
-            (self.omega[0] + dt / tc * self.ramp[0]) / (1.0 + dt / tc),
-            (self.omega[1] + dt / tc * self.ramp[1]) / (1.0 + dt / tc),
+            (self.omega[0] + dt / tc * aim[0]) / (1.0 + dt / tc),
+            (self.omega[1] + dt / tc * aim[1]) / (1.0 + dt / tc),
         ];
         let torsion = self.mods.relaxation_length_m;
         let mut guess = [0.0; 5];

@@ -491,6 +491,7 @@ mod tests {
             left_out,
             [
                 "motor_torque_speed",
+                "speed_droop",
                 "turning_resistance_scale",
                 "suspension_torsion_m"
             ]
