@@ -21,7 +21,7 @@ many of the seeds compare's verdict is "reproduces".
 
     python3 scripts/tune_table.py [--bin target/release/drive-sim] [--out out/tune_table]
                                   [--datasets warthog_asphalt,...] [--tf-smoother kernel|local-linear]
-                                  [--warthog line|clamp]
+                                  [--warthog line|droop|clamp]
 
 Writes OUT/table.md and every command to OUT/commands.txt; a stage whose output exists is
 skipped (delete OUT to start over).
@@ -41,17 +41,22 @@ from twin_table import DATA, DATASETS, REPO, declared_models, run
 # while on ice, where nothing loads it, it stays at ~13 whatever the turn (README, "A ceiling
 # that falls with the load"), which a clamp cannot do and a line does; the lateral (turning)
 # friction scale; and the centripetal slip, which lets the twin's side slip in turns differ from
-# what its turning friction implies. `--warthog clamp` is session 14's: the line, the lateral
-# scale and the clamp. For the Husky as its run was configured (session 14), the wheel-speed
+# what its turning friction implies. `--warthog droop` adds the speed loop's droop, because on
+# asphalt and gravel the slower wheel of a curve runs faster than commanded and the faster one
+# slower, where on ice both track (README, "A speed loop that gives way"). `--warthog clamp`
+# is session 14's: the line, the lateral scale and the clamp. For the Husky as its run was configured (session 14), the wheel-speed
 # limit its file declares, its velocity controller's yaw-rate limit, and the rolling-radius
 # scale its replay calibrations select (0.75-0.78: with the limit it caps the straight-line
 # speed at 0.7 m/s where the run reaches 0.96 m/s, a stand-in the closed loop judges).
 TUNE = {
     ("warthog", "line"): ("motor_torque_speed,turning_resistance_scale,centripetal_slip",
                           ["--inject", "wheel_speed_saturation_rad_s=0", "--max-evaluations", "60"]),
+    ("warthog", "droop"): ("motor_torque_speed,turning_resistance_scale,centripetal_slip,speed_droop",
+                           ["--inject", "wheel_speed_saturation_rad_s=0", "--max-evaluations", "80"]),
     ("warthog", "clamp"): ("motor_torque_speed,turning_resistance_scale,wheel_speed_saturation_rad_s", []),
     ("husky", "line"): ("wheel_radius_scale,wheel_speed_saturation_rad_s,command_yaw_rate_limit_rad_s", []),
     ("husky", "clamp"): ("wheel_radius_scale,wheel_speed_saturation_rad_s,command_yaw_rate_limit_rad_s", []),
+    ("husky", "droop"): ("wheel_radius_scale,wheel_speed_saturation_rad_s,command_yaw_rate_limit_rad_s", []),
 }
 
 
@@ -107,7 +112,7 @@ def main():
     ap.add_argument("--out", default=os.path.join(REPO, "out", "tune_table"))
     ap.add_argument("--datasets", default=",".join(DATASETS))
     ap.add_argument("--tf-smoother", default="kernel", help="the maps' smoother in tune's loss and judgement")
-    ap.add_argument("--warthog", default="line", choices=["line", "clamp"],
+    ap.add_argument("--warthog", default="line", choices=["line", "droop", "clamp"],
                     help="what the Warthog's twins tune (see TUNE)")
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)

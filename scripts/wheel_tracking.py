@@ -19,6 +19,12 @@ by the other wheel's command over the faster one's (below 0.1: pivoting about a 
 side, the skid-steer's heaviest load; above 0.6: nearly straight). A fixed clamp gives one speed
 in every bin; a motor whose torque falls with its speed gives less where the load is heavier
 (README, "A ceiling that falls with the load").
+
+A third: how each wheel follows a command below its ceiling (1-10 rad/s), by the same share of
+the other wheel's command over its own: measured / commanded, median per bin. An ideal speed loop
+gives 1.00 everywhere; one that gives way under load gives less than 1 where the wheel drives
+the skid (the faster side, share below 1) and more than 1 where the body drags it (the slower
+side of a gentle curve, share above 1) (README, "A speed loop that gives way").
 """
 import json
 import statistics
@@ -53,6 +59,7 @@ def main():
                 f"{statistics.median(x[0] for x in v):>13.2f} {max(x[1] for x in v):>8.1f}"
             )
         ceiling_by_load(d["rows"])
+        tracking_by_share(d["rows"])
 
 
 # Bins of the other wheel's command over the faster one's, and the faster wheel's command beyond
@@ -84,6 +91,33 @@ def ceiling_by_load(rows):
             print(f"  {name:>17} {len(v):>6} {statistics.median(v):>11.1f} {min(v):>5.1f}-{max(v):<5.1f}")
         else:
             print(f"  {name:>17} {0:>6} {'-':>11}")
+
+
+TRACK_BINS = [(-50.0, 0.1, "pivot/turn (< 0.1)"), (0.1, 0.6, "0.1-0.6"), (0.6, 1.0, "faster side of a curve (0.6-1)"),
+              (1.0, 1.7, "slower side of a curve (1-1.7)"), (1.7, 50.0, "slow side (> 1.7)")]
+
+
+def tracking_by_share(rows):
+    """Each wheel commanded 1-10 rad/s: measured / commanded by the other wheel's share."""
+    seen, bins = set(), {b[2]: [] for b in TRACK_BINS}
+    for r in rows:
+        if (r["window"] or 0) < 1 or r["excluded"] is not None or r["step"] in seen:
+            continue
+        seen.add(r["step"])
+        cl, cr = r["cmd_left_rad_s"], r["cmd_right_rad_s"]
+        for cmd, measured, other in ((cl, r["left_rad_s"], cr), (cr, r["right_rad_s"], cl)):
+            if not 1.0 < abs(cmd) < 10.0:
+                continue
+            share = other / cmd
+            for lo, hi, name in TRACK_BINS:
+                if lo <= share < hi:
+                    bins[name].append(measured / cmd)
+    print("  each wheel commanded 1-10 rad/s, measured / commanded by the other wheel's share:")
+    print(f"  {'share':>31} {'wheels':>7} {'median':>7}")
+    for _, _, name in TRACK_BINS:
+        v = bins[name]
+        med = f"{statistics.median(v):>7.2f}" if v else f"{'-':>7}"
+        print(f"  {name:>31} {len(v):>7} {med}")
 
 
 if __name__ == "__main__":
