@@ -12,7 +12,8 @@ Why: a motor that holds its speed whatever the load tracks 1.00 in every bin; on
 falls with its speed gives up speed where the ground resists (the "turn" bins) and reaches a
 lower ceiling there (README, "Twins and compare").
 
-A second table per dataset: the ceiling against the load. For steps whose faster wheel is
+A second table per dataset (one value per step, its first steady window): the ceiling against
+the load. For steps whose faster wheel is
 commanded beyond 13 rad/s (above every measured Warthog ceiling; `--ceiling-cmd 6.5` for the
 Husky's 6.1 rad/s), the faster wheel's steady speed binned
 by the other wheel's command over the faster one's (below 0.1: pivoting about a nearly stopped
@@ -68,21 +69,30 @@ SHARE_BINS = [(-1.0, 0.1, "pivot/turn (< 0.1)"), (0.1, 0.3, "0.1-0.3"), (0.3, 0.
 CEILING_CMD = 13.0
 
 
-def ceiling_by_load(rows):
-    """The faster wheel's steady speed, one value per step, by the other wheel's share."""
-    seen, bins = set(), {b[2]: [] for b in SHARE_BINS}
+def first_steady_windows(rows):
+    """One row per step: its first steady window that the analysis kept."""
+    seen = set()
     for r in rows:
         if (r["window"] or 0) < 1 or r["excluded"] is not None or r["step"] in seen:
             continue
         seen.add(r["step"])
+        yield r
+
+
+def bin_of(share, bins):
+    """The name of the bin `share` falls in (None outside every bin)."""
+    return next((name for lo, hi, name in bins if lo <= share < hi), None)
+
+
+def ceiling_by_load(rows):
+    """The faster wheel's steady speed, one value per step, by the other wheel's share."""
+    bins = {b[2]: [] for b in SHARE_BINS}
+    for r in first_steady_windows(rows):
         cl, cr = r["cmd_left_rad_s"], r["cmd_right_rad_s"]
         fast_cmd, fast, other = (cl, r["left_rad_s"], cr) if abs(cl) >= abs(cr) else (cr, r["right_rad_s"], cl)
-        if abs(fast_cmd) <= CEILING_CMD:
-            continue
-        share = other / fast_cmd
-        for lo, hi, name in SHARE_BINS:
-            if lo <= share < hi:
-                bins[name].append(abs(fast))
+        name = bin_of(other / fast_cmd, SHARE_BINS) if abs(fast_cmd) > CEILING_CMD else None
+        if name:
+            bins[name].append(abs(fast))
     print(f"  faster wheel commanded beyond {CEILING_CMD:g} rad/s, by the other wheel's share of its command:")
     print(f"  {'share':>17} {'steps':>6} {'median |w|':>11} {'range':>12}")
     for _, _, name in SHARE_BINS:
@@ -99,19 +109,13 @@ TRACK_BINS = [(-50.0, 0.1, "pivot/turn (< 0.1)"), (0.1, 0.6, "0.1-0.6"), (0.6, 1
 
 def tracking_by_share(rows):
     """Each wheel commanded 1-10 rad/s: measured / commanded by the other wheel's share."""
-    seen, bins = set(), {b[2]: [] for b in TRACK_BINS}
-    for r in rows:
-        if (r["window"] or 0) < 1 or r["excluded"] is not None or r["step"] in seen:
-            continue
-        seen.add(r["step"])
+    bins = {b[2]: [] for b in TRACK_BINS}
+    for r in first_steady_windows(rows):
         cl, cr = r["cmd_left_rad_s"], r["cmd_right_rad_s"]
         for cmd, measured, other in ((cl, r["left_rad_s"], cr), (cr, r["right_rad_s"], cl)):
-            if not 1.0 < abs(cmd) < 10.0:
-                continue
-            share = other / cmd
-            for lo, hi, name in TRACK_BINS:
-                if lo <= share < hi:
-                    bins[name].append(measured / cmd)
+            name = bin_of(other / cmd, TRACK_BINS) if 1.0 < abs(cmd) < 10.0 else None
+            if name:
+                bins[name].append(measured / cmd)
     print("  each wheel commanded 1-10 rad/s, measured / commanded by the other wheel's share:")
     print(f"  {'share':>31} {'wheels':>7} {'median':>7}")
     for _, _, name in TRACK_BINS:
