@@ -163,6 +163,24 @@ fn resolution_out_of_range_is_refused_before_reading() {
     assert!(!stderr(&o).contains("reading"), "{}", stderr(&o));
 }
 
+/// `compare` with no halving of the real run for its maps' yardstick, or too few bootstrap
+/// resamples: refused with the option and its range before reading any log.
+#[test]
+fn compare_options_out_of_range_are_refused_before_reading() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let before = tree(d);
+    let log = format!("{MEASURED}/warthog_gravel.csv");
+    let o = drive_sim(
+        &["compare", &log, &log, "--yardstick-splits", "0", "--out", "out"],
+        d,
+    );
+    assert_refused(&o, &["--yardstick-splits", "at least 1"], d, &before);
+    assert!(!stderr(&o).contains("reading"), "{}", stderr(&o));
+    let o = drive_sim(&["compare", &log, &log, "--resamples", "10", "--out", "out"], d);
+    assert_refused(&o, &["--resamples", "at least 100"], d, &before);
+}
+
 /// Case 4: a pose outlier (a localisation jump) and a gap in a measured log are detected,
 /// reported with their step and excluded; the analysis completes. A later failing analysis
 /// into the same folder leaves the complete one as it was.
