@@ -7,7 +7,7 @@ For each dataset, two starts:
   is one, as `scripts/twin_table.py` takes it);
 - the twin calibrated by replay on the odd steps (`drive-sim calibrate --model simulator
   --use-steps odd --no-discovery`),
-each tuned with `drive-sim tune --choose-on odd` on the effects of `TUNE` (per robot), and
+each tuned with `drive-sim tune --choose-on odd` on the effects of `WARTHOG[recipe]` or `HUSKY`, and
 judged by `tune` itself on the even steps with three fresh seeds. A first row per dataset
 compares the real odd steps themselves with the even ones: the closest any model that matches
 the odd steps can come.
@@ -48,16 +48,19 @@ from twin_table import DATA, DATASETS, REPO, declared_models, run
 # limit its file declares, its velocity controller's yaw-rate limit, and the rolling-radius
 # scale its replay calibrations select (0.75-0.78: with the limit it caps the straight-line
 # speed at 0.7 m/s where the run reaches 0.96 m/s, a stand-in the closed loop judges).
-TUNE = {
-    ("warthog", "line"): ("motor_torque_speed,turning_resistance_scale,centripetal_slip",
-                          ["--inject", "wheel_speed_saturation_rad_s=0", "--max-evaluations", "60"]),
-    ("warthog", "droop"): ("motor_torque_speed,turning_resistance_scale,centripetal_slip,speed_droop",
-                           ["--inject", "wheel_speed_saturation_rad_s=0", "--max-evaluations", "80"]),
-    ("warthog", "clamp"): ("motor_torque_speed,turning_resistance_scale,wheel_speed_saturation_rad_s", []),
-    ("husky", "line"): ("wheel_radius_scale,wheel_speed_saturation_rad_s,command_yaw_rate_limit_rad_s", []),
-    ("husky", "clamp"): ("wheel_radius_scale,wheel_speed_saturation_rad_s,command_yaw_rate_limit_rad_s", []),
-    ("husky", "droop"): ("wheel_radius_scale,wheel_speed_saturation_rad_s,command_yaw_rate_limit_rad_s", []),
+WARTHOG = {
+    "line": ("motor_torque_speed,turning_resistance_scale,centripetal_slip",
+             ["--inject", "wheel_speed_saturation_rad_s=0", "--max-evaluations", "60"]),
+    "droop": ("motor_torque_speed,turning_resistance_scale,centripetal_slip,speed_droop",
+              ["--inject", "wheel_speed_saturation_rad_s=0", "--max-evaluations", "80"]),
+    "clamp": ("motor_torque_speed,turning_resistance_scale,wheel_speed_saturation_rad_s", []),
 }
+HUSKY = ("wheel_radius_scale,wheel_speed_saturation_rad_s,command_yaw_rate_limit_rad_s", [])
+
+
+def tune_for(robot, warthog_recipe):
+    """What `tune` tunes for a dataset of `robot`, and its extra options."""
+    return WARTHOG[warthog_recipe] if robot == "warthog" else HUSKY
 
 
 def robot_name(dataset):
@@ -112,8 +115,8 @@ def main():
     ap.add_argument("--out", default=os.path.join(REPO, "out", "tune_table"))
     ap.add_argument("--datasets", default=",".join(DATASETS))
     ap.add_argument("--tf-smoother", default="kernel", help="the maps' smoother in tune's loss and judgement")
-    ap.add_argument("--warthog", default="line", choices=["line", "droop", "clamp"],
-                    help="what the Warthog's twins tune (see TUNE)")
+    ap.add_argument("--warthog", default="line", choices=list(WARTHOG),
+                    help="what the Warthog's twins tune (see WARTHOG)")
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
     data = lambda d: os.path.join(DATA, d + ".csv")
@@ -127,7 +130,7 @@ def main():
     with open(os.path.join(args.out, "commands.txt"), "a") as log:
         for d in args.datasets.split(","):
             robot, terrain, _ = declared_models(d)
-            tune, tune_opts = TUNE[(robot_name(d), args.warthog)]
+            tune, tune_opts = tune_for(robot_name(d), args.warthog)
             cal = os.path.join(args.out, d, "calibrate_odd")
             if not os.path.exists(os.path.join(cal, "twin", "robot.toml")):
                 s = run([args.bin, "calibrate", data(d), "--model", "simulator", "--use-steps", "odd",

@@ -263,7 +263,8 @@ impl<'a> PreparedReal<'a> {
         }
         let stats = resampled(&rows, &opts.bootstrap.draws(rows.len(), 1), &space);
         let tf_grid = tf::TfSetup::new(real.log, opts);
-        let fields = tf_grid.fields(&rows.iter().collect::<Vec<_>>());
+        let all: Vec<&StepRow> = rows.iter().collect();
+        let fields = tf_grid.fields(&all);
         // Halves by alternating position (not step number: a log may already hold only the
         // odd or the even steps, `--real-steps`).
         let odd: Vec<&StepRow> = rows.iter().skip(1).step_by(2).collect();
@@ -271,7 +272,7 @@ impl<'a> PreparedReal<'a> {
         let halves = (tf_grid.fields(&odd), tf_grid.fields(&even));
         let splits = tf::SplitHalves::new(
             &tf_grid,
-            &rows.iter().collect::<Vec<_>>(),
+            &all,
             &halves,
             opts.tf_yardstick_splits,
             opts.bootstrap.seed ^ 0x5917,

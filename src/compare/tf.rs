@@ -47,8 +47,8 @@ pub fn yardstick_scale(n_real: usize, n_sim: usize) -> f64 {
 
 /// The real run's halvings for the yardstick: per halving, per channel, per grid point, the
 /// difference of the two halves' maps (NaN where either half lacks support). The first halving
-/// is the alternate steps (`halves` of [`super::PreparedReal`]).
-#[derive(Debug, Clone, Default)]
+/// is the alternate steps (`halves` of [`super::PreparedReal`]); there is always one.
+#[derive(Debug, Clone)]
 pub struct SplitHalves {
     diffs: Vec<Vec<Vec<f64>>>,
 }
@@ -229,30 +229,37 @@ impl TfSetup {
             .collect()
     }
 
-    /// Per channel, the quadratic mean over `splits` of each halving's RMS on the points `mask`
-    /// supports (halvings with no such point are skipped); NaN without any.
-    fn split_half_mean(&self, splits: &SplitHalves, mask: &Smoothed) -> Vec<f64> {
-        (0..CHANNELS.len())
-            .map(|c| {
+    /// Per channel, the RMS of a difference map (from [`TfSetup::difference`]) over its
+    /// finite points that `mask` supports, with their count (NaN without any).
+    fn rms_on(&self, diff: &[Vec<f64>], mask: &Smoothed) -> Vec<(f64, usize)> {
+        diff.iter()
+            .map(|d| {
                 let (mut sum, mut n) = (0.0, 0usize);
-                for d in &splits.diffs {
-                    let (mut s2, mut m) = (0.0, 0usize);
-                    for (i, v) in d[c].iter().enumerate() {
-                        if v.is_finite() && self.supported(mask, i) {
-                            s2 += v * v;
-                            m += 1;
-                        }
-                    }
-                    if m > 0 {
-                        sum += s2 / m as f64;
+                for (i, v) in d.iter().enumerate() {
+                    if v.is_finite() && self.supported(mask, i) {
+                        sum += v * v;
                         n += 1;
                     }
                 }
-                if n > 0 {
-                    (sum / n as f64).sqrt()
-                } else {
+                (if n > 0 { (sum / n as f64).sqrt() } else { f64::NAN }, n)
+            })
+            .collect()
+    }
+
+    /// Per channel, the odd/even halving's RMS on the points `mask` supports, and the quadratic
+    /// mean of every halving's RMS there (halvings with no such point are skipped; NaN without
+    /// any).
+    fn split_half(&self, splits: &SplitHalves, mask: &Smoothed) -> Vec<(f64, f64)> {
+        let each: Vec<Vec<(f64, usize)>> = splits.diffs.iter().map(|d| self.rms_on(d, mask)).collect();
+        (0..CHANNELS.len())
+            .map(|c| {
+                let kept: Vec<f64> = each.iter().filter(|r| r[c].1 > 0).map(|r| r[c].0).collect();
+                let mean = if kept.is_empty() {
                     f64::NAN
-                }
+                } else {
+                    (kept.iter().map(|r| r * r).sum::<f64>() / kept.len() as f64).sqrt()
+                };
+                (each[0][c].0, mean)
             })
             .collect()
     }
@@ -260,22 +267,7 @@ impl TfSetup {
     /// RMS of `a − b` per channel over the points both support (and `extra` supports), with
     /// the point count.
     fn rms(&self, a: &Smoothed, b: &Smoothed, extra: &Smoothed) -> Vec<(f64, usize)> {
-        (0..CHANNELS.len())
-            .map(|c| {
-                let mut sum = 0.0;
-                let mut n = 0;
-                for i in 0..self.grid.len() {
-                    if self.supported(a, i) && self.supported(b, i) && self.supported(extra, i) {
-                        let d = a.values[c][i] - b.values[c][i];
-                        if d.is_finite() {
-                            sum += d * d;
-                            n += 1;
-                        }
-                    }
-                }
-                (if n > 0 { (sum / n as f64).sqrt() } else { f64::NAN }, n)
-            })
-            .collect()
+        self.rms_on(&self.difference(a, b), extra)
     }
 
     /// The transfer-function differences of `sim` against `real`, judged against the
@@ -292,17 +284,15 @@ impl TfSetup {
         // Both comparisons on the same points: those the real run, the simulated run and both
         // halves support.
         let both = self.joint_support(sim, halves);
-        let main = self.rms(sim, real, &both);
-        let split = self.rms(&halves.0, &halves.1, &both);
-        let mean = self.split_half_mean(splits, &both);
+        let values = self.difference(sim, real);
+        let main = self.rms_on(&values, &both);
+        let split = self.split_half(splits, &both);
         let scale = yardstick_scale(n_real, n_sim);
         let diffs = CHANNELS
             .iter()
-            .zip(main.iter().zip(split.iter().zip(&mean)))
-            .map(|((name, unit), (&(rms, points), (&(sh, _), &mean)))| {
-                // Before any halving is held (count 0), the alternate split alone.
-                let base = if splits.count() == 0 { sh } else { mean };
-                let yardstick = base * scale;
+            .zip(main.iter().zip(&split))
+            .map(|((name, unit), (&(rms, points), &(sh, mean)))| {
+                let yardstick = mean * scale;
                 let ratio = if yardstick > 0.0 {
                     rms / yardstick
                 } else if rms == 0.0 {
@@ -315,8 +305,8 @@ impl TfSetup {
                     unit: unit.to_string(),
                     rms,
                     split_half_rms: sh,
-                    split_half_rms_mean: Some(base),
-                    yardstick_splits: Some(splits.count().max(1)),
+                    split_half_rms_mean: Some(mean),
+                    yardstick_splits: Some(splits.count()),
                     yardstick,
                     ratio,
                     within: points > 0 && ratio <= self.tolerance,
@@ -326,7 +316,6 @@ impl TfSetup {
                 }
             })
             .collect();
-        let values = self.difference(sim, real);
         (
             diffs,
             DiffMaps {
@@ -381,16 +370,20 @@ mod tests {
             weight_sum: vec![1.0, 1.0, 0.1],
             error_bound: None,
         };
-        let got = setup.split_half_mean(&splits, &mask);
+        let got = setup.split_half(&splits, &mask);
         // Halving 1: RMS² = (1 + 4) / 2 = 2.5; halving 2: 9 / 1 = 9; mean 5.75.
-        for g in got {
-            assert!((g - 5.75f64.sqrt()).abs() < 1e-12, "{g}");
+        for (first, mean) in got {
+            assert!((first - 2.5f64.sqrt()).abs() < 1e-12, "{first}");
+            assert!((mean - 5.75f64.sqrt()).abs() < 1e-12, "{mean}");
         }
         // No halving with a kept point: NaN, not zero.
         let none = Smoothed {
             weight_sum: vec![0.0; 3],
             ..mask
         };
-        assert!(setup.split_half_mean(&splits, &none).iter().all(|g| g.is_nan()));
+        assert!(setup
+            .split_half(&splits, &none)
+            .iter()
+            .all(|(first, mean)| first.is_nan() && mean.is_nan()));
     }
 }
