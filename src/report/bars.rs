@@ -5,6 +5,7 @@ use std::path::Path;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::style::{
     assign_colours, axis_desc_style, canvas_height, render, tick_style, title_legend_body, DrawResult,
@@ -63,7 +64,8 @@ impl BarFig<'_> {
         if self.chart.log {
             ((lo.log10().floor() - 0.1), (hi.log10().ceil() + 0.1))
         } else {
-            (0.0_f64.min(lo), hi * 1.1)
+            // All zero (nothing failed, say): a unit axis rather than an empty one.
+            (0.0_f64.min(lo), if hi > 0.0 { hi * 1.1 } else { 1.0 })
         }
     }
 
@@ -78,27 +80,26 @@ impl BarFig<'_> {
         };
         let mut chart = ChartBuilder::on(area)
             .margin(12)
-            .x_label_area_size(110)
+            .x_label_area_size(150)
             .y_label_area_size(70)
             .build_cartesian_2d(0.0..n as f64, y0..y1)?;
-        let cats = self.chart.categories.clone();
         chart
             .configure_mesh()
             .disable_x_mesh()
-            .x_labels(n.max(1))
-            .x_label_formatter(&|x| {
-                let i = x.floor() as usize;
-                if (x - i as f64 - 0.5).abs() < 0.26 {
-                    cats.get(i).cloned().unwrap_or_default()
-                } else {
-                    String::new()
-                }
-            })
-            .x_label_style(tick_style().transform(FontTransform::Rotate90))
+            // Category names are drawn below each group by hand: plotters places numeric
+            // ticks where its own rounding puts them, which need not be the groups' centres.
+            .x_labels(0)
             .y_label_style(tick_style())
             .y_desc(y_desc)
             .axis_desc_style(axis_desc_style())
             .draw()?;
+        let below = if log { y0 } else { y0.min(0.0) };
+        let label_style = tick_style()
+            .transform(FontTransform::Rotate90)
+            .pos(Pos::new(HPos::Left, VPos::Center));
+        chart.draw_series(self.chart.categories.iter().enumerate().map(|(i, c)| {
+            EmptyElement::at((i as f64 + 0.5, below)) + Text::new(c.clone(), (0, 6), label_style.clone())
+        }))?;
         let k = self.chart.series.len().max(1) as f64;
         let width = 0.8 / k;
         let base = if log { y0 } else { 0.0 };
