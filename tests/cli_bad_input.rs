@@ -181,6 +181,27 @@ fn compare_options_out_of_range_are_refused_before_reading() {
     assert_refused(&o, &["--resamples", "at least 100"], d, &before);
 }
 
+/// `judge` refuses references too few for a p-value at the usual level and a twin of another
+/// robot, by name, before any run, writing nothing.
+#[test]
+fn judge_refuses_too_few_references_and_a_twin_of_another_robot() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let before = tree(d);
+    let log = format!("{MEASURED}/warthog_gravel.csv");
+    let o = drive_sim(&["judge", &log, "--references", "3", "--out", "out"], d);
+    assert_refused(&o, &["--references", "4..=999"], d, &before);
+    assert!(!stderr(&o).contains("reading"), "{}", stderr(&o));
+    let o = drive_sim(&["judge", &log, "--robot", "husky", "--out", "out"], d);
+    assert_refused(
+        &o,
+        &["robot `husky`", "not the log's robot `warthog`"],
+        d,
+        &before,
+    );
+    assert!(!stderr(&o).contains("judge: "), "{}", stderr(&o));
+}
+
 /// Case 4: a pose outlier (a localisation jump) and a gap in a measured log are detected,
 /// reported with their step and excluded; the analysis completes. A later failing analysis
 /// into the same folder leaves the complete one as it was.

@@ -5,6 +5,7 @@ pub mod calibrate;
 pub mod compare;
 pub mod demo;
 pub mod input;
+pub mod judge;
 pub mod run;
 pub mod samplers;
 pub mod sweep;
@@ -54,6 +55,10 @@ pub enum Command {
     /// statistics against half the real run's steps, checked on fresh seeds, judged on the
     /// other half; writes tune.json, twin/robot.toml, twin/terrain.toml and heldout/.
     Tune(tune::TuneArgs),
+    /// Judges a twin: its runs compared with the real run and with runs of its own, and a
+    /// Monte Carlo test of whether compare can tell the real run from the twin's; writes
+    /// judge.json, judge.md and judge_rates.svg|png.
+    Judge(judge::JudgeArgs),
     /// Lists the robots (built-in and ./robots/*.toml).
     Robots,
     /// Lists the terrains (built-in and ./terrains/*.toml).
@@ -153,6 +158,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         // No signal handler: Ctrl-C ends the process, and the staged output directory was
         // never committed, so nothing already written is touched.
         Some(Command::Tune(a)) => tune::tune(&a),
+        Some(Command::Judge(a)) => judge::judge(&a),
         Some(Command::Robots) => list_robots(),
         Some(Command::Terrains) => list_terrains(),
         Some(Command::Effects) => list_effects(),

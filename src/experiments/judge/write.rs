@@ -1,0 +1,166 @@
+//! A judgement's files: `judge.json` (every run's score against the real run and against each
+//! reference), `judge.md` (the table `drive-sim judge` prints) and `judge_rates.svg|png` (how
+//! often the twin's runs fail each criterion against the real run, beside how often they fail
+//! it against the twin's own runs).
+
+use super::{JudgeOutcome, DIFFERS};
+use crate::error::Result;
+use crate::provenance::Provenance;
+use crate::report::{bar_chart, AxisLabel, BarChart, BarSeries};
+use std::path::{Path, PathBuf};
+
+/// The table: one row per criterion, the verdict first.
+pub fn table(o: &JudgeOutcome) -> String {
+    let n = o.sim_seeds.len();
+    let m = o.references.len();
+    let mut s = format!(
+        "{}: the twin's {n} runs against the {} {} real steps, and against {m} runs of its own ({} DRIVE steps each)\n\n",
+        o.dataset,
+        o.real_steps_analysed,
+        o.options.real_steps.as_str(),
+        o.steps_per_run
+    );
+    s.push_str(&format!(
+        "**{}**: the loss's Monte Carlo p {:.3} (mean loss {:.2} against the real run, {:.2} against the twin's runs; alpha {}); the verdict's {:.3}\n\n",
+        if o.indistinguishable {
+            "indistinguishable"
+        } else {
+            "distinguishable"
+        },
+        o.loss.p,
+        o.loss.real,
+        crate::analysis::stats::mean(&o.loss.references),
+        o.options.alpha,
+        o.criteria[0].p
+    ));
+    s.push_str("| criterion | runs failing it against the real run | against the twin's own runs (mean, range) | p | p (Holm) |\n|---|---|---|---|---|\n");
+    for c in &o.criteria {
+        let lo = c.reference_fails.iter().min().copied().unwrap_or(0);
+        let hi = c.reference_fails.iter().max().copied().unwrap_or(0);
+        s.push_str(&format!(
+            "| {}{} | {} of {n} | {:.1} of {n} ({lo}–{hi}) | {:.3} | {} |\n",
+            c.criterion,
+            if c.criterion == DIFFERS {
+                " (the verdict)"
+            } else {
+                ""
+            },
+            c.real_fails,
+            c.reference_rate * n as f64,
+            c.p,
+            if c.criterion == DIFFERS {
+                "-".to_string()
+            } else {
+                format!("{:.3}", c.p_holm)
+            }
+        ));
+    }
+    if !o.short_on.is_empty() {
+        s.push_str(&format!(
+            "\nShort on (Holm-adjusted p ≤ {}): {}\n",
+            o.options.alpha,
+            o.short_on.join(", ")
+        ));
+    }
+    if !o.flagged.is_empty() {
+        s.push_str(&format!(
+            "\nFlagged (own p ≤ {}, uncorrected: a diagnostic, not a test): {}\n",
+            o.options.alpha,
+            o.flagged.join(", ")
+        ));
+    }
+    for note in &o.notes {
+        s.push_str(&format!("\nNote: {note}\n"));
+    }
+    s
+}
+
+/// Writes `judge.json` (stamped with `provenance`), `judge.md` and the rates' figure into
+/// `dir`; returns their paths.
+pub fn write_judge(o: &JudgeOutcome, provenance: &Provenance, dir: &Path) -> Result<Vec<PathBuf>> {
+    let json = dir.join("judge.json");
+    crate::output::write_json_atomic(&json, o)?;
+    crate::provenance::stamp_json_file(&json, provenance)?;
+    let md = dir.join("judge.md");
+    crate::output::write_atomic(&md, table(o).as_bytes())?;
+    let n = o.sim_seeds.len() as f64;
+    let quantile = |k: usize, q: f64| {
+        crate::analysis::stats::quantile(
+            &o.criteria[k]
+                .reference_fails
+                .iter()
+                .map(|x| *x as f64 / n)
+                .collect::<Vec<_>>(),
+            q,
+        )
+    };
+    let chart = BarChart {
+        categories: o.criteria.iter().map(|c| short(&c.criterion)).collect(),
+        series: vec![
+            BarSeries {
+                label: "against the real run".into(),
+                values: o.criteria.iter().map(|c| Some(c.real_fails as f64 / n)).collect(),
+            },
+            BarSeries {
+                label: "against the twin's own runs (mean)".into(),
+                values: o.criteria.iter().map(|c| Some(c.reference_rate)).collect(),
+            },
+            BarSeries {
+                label: format!("(its {:.0}th percentile)", 100.0 * (1.0 - o.options.alpha)),
+                values: (0..o.criteria.len())
+                    .map(|k| Some(quantile(k, 1.0 - o.options.alpha)))
+                    .collect(),
+            },
+        ],
+        value: AxisLabel::new("share of the twin's runs failing", ""),
+        log: false,
+        references: vec![],
+    };
+    let fig = bar_chart(
+        dir,
+        "judge_rates",
+        &format!(
+            "{} ({} steps): how often compare fails the twin's runs, by criterion",
+            o.dataset,
+            o.options.real_steps.as_str()
+        ),
+        &chart,
+    )?;
+    Ok(vec![json, md, fig.svg, fig.png])
+}
+
+/// A criterion's name on the figure's axis: `slip vx`, `T/U body`, `vx map`.
+fn short(criterion: &str) -> String {
+    let unitless = |c: &str| {
+        c.trim_start_matches("slip_")
+            .trim_end_matches("_m_s")
+            .trim_end_matches("_rad_s")
+            .to_string()
+    };
+    if let Some(channel) = criterion.strip_suffix(" map") {
+        format!("{} map", unitless(channel))
+    } else if let Some(frame) = criterion.strip_prefix("t_area_pct_") {
+        format!("T/U {frame}")
+    } else if let Some(m) = criterion.strip_prefix("median_slip_") {
+        format!("slip {m}")
+    } else {
+        criterion.trim_start_matches("median_").to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn short_names() {
+        for (long, s) in [
+            ("differs", "differs"),
+            ("median_rho", "rho"),
+            ("median_slip_vx", "slip vx"),
+            ("t_area_pct_wheels", "T/U wheels"),
+            ("slip_wz_rad_s map", "wz map"),
+            ("slip_vx_m_s map", "vx map"),
+        ] {
+            assert_eq!(super::short(long), s);
+        }
+    }
+}

@@ -1,0 +1,179 @@
+//! Judging a twin (`drive_sim::experiments::judge`): a Monte Carlo test of whether `compare`
+//! can tell a real run from the twin's own runs, on cases whose answer is known:
+//! - the null case: the "real" run is a run of the model itself, with a seed neither its runs
+//!   nor its references use: indistinguishable;
+//! - an independent generator (`tests/common/generator.rs`, not the project's plants) whose
+//!   motors clip at 10 rad/s, against the simulated Warthog without any limit: distinguishable,
+//!   the real run more extreme than every reference, on the loss (which decides) and on the
+//!   count of runs called "differs".
+
+mod common;
+use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};
+use drive_sim::calibration::twin;
+use drive_sim::experiments::judge::{judge, JudgeOptions, JudgeOutcome, JudgeRequest, DIFFERS};
+use drive_sim::log::{DriveLog, UseSteps};
+use drive_sim::terrain::Terrain;
+
+/// Small but decisive: 9 references give p-values down to 0.1, the level of the test.
+fn opts() -> JudgeOptions {
+    JudgeOptions {
+        real_steps: UseSteps::All,
+        steps: None,
+        seed: 0,
+        sims: 4,
+        references: 9,
+        resamples: 200,
+        alpha: 0.1,
+        ..JudgeOptions::default()
+    }
+}
+
+/// The generator's DRIVE run (100 steps), its motors clipping at `limit_rad_s`, and the model
+/// judged against it: the simulated Warthog on asphalt without a wheel-speed limit.
+fn generator_and_model(limit_rad_s: f64) -> (DriveLog, drive_sim::calibration::ModelParams) {
+    let spec = TestRobotSpec {
+        radius_m: 0.3,
+        track_m: 2.0,
+        lag_s: 0.25,
+        gain: [1.0, 1.0],
+        enc_noise: 0.3,
+        pose_noise: 0.05,
+        imu_noise: 0.05,
+        seed: 3,
+    };
+    let extra = Unmodelled {
+        wheel_limit_rad_s: limit_rad_s,
+        centripetal_s: -0.20,
+        pose_yaw_noise_rad: 0.01,
+        ..Unmodelled::default()
+    };
+    let (log, robot) = drive_log_with("generator", spec, extra, 100);
+    let (terrain, _) = Terrain::resolve("asphalt").unwrap();
+    (log, twin::lift_effects(&robot, &terrain).unwrap())
+}
+
+fn judged(real: &DriveLog, model: &drive_sim::calibration::ModelParams) -> JudgeOutcome {
+    let o = opts();
+    let j = judge(
+        &JudgeRequest {
+            real,
+            model,
+            opts: &o,
+        },
+        &|line| eprintln!("{line}"),
+    )
+    .unwrap();
+    eprintln!("{}", drive_sim::experiments::judge::write::table(&j));
+    j
+}
+
+#[test]
+fn runs_of_the_model_itself_are_rejected_at_about_the_tests_level() {
+    let (_, model) = generator_and_model(10.0);
+    // The null case five times: the model's own run (seeds the runs and references do not
+    // use) in the real run's place. At level 0.1 a run is rejected with probability 0.1 at
+    // most: 3 or more rejections of 5 has probability 0.0086.
+    let mut rejected = Vec::new();
+    for seed in [777, 778, 779, 780, 781] {
+        let own = drive_sim::experiments::tune::twin_run(&model, 100, seed).unwrap();
+        let null = judged(&own, &model);
+        assert_eq!(null.criteria[0].criterion, DIFFERS);
+        assert_eq!(null.references.len(), 9);
+        assert_eq!(null.sim_seeds, vec![0, 1, 2, 3]);
+        // Every reference saw the same runs: one score per run each.
+        assert!(null.references.iter().all(|r| r.runs.len() == 4));
+        if !null.indistinguishable {
+            rejected.push(seed);
+        }
+    }
+    assert!(rejected.len() <= 2, "rejected for seeds {rejected:?}");
+}
+
+#[test]
+fn a_robot_whose_motors_clip_is_told_apart_from_a_model_without_a_limit() {
+    let (generator, model) = generator_and_model(10.0);
+    let j = judged(&generator, &model);
+    assert!(!j.indistinguishable, "{:?}", j.loss);
+    assert_eq!(j.real.fails[0], 4, "every run differs: {:?}", j.real.runs);
+    assert!((j.criteria[0].p - 0.1).abs() < 1e-12, "{}", j.criteria[0].p);
+    assert!((j.loss.p - 0.1).abs() < 1e-12, "{:?}", j.loss);
+    // Same seeds, same judgement.
+    assert_eq!(judged(&generator, &model), j);
+}
+
+#[test]
+fn bad_options_and_a_log_of_another_robot_are_refused_before_any_run() {
+    let (generator, model) = generator_and_model(10.0);
+    let bad = JudgeOptions {
+        references: 2,
+        ..opts()
+    };
+    let e = judge(
+        &JudgeRequest {
+            real: &generator,
+            model: &model,
+            opts: &bad,
+        },
+        &|_| panic!("no run should start"),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("--references"), "{e}");
+    let (husky, _) = drive_sim::robot::Robot::resolve("husky").unwrap();
+    let (terrain, _) = Terrain::resolve("asphalt").unwrap();
+    let other = twin::lift_effects(&husky, &terrain).unwrap();
+    let e = judge(
+        &JudgeRequest {
+            real: &generator,
+            model: &other,
+            opts: &opts(),
+        },
+        &|_| panic!("no run should start"),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("robot"), "{e}");
+}
+
+/// `drive-sim judge` on a measured run's even steps, small: the table first on stdout, and
+/// `judge.json` (its decision and provenance), `judge.md` and the figure written.
+#[test]
+fn the_command_prints_the_table_and_writes_its_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/measured/warthog_gravel.csv"
+    );
+    let out = dir.path().join("j");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_drive-sim"))
+        .args([
+            "judge",
+            log,
+            "--real-steps",
+            "even",
+            "--sims",
+            "2",
+            "--references",
+            "4",
+            "--resamples",
+            "100",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        stdout.starts_with("warthog_gravel: the twin's 2 runs against the"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("| differs (the verdict) |"), "{stdout}");
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("judge.json")).unwrap()).unwrap();
+    assert_eq!(j["references"].as_array().unwrap().len(), 4);
+    assert_eq!(j["options"]["real_steps"], "even");
+    assert!(j["indistinguishable"].is_boolean());
+    assert!(j["provenance"].is_object(), "{j}");
+    for f in ["judge.md", "judge_rates.svg", "judge_rates.png"] {
+        assert!(out.join(f).metadata().unwrap().len() > 0, "{f}");
+    }
+}
