@@ -13,9 +13,10 @@ Carlo test; see `src/experiments/judge/mod.rs`) on:
   odd steps (`tune_0` from the declared model, `tune_1` from the odd-step replay twin), against
   the even steps.
 
-Where several tables tuned the same start on the same steps (the recipes), the row whose
-*choosing* loss (`tune.json` `chosen_loss`, on the choosing steps and seeds only) is lowest is
-marked: that is the twin a user would pick without looking at the judged steps.
+Where several tables tuned the same start on the same steps (the recipes), the row whose twin has
+the lowest *choosing* loss (`tune.json` `chosen_loss` when the check accepted the choice, else
+`start_loss`: on the choosing steps and seeds only) is marked: that is the twin a user would
+pick without looking at the judged steps.
 
     python3 scripts/judge_table.py --tables line=out/s15/tune_table_line,droop=out/s15/tune_table_droop
                                    [--bin target/release/drive-sim] [--out out/judge_table]
@@ -85,8 +86,11 @@ def main():
                     t = json.load(f)
                 recipe = "" if husky else f" ({name})"
                 label = f"{start} → tuned{recipe}{'' if t['accepted'] else ', not accepted'}"
+                # The twin's own choosing loss: the search's best when the check accepted it,
+                # else the start's (the twin is then the start).
+                loss = t["chosen_loss"] if t["accepted"] else t["start_loss"]
                 models.append((tune if husky else f"{tune}_{name}", label, os.path.join(twin, "robot.toml"),
-                               os.path.join(twin, "terrain.toml"), steps, (tune, t["chosen_loss"])))
+                               os.path.join(twin, "terrain.toml"), steps, (tune, loss)))
         # The recipe the choosing loss picks, per start and steps.
         best = {}
         for m in models:
@@ -111,7 +115,7 @@ def main():
             mark = " ★" if picked and not husky else ""
             lines.append(
                 f"| {d} | {label}{mark} | {steps} | {f'{chosen[1]:.2f}' if chosen else '-'} | {v['real_fails']} of {n} | "
-                f"{v['reference_rate'] * n:.1f} ({min(fails)}–{max(fails)}) | {j['loss']['p']:.2f} | {v['p']:.2f} | "
+                f"{v['reference_rate'] * n:.1f} ({min(fails)}–{max(fails)}) | {j['loss']['p']:.3f} | {v['p']:.3f} | "
                 f"{'no' if j['indistinguishable'] else '**yes**'} | {', '.join(short(c) for c in j['flagged']) or '-'} |")
             print(lines[-1], flush=True)
     table = "\n".join(lines) + "\n"

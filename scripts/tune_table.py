@@ -117,6 +117,10 @@ def main():
     ap.add_argument("--tf-smoother", default="kernel", help="the maps' smoother in tune's loss and judgement")
     ap.add_argument("--warthog", default="line", choices=list(WARTHOG),
                     help="what the Warthog's twins tune (see WARTHOG)")
+    ap.add_argument("--start-from", default=None, metavar="TABLE",
+                    help="start each tune from the twin the same tune of another table chose "
+                         "(TABLE/<dataset>/tune_<k>/twin): a recipe that nests that table's starts "
+                         "from its optimum (its first point), not from the middle of the box")
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
     data = lambda d: os.path.join(DATA, d + ".csv")
@@ -132,7 +136,9 @@ def main():
             robot, terrain, _ = declared_models(d)
             tune, tune_opts = tune_for(robot_name(d), args.warthog)
             cal = os.path.join(args.out, d, "calibrate_odd")
-            if not os.path.exists(os.path.join(cal, "twin", "robot.toml")):
+            if args.start_from:
+                cal = os.path.join(args.start_from, d, "calibrate_odd")
+            elif not os.path.exists(os.path.join(cal, "twin", "robot.toml")):
                 s = run([args.bin, "calibrate", data(d), "--model", "simulator", "--use-steps", "odd",
                          "--no-discovery", "--robot", robot, "--terrain", terrain, "--out", cal], log)
                 print(f"{d}: odd-step calibration {s:.0f} s")
@@ -141,6 +147,11 @@ def main():
                 ("replay twin (odd steps)", os.path.join(cal, "twin", "robot.toml"),
                  os.path.join(cal, "twin", "terrain.toml")),
             ]
+            if args.start_from:
+                twin = lambda k: os.path.join(args.start_from, d, k, "twin")
+                starts = [(f"{label} → tuned ({os.path.basename(os.path.normpath(args.start_from))})",
+                           os.path.join(twin(f"tune_{i}"), "robot.toml"), os.path.join(twin(f"tune_{i}"), "terrain.toml"))
+                          for i, (label, _, _) in enumerate(starts)]
             for i, (label, r, t) in enumerate(starts):
                 out = os.path.join(args.out, d, f"tune_{i}")
                 if not os.path.exists(os.path.join(out, "tune.json")):
@@ -156,19 +167,23 @@ def main():
                 lines.append(row(d, tuned_label(o), summary(o["heldout"]["chosen"])))
             # Every step: calibrated, tuned and judged on the whole run.
             cal_all = os.path.join(args.out, d, "calibrate_all")
-            if not os.path.exists(os.path.join(cal_all, "twin", "robot.toml")):
+            start_all = os.path.join(cal_all, "twin")
+            if args.start_from:
+                start_all = os.path.join(args.start_from, d, "tune_all", "twin")
+            elif not os.path.exists(os.path.join(cal_all, "twin", "robot.toml")):
                 s = run([args.bin, "calibrate", data(d), "--model", "simulator", "--no-discovery",
                          "--robot", robot, "--terrain", terrain, "--out", cal_all], log)
                 print(f"{d}: all-steps calibration {s:.0f} s")
             out = os.path.join(args.out, d, "tune_all")
             if not os.path.exists(os.path.join(out, "tune.json")):
-                s = run([args.bin, "tune", data(d), "--robot", os.path.join(cal_all, "twin", "robot.toml"),
-                         "--terrain", os.path.join(cal_all, "twin", "terrain.toml"), "--tune", tune,
+                s = run([args.bin, "tune", data(d), "--robot", os.path.join(start_all, "robot.toml"),
+                         "--terrain", os.path.join(start_all, "terrain.toml"), "--tune", tune,
                          "--choose-on", "all", "--tf-smoother", args.tf_smoother, "--out", out] + tune_opts, log)
                 print(f"{d}: tune on all steps {s:.0f} s")
             with open(os.path.join(out, "tune.json")) as f:
                 o = json.load(f)
-            all_lines.append(row(d, "replay twin (all steps)", summary(o["same_steps"]["start"])))
+            all_lines.append(row(d, "replay twin (all steps)" + (" → tuned (start)" if args.start_from else ""),
+                                 summary(o["same_steps"]["start"])))
             all_lines.append(row(d, tuned_label(o), summary(o["same_steps"]["chosen"])))
     table = "\n".join(lines + ["", "Every step (chosen and judged on the same steps, fresh seeds; not held out):", ""]
                       + all_lines)

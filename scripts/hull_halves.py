@@ -1,0 +1,77 @@
+#!/usr/bin/env python3
+"""Why a run's odd and even steps cover different areas of T: which steps of one half carry its
+wheel-frame hull beyond the other half's.
+
+Reads the `rows` of a `summary.json` written by `drive-sim analyze` (one value per step, its
+first steady window) and prints, per dataset, the hull area of the commanded wheel speeds (S)
+and of the reached ones (T) in each half, then every step of `--half` whose reached point alone
+adds more than `--min` (rad/s)² to the other half's T hull, with its command.
+
+    drive-sim analyze ../shared/data/measured/warthog_asphalt.csv --out out/an
+    python3 scripts/hull_halves.py out/an/summary.json [--half even] [--min 3]
+
+Areas are unclipped hulls in (rad/s)², so they differ from `t_area_pct_wheels` (clipped by U,
+as a percentage of it) by that clipping and scale; the question here is which steps make the
+difference. Why: a twin judged on the even steps after being chosen on the odd ones cannot
+cover area the odd steps never showed (README, "Can `compare` tell them apart?").
+"""
+import argparse
+import json
+
+
+def hull(points):
+    """Convex hull, counter-clockwise (Andrew's monotone chain)."""
+    p = sorted(set(points))
+    if len(p) < 3:
+        return p
+
+    def cross(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower, upper = [], []
+    for q in p:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], q) <= 0:
+            lower.pop()
+        lower.append(q)
+    for q in reversed(p):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], q) <= 0:
+            upper.pop()
+        upper.append(q)
+    return lower[:-1] + upper[:-1]
+
+
+def area(points):
+    h = hull(points)
+    n = len(h)
+    return 0.5 * abs(sum(h[i][0] * h[(i + 1) % n][1] - h[(i + 1) % n][0] * h[i][1] for i in range(n))) if n >= 3 else 0.0
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("summary")
+    ap.add_argument("--half", choices=["odd", "even"], default="even", help="the half whose steps are examined")
+    ap.add_argument("--min", type=float, default=3.0, help="smallest added area reported, (rad/s)²")
+    args = ap.parse_args()
+    for d in json.load(open(args.summary))["datasets"]:
+        steps = {}
+        for r in d["rows"]:
+            if (r["window"] or 0) >= 1 and r["excluded"] is None:
+                steps.setdefault(r["step"], r)
+        half = {"odd": [k for k in sorted(steps) if k % 2 == 1], "even": [k for k in sorted(steps) if k % 2 == 0]}
+        cmd = lambda k: (steps[k]["cmd_left_rad_s"], steps[k]["cmd_right_rad_s"])
+        reached = lambda k: (steps[k]["left_rad_s"], steps[k]["right_rad_s"])
+        print(f"== {d['dataset']}")
+        for name, ks in half.items():
+            print(f"  {name:4} {len(ks):3} steps: S hull {area([cmd(k) for k in ks]):5.0f}, "
+                  f"T hull {area([reached(k) for k in ks]):5.0f} (rad/s)²")
+        other = [reached(k) for k in half["odd" if args.half == "even" else "even"]]
+        base = area(other)
+        for k in half[args.half]:
+            added = area(other + [reached(k)]) - base
+            if added > args.min:
+                print(f"  {args.half} step {k}: command ({cmd(k)[0]:.1f}, {cmd(k)[1]:.1f}) reached "
+                      f"({reached(k)[0]:.1f}, {reached(k)[1]:.1f}) rad/s: adds {added:.0f} (rad/s)² to the other half's T hull")
+
+
+if __name__ == "__main__":
+    main()
