@@ -31,23 +31,13 @@ fn opts() -> JudgeOptions {
 /// The generator's DRIVE run (100 steps), its motors clipping at `limit_rad_s`, and the model
 /// judged against it: the simulated Warthog on asphalt without a wheel-speed limit.
 fn generator_and_model(limit_rad_s: f64) -> (DriveLog, drive_sim::calibration::ModelParams) {
-    let spec = TestRobotSpec {
-        radius_m: 0.3,
-        track_m: 2.0,
-        lag_s: 0.25,
-        gain: [1.0, 1.0],
-        enc_noise: 0.3,
-        pose_noise: 0.05,
-        imu_noise: 0.05,
-        seed: 3,
-    };
     let extra = Unmodelled {
         wheel_limit_rad_s: limit_rad_s,
         centripetal_s: -0.20,
         pose_yaw_noise_rad: 0.01,
         ..Unmodelled::default()
     };
-    let (log, robot) = drive_log_with("generator", spec, extra, 100);
+    let (log, robot) = drive_log_with("generator", TestRobotSpec::warthog_on_asphalt(3), extra, 100);
     let (terrain, _) = Terrain::resolve("asphalt").unwrap();
     (log, twin::lift_effects(&robot, &terrain).unwrap())
 }

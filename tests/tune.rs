@@ -23,19 +23,6 @@ use drive_sim::terrain::Terrain;
 
 const LIMIT_RAD_S: f64 = 10.0;
 
-fn spec(seed: u64) -> TestRobotSpec {
-    TestRobotSpec {
-        radius_m: 0.3,
-        track_m: 2.0,
-        lag_s: 0.25,
-        gain: [1.0, 1.0],
-        enc_noise: 0.3,
-        pose_noise: 0.05,
-        imu_noise: 0.05,
-        seed,
-    }
-}
-
 /// The generator's DRIVE run (120 steps), its motors clipping at `limit_rad_s` (0: no limit).
 fn generator_log(limit_rad_s: f64) -> (drive_sim::log::DriveLog, drive_sim::robot::Robot) {
     let extra = Unmodelled {
@@ -44,7 +31,7 @@ fn generator_log(limit_rad_s: f64) -> (drive_sim::log::DriveLog, drive_sim::robo
         pose_yaw_noise_rad: 0.01,
         ..Unmodelled::default()
     };
-    drive_log_with("generator", spec(3), extra, 120)
+    drive_log_with("generator", TestRobotSpec::warthog_on_asphalt(3), extra, 120)
 }
 
 fn tuned(limit_rad_s: f64) -> drive_sim::experiments::tune::TuneOutcome {

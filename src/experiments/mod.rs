@@ -10,6 +10,7 @@
 pub mod analyze;
 pub mod demo;
 pub mod judge;
+pub mod real_steps;
 pub mod run;
 pub mod samplers;
 pub mod simulate;

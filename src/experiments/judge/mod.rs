@@ -36,10 +36,11 @@
 
 pub mod write;
 
-use crate::analysis::bootstrap::{holm, Bootstrap, MIN_STEPS_FOR_INTERVAL};
+use crate::analysis::bootstrap::{holm, Bootstrap};
 use crate::calibration::ModelParams;
 use crate::compare::{compare_prepared, CompareOptions, Input, PreparedReal, SimComparison, TfSmoother};
 use crate::error::{Error, Result};
+use crate::experiments::real_steps::{check_run_steps, check_same_robot, real_steps, RealSteps};
 use crate::experiments::tune::twin_run;
 use crate::log::{DriveLog, UseSteps};
 use rayon::prelude::*;
@@ -91,15 +92,7 @@ impl JudgeOptions {
     /// Checks the numbers before any run (bad input names the option).
     pub fn validate(&self) -> Result<()> {
         let bad = |opt: &str, why: String| Err(Error::config("<command line>", opt, why));
-        if let Some(steps) = self
-            .steps
-            .filter(|s| (*s as usize) < MIN_STEPS_FOR_INTERVAL || *s > 100_000)
-        {
-            return bad(
-                "--steps",
-                format!("must be in {MIN_STEPS_FOR_INTERVAL}..=100000 (fewer give no interval), got {steps}"),
-            );
-        }
+        check_run_steps(self.steps)?;
         if !(2..=64).contains(&self.sims) {
             return bad("--sims", format!("must be in 2..=64, got {}", self.sims));
         }
@@ -339,28 +332,12 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<Jud
     let opts = req.opts;
     opts.validate()?;
     let real = req.real;
-    if real.meta.robot != req.model.robot.name {
-        return Err(Error::config(
-            "--robot",
-            &req.model.robot.name,
-            format!(
-                "the real log `{}` is of robot `{}`: a twin is judged against its own robot's log",
-                real.meta.name, real.meta.robot
-            ),
-        ));
-    }
-    let judged = opts.real_steps.select(real);
-    let n_real = crate::compare::analysis_of(&judged)?.steps.len();
-    if n_real < MIN_STEPS_FOR_INTERVAL {
-        return Err(Error::config(
-            "--real-steps",
-            opts.real_steps.as_str(),
-            format!(
-                "`{}` has {n_real} analysed steps there (fewer than {MIN_STEPS_FOR_INTERVAL}): no interval, nothing to judge against",
-                real.meta.name
-            ),
-        ));
-    }
+    check_same_robot(real, req.model, "judged")?;
+    let RealSteps {
+        log: judged,
+        analysed: n_real,
+        ..
+    } = real_steps(real, opts.real_steps, "--real-steps", "judge against")?;
     let steps = opts.steps.unwrap_or(n_real as u32);
     let copts = opts.compare_options();
     let mut notes = Vec::new();

@@ -43,7 +43,7 @@ pub use runs::twin_run;
 use runs::{evaluation, judged, loss_opts, run_against, seed_run, SeedRun};
 pub use write::twin_of;
 
-use crate::analysis::bootstrap::{Bootstrap, MIN_STEPS_FOR_INTERVAL};
+use crate::analysis::bootstrap::Bootstrap;
 use crate::calibration::params::{Param, ParamSpec};
 use crate::calibration::{twin, ModelParams, PlantFactory, SimFactory};
 use crate::compare::loss::Loss;
@@ -53,6 +53,7 @@ use crate::compare::{
 };
 use crate::effects::{self, CommandReach, REGISTRY};
 use crate::error::{Error, Result};
+use crate::experiments::real_steps::{check_run_steps, check_same_robot, real_steps};
 use crate::log::{DriveLog, UseSteps};
 use crate::sim::SensorNoise;
 use rayon::prelude::*;
@@ -114,15 +115,7 @@ impl TuneOptions {
     /// Checks the numbers before any run (bad input names the option).
     pub fn validate(&self) -> Result<()> {
         let bad = |opt: &str, why: String| Err(Error::config("<command line>", opt, why));
-        if let Some(steps) = self
-            .steps
-            .filter(|s| (*s as usize) < MIN_STEPS_FOR_INTERVAL || *s > 100_000)
-        {
-            return bad(
-                "--steps",
-                format!("must be in {MIN_STEPS_FOR_INTERVAL}..=100000 (fewer give no interval), got {steps}"),
-            );
-        }
+        check_run_steps(self.steps)?;
         if self.choose_seeds == 0 || self.choose_seeds > 64 {
             return bad("--seeds", format!("must be in 1..=64, got {}", self.choose_seeds));
         }
@@ -178,41 +171,15 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
     let opts = req.opts;
     opts.validate()?;
     let real = req.real;
-    if real.meta.robot != req.start.robot.name {
-        return Err(Error::config(
-            "--robot",
-            &req.start.robot.name,
-            format!(
-                "the real log `{}` is of robot `{}`: a twin is tuned against its own robot's log",
-                real.meta.name, real.meta.robot
-            ),
-        ));
-    }
-    let chosen_half = opts.choose_on.select(real);
-    let n_choose = crate::compare::analysis_of(&chosen_half)?.steps.len();
+    check_same_robot(real, req.start, "tuned")?;
+    let chosen = real_steps(real, opts.choose_on, "--choose-on", "tune on")?;
     // The held-out half, with its analysed steps.
     let heldout_half = opts
         .choose_on
         .other_half()
-        .map(|h| {
-            let log = h.select(real);
-            crate::compare::analysis_of(&log).map(|a| (h, log, a.steps.len()))
-        })
+        .map(|h| real_steps(real, h, "--choose-on", "tune on"))
         .transpose()?;
-    for (name, n) in std::iter::once((opts.choose_on.as_str(), n_choose))
-        .chain(heldout_half.as_ref().map(|(h, _, n)| (h.as_str(), *n)))
-    {
-        if n < MIN_STEPS_FOR_INTERVAL {
-            return Err(Error::config(
-                "--choose-on",
-                name,
-                format!(
-                    "`{}` has {n} analysed steps there (fewer than {MIN_STEPS_FOR_INTERVAL}): no interval, nothing to tune on",
-                    real.meta.name
-                ),
-            ));
-        }
-    }
+    let (chosen_half, n_choose) = (chosen.log, chosen.analysed);
     let reach = CommandReach::of_commands(
         chosen_half.samples.iter().map(|s| s.m.cmd),
         &req.start.robot.idd(),
@@ -418,7 +385,10 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
             h
         };
     let (heldout, same_steps) = match &heldout_half {
-        Some((half, log, n)) => (Some(judge_on(*half, log, *n, Some(&chosen_half))), None),
+        Some(h) => (
+            Some(judge_on(h.steps, &h.log, h.analysed, Some(&chosen_half))),
+            None,
+        ),
         None => (None, Some(judge_on(opts.choose_on, &chosen_half, n_choose, None))),
     };
     let mut notes = Vec::new();
