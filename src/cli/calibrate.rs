@@ -256,11 +256,7 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
                 check.interruptions.unwrap_or_default()
             ),
         }
-        eprintln!(
-            "drive-sim: twin: drive-sim run --robot {} --terrain {}",
-            args.out.join("twin/robot.toml").display(),
-            args.out.join("twin/terrain.toml").display()
-        );
+        super::input::twin_hints(log_path, &args.out, args.use_steps);
     }
     print_report(report)?;
     eprintln!("drive-sim: time per stage:");

@@ -86,3 +86,22 @@ pub fn inspect(args: &InspectArgs) -> anyhow::Result<()> {
         .into()),
     }
 }
+
+/// The lines that tell how to run a twin just written into `out/twin/` and how to judge it
+/// against the real log's steps it was not chosen on (all of them when it saw every step).
+pub fn twin_hints(real: &Path, out: &Path, chosen_on: crate::log::UseSteps) {
+    let (robot, terrain) = (out.join("twin/robot.toml"), out.join("twin/terrain.toml"));
+    eprintln!(
+        "drive-sim: twin: drive-sim run --robot {} --terrain {}",
+        robot.display(),
+        terrain.display()
+    );
+    let judged = chosen_on.other_half().unwrap_or(crate::log::UseSteps::All);
+    eprintln!(
+        "drive-sim: can compare tell it from the run? drive-sim judge {} --robot {} --terrain {} --real-steps {}",
+        real.display(),
+        robot.display(),
+        terrain.display(),
+        judged.as_str()
+    );
+}

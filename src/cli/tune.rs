@@ -173,11 +173,7 @@ pub fn tune(args: &TuneArgs) -> anyhow::Result<()> {
     )?;
     staged.commit()?;
     print_outcome(&outcome)?;
-    eprintln!(
-        "drive-sim: twin: drive-sim run --robot {} --terrain {}",
-        args.out.join("twin/robot.toml").display(),
-        args.out.join("twin/terrain.toml").display()
-    );
+    super::input::twin_hints(&args.real, &args.out, args.choose_on);
     eprintln!(
         "drive-sim: wrote {} files into {} ({:.0} s)",
         written.len(),
