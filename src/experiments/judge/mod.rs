@@ -286,9 +286,9 @@ fn score(
         },
         copts,
     )?;
-    let steps = crate::compare::analysis_of(candidate)?.steps.len();
     let inputs: Vec<Input> = sims.iter().map(|(_, log)| Input { log, file: None }).collect();
     let report = compare_prepared(&prepared, &inputs)?;
+    let steps = report.real.steps;
     let mut names = Vec::new();
     let mut fails: Vec<usize> = Vec::new();
     let mut runs = Vec::new();
