@@ -305,10 +305,41 @@ fn too_few(name: &str, n: usize, warnings: &mut Vec<Warning>) {
     }
 }
 
+/// A simulated log analysed once, for comparisons with several real sides (`judge` compares
+/// the same runs with the real log and with each of its reference runs).
+pub struct PreparedSim<'a> {
+    input: Input<'a>,
+    analysis: Analysis,
+    rows: Vec<StepRow>,
+}
+
+impl<'a> PreparedSim<'a> {
+    /// Analyses `sim` as [`compare`] does.
+    pub fn new(sim: Input<'a>) -> Result<Self> {
+        let analysis = analysis_of(sim.log)?;
+        let rows = rows(&analysis);
+        Ok(Self {
+            input: sim,
+            analysis,
+            rows,
+        })
+    }
+}
+
 /// [`compare`] against a real side prepared once (with its options).
 pub fn compare_prepared(prepared: &PreparedReal, sims: &[Input]) -> Result<ComparisonReport> {
+    check_inputs(prepared.input, sims)?;
+    let sims = sims
+        .iter()
+        .map(|s| PreparedSim::new(*s))
+        .collect::<Result<Vec<_>>>()?;
+    compare_prepared_sims(prepared, &sims)
+}
+
+/// [`compare`] of simulated logs analysed once against a real side prepared once.
+pub fn compare_prepared_sims(prepared: &PreparedReal, sims: &[PreparedSim]) -> Result<ComparisonReport> {
     let real = prepared.input;
-    check_inputs(real, sims)?;
+    check_inputs(real, &sims.iter().map(|s| s.input).collect::<Vec<_>>())?;
     let opts = &prepared.opts;
     let real_a = &prepared.analysis;
     let real_rows = &prepared.rows;
@@ -321,9 +352,9 @@ pub fn compare_prepared(prepared: &PreparedReal, sims: &[Input]) -> Result<Compa
     let halves = &prepared.halves;
 
     let mut out = Vec::new();
-    for s in sims {
-        let sim_a = analysis_of(s.log)?;
-        let sim_rows = rows(&sim_a);
+    for prepared_sim in sims {
+        let s = prepared_sim.input;
+        let (sim_a, sim_rows) = (&prepared_sim.analysis, &prepared_sim.rows);
         too_few(&s.log.meta.name, sim_rows.len(), &mut warnings);
         let paired = matches!(&s.log.meta.origin, Origin::Replayed { of, .. } if *of == real.log.meta.name);
         let all_real: Vec<&StepRow> = real_rows.iter().collect();
@@ -361,7 +392,7 @@ pub fn compare_prepared(prepared: &PreparedReal, sims: &[Input]) -> Result<Compa
             (Pairing::Paired, (rr.len(), ss.len()), per, curvature)
         } else {
             let draws = b.draws(sim_rows.len(), 2);
-            let sm = resampled(&sim_rows, &draws, &space);
+            let sm = resampled(sim_rows, &draws, &space);
             let per = real_stats
                 .iter()
                 .zip(sm)
@@ -462,7 +493,7 @@ pub fn compare_prepared(prepared: &PreparedReal, sims: &[Input]) -> Result<Compa
                 ),
             });
         }
-        let sim_info = run_info(s.log, &sim_a, s.file.map(|f| f.to_path_buf()));
+        let sim_info = run_info(s.log, sim_a, s.file.map(|f| f.to_path_buf()));
         let time = if records_time(real.log) && records_time(s.log) {
             let per = |l: &DriveLog, n: usize| l.interruptions.len() as f64 / n.max(1) as f64;
             Some(TimeDiff {

@@ -38,7 +38,9 @@ pub mod write;
 
 use crate::analysis::bootstrap::{holm, Bootstrap};
 use crate::calibration::ModelParams;
-use crate::compare::{compare_prepared, CompareOptions, Input, PreparedReal, SimComparison, TfSmoother};
+use crate::compare::{
+    compare_prepared_sims, CompareOptions, Input, PreparedReal, PreparedSim, SimComparison, TfSmoother,
+};
 use crate::error::{Error, Result};
 use crate::experiments::real_steps::{check_run_steps, check_same_robot, real_steps, RealSteps};
 use crate::experiments::tune::twin_run;
@@ -271,12 +273,13 @@ pub fn monte_carlo_p(observed: f64, references: &[f64]) -> f64 {
     (1 + at_least) as f64 / (finite.len() + 1) as f64
 }
 
-/// Scores the simulated runs against one candidate's steps.
+/// Scores the simulated runs (their seeds, and the runs analysed once) against one candidate's
+/// steps.
 fn score(
     label: &str,
     seed: Option<u64>,
     candidate: &DriveLog,
-    sims: &[(u64, DriveLog)],
+    sims: (&[u64], &[PreparedSim]),
     copts: &CompareOptions,
 ) -> Result<(CandidateScore, Vec<String>)> {
     let prepared = PreparedReal::new(
@@ -286,13 +289,13 @@ fn score(
         },
         copts,
     )?;
-    let inputs: Vec<Input> = sims.iter().map(|(_, log)| Input { log, file: None }).collect();
-    let report = compare_prepared(&prepared, &inputs)?;
+    let (sim_seeds, sims) = sims;
+    let report = compare_prepared_sims(&prepared, sims)?;
     let steps = report.real.steps;
     let mut names = Vec::new();
     let mut fails: Vec<usize> = Vec::new();
     let mut runs = Vec::new();
-    for ((sim_seed, _), c) in sims.iter().zip(&report.sims) {
+    for (sim_seed, c) in sim_seeds.iter().zip(&report.sims) {
         let crit = criteria_of(c);
         if names.is_empty() {
             names = crit.iter().map(|(n, _)| n.clone()).collect();
@@ -371,7 +374,13 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<Jud
             notes.join("; ")
         )));
     }
-    let (real_score, names) = score("real", None, &judged, &sims, &copts)?;
+    // Each run is analysed once, for the real run and every reference.
+    let seeds: Vec<u64> = sims.iter().map(|(s, _)| *s).collect();
+    let prepared = sims
+        .iter()
+        .map(|(_, log)| PreparedSim::new(Input { log, file: None }))
+        .collect::<Result<Vec<_>>>()?;
+    let (real_score, names) = score("real", None, &judged, (&seeds, &prepared), &copts)?;
     progress(&format!(
         "judge: against the real run: {} of {} runs differ, mean loss {:.2}",
         real_score.fails[0],
@@ -386,7 +395,7 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<Jud
         .par_iter()
         .map(|&s| {
             let r = twin_run(req.model, steps, s)
-                .and_then(|log| score("reference", Some(s), &log, &sims, &copts))
+                .and_then(|log| score("reference", Some(s), &log, (&seeds, &prepared), &copts))
                 .map(|(c, _)| c);
             let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             if let Ok(c) = &r {
@@ -480,7 +489,7 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<Jud
         options: *opts,
         real_steps_analysed: n_real,
         steps_per_run: steps,
-        sim_seeds: sims.iter().map(|(s, _)| *s).collect(),
+        sim_seeds: seeds,
         reference_seeds: references.iter().filter_map(|c| c.seed).collect(),
         criteria,
         loss,
