@@ -403,3 +403,50 @@ fn a_stopped_robot_stands_still_whatever_its_terms() {
         "{enc:?}"
     );
 }
+
+/// `wheel_speed_scatter`: each step's wheels settle off their command by an offset held for the
+/// step, of the asked standard deviation, the same for the same seed; a stop gets none.
+#[test]
+fn wheel_speed_scatter_offsets_each_step() {
+    use drive_sim::effects::StepContext;
+    let steady = |sigma: f64, seed: u64| -> Vec<f64> {
+        let r = Robot::resolve("warthog").unwrap().0;
+        let t = Terrain::resolve("asphalt").unwrap().0;
+        let mut e = Effects::default();
+        e.set("wheel_speed_scatter_rad_s", sigma).unwrap();
+        let cfg = SimConfig {
+            effects: e,
+            seed,
+            noise: SensorNoise::default(),
+            ..Default::default()
+        };
+        let mut s = Simulator::new(&r, &t, cfg).unwrap();
+        s.advance(1.0).unwrap();
+        let mut out = Vec::new();
+        for step in 0..16 {
+            s.begin_step(StepContext {
+                step,
+                previous_cmd: WheelSpeeds::default(),
+            });
+            let run = hold(&mut s, WheelSpeeds::new(6.0, 6.0), 3.0);
+            out.push(mean_tail(&run, 20, |x| x.0.enc.left_rad_s) - 6.0);
+            out.push(mean_tail(&run, 20, |x| x.0.enc.right_rad_s) - 6.0);
+        }
+        // A stop: both wheels at rest whatever the scatter.
+        let run = hold(&mut s, WheelSpeeds::default(), 3.0);
+        assert!(
+            mean_tail(&run, 20, |x| x.0.enc.left_rad_s.abs()) < 0.02,
+            "a stop creeps"
+        );
+        out
+    };
+    let sd = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+    let off = steady(0.0, 1);
+    let on = steady(0.5, 1);
+    eprintln!("scatter off: rms {:.3}; 0.5 rad/s: rms {:.3}", sd(&off), sd(&on));
+    assert!(sd(&off) < 0.03, "{off:?}");
+    // 32 draws of N(0, 0.5): their rms lies in [0.33, 0.67] with probability > 0.99.
+    assert!((0.33..0.67).contains(&sd(&on)), "{on:?}");
+    assert_eq!(steady(0.5, 1), on, "same seed, same offsets");
+    assert_ne!(steady(0.5, 2), on, "another seed, other offsets");
+}

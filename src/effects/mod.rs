@@ -34,12 +34,14 @@ mod pose_latency;
 mod reverse_baseline_scale;
 mod set;
 pub mod speed_droop;
+mod step_draw;
 mod suspension_torsion;
 pub mod term;
 mod time_constant_scale;
 mod turning_resistance;
 mod wheel_radius_scale;
 mod wheel_speed_saturation;
+mod wheel_speed_scatter;
 
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
@@ -401,6 +403,7 @@ pub static REGISTRY: LazyLock<Vec<&'static dyn Effect>> = LazyLock::new(|| {
         &controller_wheel_limit::ControllerWheelLimit,
         &motor_gain::MotorGain,
         &motor_gain_drift::MotorGainDrift,
+        &wheel_speed_scatter::WheelSpeedScatter,
         &wheel_speed_saturation::WheelSpeedSaturation,
         &motor_torque_speed::MotorTorqueSpeed,
         &speed_droop::SpeedDroop,

@@ -42,6 +42,10 @@ pub struct TermInput {
     pub t_in_step_s: f64,
     /// Step index.
     pub step: u32,
+    /// Seed of the run's random draws (`drive-sim run --seed`; 0 where a plant has none). An
+    /// effect that draws per step mixes it with the step index rather than taking numbers
+    /// from the physics' stream, so switching such an effect on moves no other draw.
+    pub run_seed: u64,
 }
 
 impl TermInput {

@@ -152,6 +152,7 @@ impl Simulator {
             noise: cfg.noise,
             physics_hz: cfg.physics_hz,
             rng: ChaCha8Rng::seed_from_u64(cfg.seed),
+            seed: cfg.seed,
             cmd: WheelSpeeds::default(),
             cmd_queue: VecDeque::new(),
             applied: WheelSpeeds::default(),

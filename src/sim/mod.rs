@@ -138,6 +138,8 @@ pub struct Simulator {
     noise: SensorNoise,
     physics_hz: f64,
     rng: ChaCha8Rng,
+    /// The run's seed, for effects that draw per step ([`TermInput::run_seed`]).
+    seed: u64,
 
     cmd: WheelSpeeds,
     /// Commands with the time they were given, for the dead time.

@@ -67,6 +67,7 @@ impl Simulator {
             accel: [ax, self.yaw_accel_rad_s2],
             t_in_step_s: self.time_s - self.step_t0_s,
             step: self.ctx.step,
+            run_seed: self.seed,
         }
     }
 
