@@ -11,6 +11,7 @@ pub mod bootstrap;
 pub mod crosscheck;
 pub mod rho;
 pub mod risk;
+pub mod scatter;
 pub mod segment;
 pub mod slip;
 pub mod smoother;

@@ -73,7 +73,8 @@ pub fn print_progress(event: AnalyzeEvent) {
 
 /// The headline figures of each analysed log, one line each: median steady-state slips signed
 /// along the command (positive = slower than commanded; |vy| for the lateral one), median ρ,
-/// the ideal differential-drive RMSE, the area of T, the yaw-rate source.
+/// the ideal differential-drive RMSE, the area of T, the yaw-rate source; below it the medians'
+/// intervals and the step-to-step scatter of the steady wheel speeds.
 fn print_analysis_table(analyses: &[crate::analysis::Analysis]) -> anyhow::Result<()> {
     let mut out = std::io::stdout().lock();
     writeln!(
@@ -138,6 +139,14 @@ fn print_analysis_table(analyses: &[crate::analysis::Analysis]) -> anyhow::Resul
         if let Some(w) = &ci.warning {
             writeln!(out, "{:<20} warning: {w}", "")?;
         }
+        // Steps with nearly the same command against the two steady windows of one step: a
+        // step-level offset that window noise does not explain (see `analysis::scatter`).
+        writeln!(
+            out,
+            "{:<20} {}",
+            "",
+            crate::analysis::scatter::step_scatter(&a.steps)
+        )?;
     }
     Ok(())
 }

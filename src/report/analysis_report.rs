@@ -79,6 +79,9 @@ struct DatasetSummary<'a> {
     risk: &'a [crate::analysis::risk::RiskScenario],
     exclusions: &'a [crate::analysis::segment::Exclusion],
     rows: &'a [crate::analysis::SummaryRow],
+    /// Step-to-step against within-step scatter of the steady wheel speeds, computed from the
+    /// same analysed steps as `rows`.
+    step_scatter: crate::analysis::scatter::StepScatter,
 }
 
 fn steady(a: &Analysis, f: impl Fn(&StepResult) -> f64) -> Vec<f64> {
@@ -176,6 +179,7 @@ pub fn write_analysis_report_of(
             risk: &a.risk,
             exclusions: &a.exclusions,
             rows: &a.rows,
+            step_scatter: crate::analysis::scatter::step_scatter(&a.steps),
         })
         .collect();
     let med = |a: &Analysis| a.stats.rho.map_or(f64::NAN, |b| b.median);
