@@ -10,6 +10,8 @@ use drive_sim::log::csv::read_measured_csv;
 use drive_sim::log::DriveLog;
 use std::path::Path;
 
+mod common;
+
 const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured");
 
 fn log(name: &str) -> DriveLog {
@@ -43,6 +45,10 @@ fn a_log_against_itself_and_its_halves_shows_no_difference() {
     );
     assert!(c.verdict.tf_significant.is_empty());
     assert!(r.warnings.iter().any(|w| w.name == "time_not_recorded"));
+    // The step scatter beside the verdict: the same on both sides.
+    let sc = c.step_scatter.unwrap();
+    assert_eq!(sc.real, sc.sim);
+    assert!(!sc.differs && sc.offset_to_add_rad_s.is_none(), "{sc:?}");
     // The breakdown by curvature: every class of the run, no difference in any statistic.
     let classes = &c.curvature.classes;
     assert!(classes.len() >= 4, "{classes:#?}");
@@ -287,4 +293,47 @@ fn an_exact_model_passes_the_wheel_maps_with_the_local_linear_smoother() {
     eprintln!("map RMS / yardstick (vx, vy, wz, left, right): kernel {kernel:.2?}, local-linear {local:.2?}");
     assert!(kernel[3] > 1.5, "{kernel:?}");
     assert!(local.iter().all(|r| *r <= 1.5), "{local:?}");
+}
+
+/// The step scatter beside the verdict, on an independent generator (`tests/common/generator.rs`)
+/// whose wheels settle off their targets by a new offset each step (sd 0.6 rad/s, its own
+/// equation and random stream): against the simulated Warthog without one, `compare` says the
+/// simulated run lacks it and how much to add; the model with `wheel_speed_scatter` at that
+/// value no longer differs; and the generator without offsets is not flagged (the null case).
+#[test]
+fn the_step_scatter_a_model_lacks_is_measured_and_added() {
+    use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};
+    use drive_sim::calibration::twin;
+    use drive_sim::terrain::Terrain;
+    let generator = |offset: f64| {
+        let extra = Unmodelled {
+            step_offset_rad_s: offset,
+            centripetal_s: -0.20,
+            pose_yaw_noise_rad: 0.01,
+            ..Unmodelled::default()
+        };
+        drive_log_with("generator", TestRobotSpec::warthog_on_asphalt(5), extra, 150)
+    };
+    let (real, robot) = generator(0.6);
+    let (terrain, _) = Terrain::resolve("asphalt").unwrap();
+    let mut model = twin::lift_effects(&robot, &terrain).unwrap();
+    let scatter_of = |real: &DriveLog, model: &drive_sim::calibration::ModelParams| {
+        let sim = drive_sim::experiments::tune::twin_run(model, 150, 11).unwrap();
+        let r = compare(input(real), &[input(&sim)], &CompareOptions::default()).unwrap();
+        let d = r.sims[0].step_scatter.unwrap();
+        eprintln!("{}", d.line());
+        d
+    };
+    let without = scatter_of(&real, &model);
+    assert!(without.differs, "{without:?}");
+    let add = without.offset_to_add_rad_s.unwrap();
+    assert!((0.4..0.85).contains(&add), "offset to add {add} for a true 0.6");
+    model.effects.set("wheel_speed_scatter_rad_s", add).unwrap();
+    let with = scatter_of(&real, &model);
+    assert!(!with.differs, "{with:?}");
+    // The null case: a generator without offsets, the model without scatter.
+    let (plain, _) = generator(0.0);
+    model.effects.set("wheel_speed_scatter_rad_s", 0.0).unwrap();
+    let null = scatter_of(&plain, &model);
+    assert!(!null.differs, "{null:?}");
 }

@@ -141,6 +141,7 @@ mod tests {
             },
             time: None,
             curvature: Default::default(),
+            step_scatter: None,
             verdict: Verdict {
                 reproduces: true,
                 significant: vec![],

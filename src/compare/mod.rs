@@ -28,6 +28,7 @@ pub mod curvature;
 pub mod loss;
 mod options;
 mod report;
+pub mod scatter;
 pub mod tf;
 pub mod write;
 
@@ -234,6 +235,7 @@ pub struct PreparedReal<'a> {
     opts: CompareOptions,
     analysis: Analysis,
     rows: Vec<StepRow>,
+    scatter: crate::analysis::scatter::StepScatter,
     space: CommandSpace,
     stats: Vec<Vec<f64>>,
     tf_grid: tf::TfSetup,
@@ -277,11 +279,14 @@ impl<'a> PreparedReal<'a> {
             opts.tf_yardstick_splits,
             opts.bootstrap.seed ^ 0x5917,
         );
+        // As `analyze` prints it (its own bootstrap): a diagnostic beside the verdict.
+        let scatter = crate::analysis::scatter::step_scatter(&analysis.steps);
         Ok(Self {
             input: real,
             opts: *opts,
             analysis,
             rows,
+            scatter,
             space,
             stats,
             tf_grid,
@@ -311,6 +316,7 @@ pub struct PreparedSim<'a> {
     input: Input<'a>,
     analysis: Analysis,
     rows: Vec<StepRow>,
+    scatter: crate::analysis::scatter::StepScatter,
 }
 
 impl<'a> PreparedSim<'a> {
@@ -318,10 +324,12 @@ impl<'a> PreparedSim<'a> {
     pub fn new(sim: Input<'a>) -> Result<Self> {
         let analysis = analysis_of(sim.log)?;
         let rows = rows(&analysis);
+        let scatter = crate::analysis::scatter::step_scatter(&analysis.steps);
         Ok(Self {
             input: sim,
             analysis,
             rows,
+            scatter,
         })
     }
 }
@@ -543,6 +551,7 @@ pub fn compare_prepared_sims(prepared: &PreparedReal, sims: &[PreparedSim]) -> R
             maps,
             time,
             curvature,
+            step_scatter: Some(scatter::ScatterDiff::new(prepared.scatter, prepared_sim.scatter)),
             verdict,
             loss: None,
         };

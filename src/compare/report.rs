@@ -159,6 +159,10 @@ pub struct SimComparison {
     /// Body against wheels by commanded curvature (a diagnostic, not in the verdict).
     #[serde(default)]
     pub curvature: curvature::CurvatureBreakdown,
+    /// Both runs' step scatter (a diagnostic, not in the verdict or the loss); absent from
+    /// files written before it existed.
+    #[serde(default)]
+    pub step_scatter: Option<super::scatter::ScatterDiff>,
     /// Verdict.
     pub verdict: Verdict,
     /// The verdict in one number ([`loss::loss`]: each term 1 at its threshold, squared and

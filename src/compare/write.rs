@@ -120,6 +120,9 @@ pub fn verdict_text(r: &ComparisonReport) -> String {
                 k.class, k.steps.0, k.steps.1, st.real, st.sim, st.difference, ci(&st.difference_ci95)
             );
         }
+        if let Some(d) = &c.step_scatter {
+            let _ = writeln!(s, "  {}", d.line());
+        }
         if let Some(t) = &c.time {
             let _ = writeln!(
                 s,
@@ -364,6 +367,15 @@ pub fn write_comparison(r: &ComparisonReport, real_u: &[(f64, f64)], dir: &Path)
     );
     for c in &r.sims {
         html.comparison(curvature_table(r, c));
+    }
+    html.section("Step scatter");
+    html.paragraph(
+        "How far apart two steps with nearly the same command (within 1 rad/s) land, per wheel: 1.4826 · median |d| / √2 of the pairs' differences in tracking error, with a 95 % bootstrap-over-pairs interval; a step-level offset that window noise does not explain. A diagnostic: not part of the verdict or the loss.",
+    );
+    for c in &r.sims {
+        if let Some(d) = &c.step_scatter {
+            html.paragraph(format!("{}: {}", c.sim.name, d.line()));
+        }
     }
     html.section("Runs").paragraph(format!(
         "real: {} ({} on {}, {} steps{}).",

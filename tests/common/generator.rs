@@ -80,6 +80,10 @@ pub struct Unmodelled {
     /// Not an effect: noise on the pose's yaw, rad (a lidar pose has some; without it the
     /// transient yaw-rate floor is the estimator's round-off and any lag mismatch flags).
     pub pose_yaw_noise_rad: f64,
+    /// Each wheel's target is off by a normal offset of this standard deviation, rad/s, drawn
+    /// when a step begins and held for it (the step-to-step scatter of the measured runs); a
+    /// stop gets none.
+    pub step_offset_rad_s: f64,
 }
 
 /// The generator as a [`Plant`] the protocol runner can drive.
@@ -87,6 +91,8 @@ pub struct TestRobot {
     spec: TestRobotSpec,
     extra: Unmodelled,
     step: u32,
+    /// This step's wheel offsets ([`Unmodelled::step_offset_rad_s`]), rad/s.
+    offset: [f64; 2],
     body_v: f64,
     body_w: f64,
     rng: ChaCha8Rng,
@@ -110,6 +116,7 @@ impl TestRobot {
             spec,
             extra,
             step: 0,
+            offset: [0.0; 2],
             body_v: 0.0,
             body_w: 0.0,
             rng: ChaCha8Rng::seed_from_u64(spec.seed),
@@ -173,6 +180,9 @@ impl Plant for TestRobot {
             drift * self.spec.gain[0] * self.cmd.left_rad_s,
             drift * self.spec.gain[1] * self.cmd.right_rad_s,
         ];
+        if self.cmd != WheelSpeeds::default() {
+            target = [target[0] + self.offset[0], target[1] + self.offset[1]];
+        }
         if self.extra.wheel_limit_rad_s > 0.0 {
             let l = self.extra.wheel_limit_rad_s;
             target = target.map(|t| t.clamp(-l, l));
@@ -258,8 +268,13 @@ impl Plant for TestRobot {
         self.t = 0.0;
     }
     fn begin_step(&mut self, ctx: drive_sim::effects::StepContext) {
-        // The protocol runner says which step starts: the generator's battery sags with it.
+        // The protocol runner says which step starts: the generator's battery sags with it, and
+        // its wheels settle off their targets by a new offset.
         self.step = ctx.step;
+        if self.extra.step_offset_rad_s > 0.0 {
+            let n = Normal::new(0.0, self.extra.step_offset_rad_s).unwrap();
+            self.offset = [n.sample(&mut self.rng), n.sample(&mut self.rng)];
+        }
     }
 }
 

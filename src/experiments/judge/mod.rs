@@ -52,6 +52,9 @@ use serde::{Deserialize, Serialize};
 pub const REFERENCE_SEED_OFFSET: u64 = 5000;
 /// The verdict's criterion name: the run is not called "reproduces".
 pub const DIFFERS: &str = "differs";
+/// The step scatter's criterion name ([`crate::compare::scatter`]): outside the verdict, counted
+/// like the others so that a twin without the real run's step-to-step scatter shows it.
+pub const STEP_SCATTER: &str = "step_scatter";
 
 /// Options of [`judge`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -231,11 +234,12 @@ pub struct JudgeOutcome {
     /// own runs.
     pub indistinguishable: bool,
     /// Criteria whose Holm-adjusted p-value is at most `alpha`: where the twin falls short.
-    /// (Holm over the 13 criteria needs more references than the default 19 to reach 0.05.)
+    /// (Holm over the 14 criteria, the verdict's 13 and the step scatter, needs more references
+    /// than the default 19 to reach 0.05.)
     pub short_on: Vec<String>,
     /// Criteria whose own p-value is at most `alpha`, uncorrected: a diagnostic of where the
-    /// real run is more extreme than (nearly) every reference, not a test (13 criteria at 5 %
-    /// flag about 0.65 of them for a perfect twin).
+    /// real run is more extreme than (nearly) every reference, not a test (14 criteria at 5 %
+    /// flag about 0.7 of them for a perfect twin).
     pub flagged: Vec<String>,
     /// The simulated runs against the real run.
     pub real: CandidateScore,
@@ -246,7 +250,8 @@ pub struct JudgeOutcome {
 }
 
 /// The criteria a comparison fails, in a fixed order: the verdict, the medians, the areas,
-/// the maps. Returns (names, failed flags).
+/// the maps, then the step scatter ([`STEP_SCATTER`], a diagnostic outside the verdict and the
+/// loss: its intervals miss each other). Returns (names, failed flags).
 pub fn criteria_of(c: &SimComparison) -> Vec<(String, bool)> {
     let mut out = vec![(DIFFERS.to_string(), !c.verdict.reproduces)];
     for m in c.metrics.iter().filter(|m| m.tolerance.is_none()) {
@@ -258,6 +263,10 @@ pub fn criteria_of(c: &SimComparison) -> Vec<(String, bool)> {
     for t in &c.transfer {
         out.push((format!("{} map", t.channel), t.points > 0 && !t.within));
     }
+    out.push((
+        STEP_SCATTER.to_string(),
+        c.step_scatter.is_some_and(|d| d.differs),
+    ));
     out
 }
 
