@@ -200,6 +200,49 @@ fn judge_refuses_too_few_references_and_a_twin_of_another_robot() {
         &before,
     );
     assert!(!stderr(&o).contains("judge: "), "{}", stderr(&o));
+    // `--interval`: an unknown parameter, a box without its bounds, a parameter the twin
+    // leaves off (the declared Warthog has no droop): refused before the first judgement.
+    let o = drive_sim(&["judge", &log, "--interval", "speed_drop", "--out", "out"], d);
+    assert_refused(
+        &o,
+        &["--interval", "speed_drop", "did you mean `speed_droop`"],
+        d,
+        &before,
+    );
+    let o = drive_sim(
+        &[
+            "judge",
+            &log,
+            "--interval",
+            "speed_droop",
+            "--interval-box",
+            "speed_droop_rad_s_per_knm=2",
+            "--out",
+            "out",
+        ],
+        d,
+    );
+    assert_refused(&o, &["--interval-box", "no `:`"], d, &before);
+    let o = drive_sim(
+        &[
+            "judge",
+            &log,
+            "--interval",
+            "speed_droop",
+            "--interval-box",
+            "speed_droop_rad_s_per_knm=1:3",
+            "--out",
+            "out",
+        ],
+        d,
+    );
+    assert_refused(
+        &o,
+        &["--interval", "speed_droop_rad_s_per_knm", "not in the box [1, 3]"],
+        d,
+        &before,
+    );
+    assert!(!stderr(&o).contains("judge: "), "{}", stderr(&o));
 }
 
 /// Case 4: a pose outlier (a localisation jump) and a gap in a measured log are detected,

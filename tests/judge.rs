@@ -167,3 +167,61 @@ fn the_command_prints_the_table_and_writes_its_files() {
         assert!(out.join(f).metadata().unwrap().len() > 0, "{f}");
     }
 }
+
+/// The judge inverted into a set for one parameter, where the answer is known: the "real" run
+/// is a run of the model itself with its wheel-speed limit at 10 rad/s (a seed neither its runs
+/// nor its references use), so that the true value lies in the model family (the independent
+/// generator does not match the simulator closely enough for any value to be the truth: its
+/// clip at 10 rad/s with the right limit still gives p 0.1 above). The set holds 10, and both
+/// ends are bounded inside the box: a limit at a third of the largest command clips every
+/// step, one at the largest command clips none.
+#[test]
+fn the_inverted_judge_gives_a_set_that_holds_the_true_limit() {
+    use drive_sim::experiments::judge::interval::{
+        interval_specs, intervals, IntervalOptions, IntervalRequest,
+    };
+    let (_, mut model) = generator_and_model(10.0);
+    model.effects.set("wheel_speed_saturation_rad_s", 10.0).unwrap();
+    let real = drive_sim::experiments::tune::twin_run(&model, 100, 777).unwrap();
+    let generator = &real;
+    let o = opts();
+    let specs = interval_specs(&["wheel_speed_saturation_rad_s".into()], &[], &model, generator).unwrap();
+    let request = JudgeRequest {
+        real: generator,
+        model: &model,
+        opts: &o,
+    };
+    let centre = judge(&request, &|_| {}).unwrap();
+    assert!(
+        centre.indistinguishable,
+        "the right limit is rejected: {:?}",
+        centre.loss
+    );
+    let walk = IntervalOptions {
+        refine: 1,
+        max_per_side: 4,
+    };
+    let sets = intervals(
+        &IntervalRequest {
+            judge: request,
+            centre: &centre,
+            specs: &specs,
+            opts: &walk,
+        },
+        &|line| eprintln!("{line}"),
+    )
+    .unwrap();
+    let set = &sets[0];
+    eprintln!("{}", serde_json::to_string_pretty(set).unwrap());
+    let (lo, hi) = (set.lower.unwrap(), set.upper.unwrap());
+    assert!(lo.value <= 10.0 && 10.0 <= hi.value, "{lo:?} {hi:?}");
+    let rejected_below = lo.rejected_at.expect("bounded below");
+    let rejected_above = hi.rejected_at.expect("bounded above");
+    assert!(rejected_below > set.box_lower && rejected_above < set.box_upper);
+    assert!(
+        hi.value - lo.value < 0.6 * (set.box_upper - set.box_lower),
+        "{lo:?} {hi:?}"
+    );
+    // At most 1 + 2 x 4 judgements.
+    assert!(set.evaluations.len() <= 9, "{}", set.evaluations.len());
+}

@@ -169,6 +169,48 @@ pub fn commented_toml<T: Serialize>(
     Ok(out)
 }
 
+/// `text` (a twin file) with the comment of the line that sets `key` amended by `note`: a
+/// comment saying "no interval" has those words replaced, any other gets `; note` appended, a
+/// line without one gets `# note`. `None` when no line sets `key`. Only the comment changes:
+/// the file loads to the same model.
+pub fn annotate_value(text: &str, key: &str, note: &str) -> Option<String> {
+    let mut found = false;
+    let mut out = String::with_capacity(text.len() + note.len() + 4);
+    for line in text.lines() {
+        let t = line.trim_start();
+        let sets_key = !found
+            && t.strip_prefix(key)
+                .is_some_and(|rest| rest.trim_start().starts_with('='));
+        if sets_key {
+            found = true;
+            // Twin values are numbers: the first `#` after the `=` starts the comment.
+            match line.split_once('#') {
+                Some((value, comment)) if comment.contains("no interval") => {
+                    out.push_str(value);
+                    out.push('#');
+                    out.push_str(&comment.replacen("no interval", note, 1));
+                }
+                Some((value, comment)) => {
+                    out.push_str(value);
+                    out.push('#');
+                    out.push_str(comment.trim_end());
+                    out.push_str("; ");
+                    out.push_str(note);
+                }
+                None => {
+                    out.push_str(line.trim_end());
+                    out.push_str("  # ");
+                    out.push_str(note);
+                }
+            }
+        } else {
+            out.push_str(line);
+        }
+        out.push('\n');
+    }
+    found.then_some(out)
+}
+
 /// The two files of a twin.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TwinFiles {
@@ -434,6 +476,27 @@ pub fn write_twin(twin: &TwinFiles, dir: &Path) -> Result<Vec<PathBuf>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn annotate_value_changes_only_the_comment() {
+        let text = "[effects]\nspeed_droop_rad_s_per_knm = 1.5  # [tune] d: 1.5, chosen; no interval\nmotor_stall_torque_nm = 2000.0\nx = 1 # kept\n";
+        let a = annotate_value(text, "speed_droop_rad_s_per_knm", "95 % set [1, 2]").unwrap();
+        assert!(
+            a.contains("= 1.5  # [tune] d: 1.5, chosen; 95 % set [1, 2]\n"),
+            "{a}"
+        );
+        let b = annotate_value(text, "motor_stall_torque_nm", "set").unwrap();
+        assert!(b.contains("motor_stall_torque_nm = 2000.0  # set\n"), "{b}");
+        let c = annotate_value(text, "x", "set").unwrap();
+        assert!(c.contains("x = 1 # kept; set\n"), "{c}");
+        assert!(
+            annotate_value(text, "speed_droop", "set").is_none(),
+            "a prefix is not the key"
+        );
+        let before: toml::Value = toml::from_str(text).unwrap();
+        let after: toml::Value = toml::from_str(&a).unwrap();
+        assert_eq!(before, after);
+    }
 
     fn model() -> ModelParams {
         let (robot, _) = Robot::resolve("warthog").unwrap();

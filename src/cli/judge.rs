@@ -2,8 +2,10 @@
 //! run from a run of the twin? ([`crate::experiments::judge`]).
 
 use crate::calibration::twin;
+use crate::experiments::judge::interval::{self, IntervalOptions, IntervalRequest, ParamInterval};
 use crate::experiments::judge::{self, JudgeOptions, JudgeRequest};
-use std::path::PathBuf;
+use crate::experiments::tune::BoxOverride;
+use std::path::{Path, PathBuf};
 
 /// Options of `drive-sim judge`.
 #[derive(Debug, Clone, clap::Args)]
@@ -37,6 +39,24 @@ pub struct JudgeArgs {
     /// Level of compare's tests and of the judgement.
     #[arg(long, default_value_t = JudgeOptions::default().alpha)]
     pub alpha: f64,
+    /// Also a confidence set for each of these parameters of the twin (effect names or
+    /// parameter keys, as `tune --tune` takes them; comma-separated or repeated): the values at
+    /// which this test cannot tell the real run from the twin's runs, one parameter moving and
+    /// the others at the twin's values. About 6-12 judgements per parameter. When the twin is
+    /// given as files, writes OUT/twin/robot.toml and terrain.toml with each set in its value's
+    /// comment.
+    #[arg(long, value_delimiter = ',')]
+    pub interval: Vec<String>,
+    /// Box to walk a parameter in, `KEY=LOWER:UPPER` (default: the registry's search box for
+    /// this log's commands).
+    #[arg(long = "interval-box", value_name = "KEY=LOWER:UPPER")]
+    pub interval_box: Vec<String>,
+    /// Bisections of the gap between the last value in the set and the first outside it.
+    #[arg(long, default_value_t = IntervalOptions::default().refine)]
+    pub interval_refine: u32,
+    /// Most judgements per side of one parameter (steps outwards and bisections).
+    #[arg(long, default_value_t = IntervalOptions::default().max_per_side)]
+    pub interval_max_per_side: u32,
     /// Output directory.
     #[arg(long, default_value = "out/judge")]
     pub out: PathBuf,
@@ -65,20 +85,51 @@ impl JudgeArgs {
 pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
     let opts = args.options();
     opts.validate()?;
+    let iopts = IntervalOptions {
+        refine: args.interval_refine,
+        max_per_side: args.interval_max_per_side,
+    };
+    iopts.validate()?;
+    let boxes = args
+        .interval_box
+        .iter()
+        .map(|b| BoxOverride::parse(b))
+        .collect::<crate::Result<Vec<_>>>()
+        .map_err(rename_box)?;
     eprintln!("drive-sim: reading {}", args.real.display());
     let log = super::input::open_log(&args.real, &args.input)?;
     let models = super::input::starting_models(&log, &args.input)?;
     let model = twin::lift_effects(&models.robot, &models.terrain)?;
+    let specs = if args.interval.is_empty() {
+        Vec::new()
+    } else {
+        interval::interval_specs(&args.interval, &boxes, &model, &log)?
+    };
+    let twin_files = twin_file_texts(args)?;
     let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
     let t0 = std::time::Instant::now();
-    let outcome = judge::judge(
-        &JudgeRequest {
-            real: &log,
-            model: &model,
-            opts: &opts,
-        },
-        &|line| eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64()),
-    )?;
+    let progress = |line: &str| eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64());
+    let request = JudgeRequest {
+        real: &log,
+        model: &model,
+        opts: &opts,
+    };
+    let mut outcome = judge::judge(&request, &progress)?;
+    if !specs.is_empty() {
+        progress(&format!(
+            "interval: walking {} parameter(s), each value judged as above",
+            specs.len()
+        ));
+        outcome.intervals = interval::intervals(
+            &IntervalRequest {
+                judge: request,
+                centre: &outcome,
+                specs: &specs,
+                opts: &iopts,
+            },
+            &progress,
+        )?;
+    }
     let provenance = models.provenance(
         &args.real,
         serde_json::json!({
@@ -87,7 +138,21 @@ pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
             "terrain": args.input.terrain,
         }),
     );
-    let written = judge::write::write_judge(&outcome, &provenance, staged.path())?;
+    let mut written = judge::write::write_judge(&outcome, &provenance, staged.path())?;
+    if !outcome.intervals.is_empty() {
+        match &twin_files {
+            Some(files) => written.extend(write_annotated_twin(
+                files,
+                &outcome.intervals,
+                &outcome.dataset,
+                opts.real_steps.as_str(),
+                &staged.path().join("twin"),
+            )?),
+            None => eprintln!(
+                "drive-sim: the twin is not given as two files (--robot FILE --terrain FILE): the sets are in judge.json and judge.md only"
+            ),
+        }
+    }
     staged.commit()?;
     println!("{}", judge::write::table(&outcome));
     eprintln!(
@@ -97,4 +162,80 @@ pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
         t0.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// `--interval-box` errors name that option (the parser names `--box`, `tune`'s).
+fn rename_box(e: crate::Error) -> crate::Error {
+    match e {
+        crate::Error::Config { file, field, message } if file.to_str() == Some("--box") => {
+            crate::Error::Config {
+                file: "--interval-box".into(),
+                field,
+                message,
+            }
+        }
+        other => other,
+    }
+}
+
+/// The twin's two files as text, when `--robot` and `--terrain` name files (read before any
+/// run, so that a file that vanished is an error before the long work).
+fn twin_file_texts(args: &JudgeArgs) -> anyhow::Result<Option<[(PathBuf, String); 2]>> {
+    if args.interval.is_empty() {
+        return Ok(None);
+    }
+    let file = |arg: &Option<String>| {
+        arg.as_deref()
+            .map(Path::new)
+            .filter(|p| p.is_file())
+            .map(Path::to_path_buf)
+    };
+    let (Some(robot), Some(terrain)) = (file(&args.input.robot), file(&args.input.terrain)) else {
+        return Ok(None);
+    };
+    let read = |p: &Path| std::fs::read_to_string(p).map_err(|e| crate::Error::io(p, e));
+    Ok(Some([
+        (robot.clone(), read(&robot)?),
+        (terrain.clone(), read(&terrain)?),
+    ]))
+}
+
+/// Writes `dir/robot.toml` and `dir/terrain.toml`: the twin's files with each set in its
+/// value's comment (in whichever file sets it); returns their paths.
+fn write_annotated_twin(
+    files: &[(PathBuf, String); 2],
+    intervals: &[ParamInterval],
+    dataset: &str,
+    steps: &str,
+    dir: &Path,
+) -> anyhow::Result<Vec<PathBuf>> {
+    let mut texts = [files[0].1.clone(), files[1].1.clone()];
+    for i in intervals {
+        let key = i.name.rsplit('.').next().unwrap_or(&i.name);
+        let note = i.comment(dataset, steps);
+        let done = texts
+            .iter_mut()
+            .any(|t| match twin::annotate_value(t, key, &note) {
+                Some(new) => {
+                    *t = new;
+                    true
+                }
+                None => false,
+            });
+        if !done {
+            eprintln!(
+                "drive-sim: `{key}` is set in neither {} nor {}: its set is in judge.json only",
+                files[0].0.display(),
+                files[1].0.display()
+            );
+        }
+    }
+    std::fs::create_dir_all(dir).map_err(|e| crate::Error::io(dir, e))?;
+    let mut paths = Vec::new();
+    for (name, text) in ["robot.toml", "terrain.toml"].iter().zip(&texts) {
+        let p = dir.join(name);
+        crate::output::write_atomic(&p, text.as_bytes())?;
+        paths.push(p);
+    }
+    Ok(paths)
 }

@@ -34,6 +34,7 @@
 //! is the protocol of `drive-sim run --robot twin/robot.toml --terrain twin/terrain.toml
 //! --steps N --seed S`, held in memory.
 
+pub mod interval;
 pub mod write;
 
 use crate::analysis::bootstrap::{holm, Bootstrap};
@@ -247,6 +248,10 @@ pub struct JudgeOutcome {
     pub references: Vec<CandidateScore>,
     /// What happened, in words (runs that failed, the p-values' resolution).
     pub notes: Vec<String>,
+    /// Sets of the twin's parameters by inverting this test (`judge --interval`,
+    /// [`interval`]); empty unless asked.
+    #[serde(default)]
+    pub intervals: Vec<interval::ParamInterval>,
 }
 
 /// The criteria a comparison fails, in a fixed order: the verdict, the medians, the areas,
@@ -508,6 +513,7 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<Jud
         real: real_score,
         references,
         notes,
+        intervals: Vec::new(),
     })
 }
 

@@ -3,6 +3,7 @@
 //! often the twin's runs fail each criterion against the real run, beside how often they fail
 //! it against the twin's own runs).
 
+use super::interval::short as short_number;
 use super::{JudgeOutcome, DIFFERS};
 use crate::error::Result;
 use crate::provenance::Provenance;
@@ -71,6 +72,56 @@ pub fn table(o: &JudgeOutcome) -> String {
     }
     for note in &o.notes {
         s.push_str(&format!("\nNote: {note}\n"));
+    }
+    if !o.intervals.is_empty() {
+        s.push_str(&intervals_table(o));
+    }
+    s
+}
+
+/// The parameters' sets (`judge --interval`): one row per parameter, then every judged value.
+pub fn intervals_table(o: &JudgeOutcome) -> String {
+    let level = 100.0 * (1.0 - o.options.alpha);
+    let mut s = format!(
+        "\n**{level:.0} % sets by inverting this test** (one parameter moves, the others stay at the twin's values; the same seeds at every value):\n\n| parameter | twin's value | set | box | judged values (p) |\n|---|---|---|---|---|\n"
+    );
+    for i in &o.intervals {
+        let unit = if i.unit == "-" {
+            String::new()
+        } else {
+            format!(" {}", i.unit)
+        };
+        let set = match (&i.lower, &i.upper) {
+            (Some(lo), Some(hi)) => {
+                let end = |b: &super::interval::Bound| match b.rejected_at {
+                    None => format!("{:.4} (box)", b.value),
+                    Some(r) => format!("{:.4} (rejected at {:.4})", b.value, r),
+                };
+                format!("[{}, {}]", end(lo), end(hi))
+            }
+            _ => "empty: the twin's own value is rejected".into(),
+        };
+        let mut judged = i.evaluations.clone();
+        judged.sort_by(|a, b| a.value.total_cmp(&b.value));
+        let judged: Vec<String> = judged
+            .iter()
+            .map(|e| {
+                format!(
+                    "{:.4} ({:.2}{})",
+                    e.value,
+                    e.p,
+                    if e.accepted { "" } else { ", out" }
+                )
+            })
+            .collect();
+        s.push_str(&format!(
+            "| {} | {}{unit} | {set} | [{}, {}] | {} |\n",
+            i.name,
+            short_number(i.value),
+            short_number(i.box_lower),
+            short_number(i.box_upper),
+            judged.join(", ")
+        ));
     }
     s
 }
@@ -141,6 +192,8 @@ fn short(criterion: &str) -> String {
         format!("{} map", unitless(channel))
     } else if let Some(frame) = criterion.strip_prefix("t_area_pct_") {
         format!("T/U {frame}")
+    } else if criterion == super::STEP_SCATTER {
+        "step scatter".into()
     } else if let Some(m) = criterion.strip_prefix("median_slip_") {
         format!("slip {m}")
     } else {
