@@ -46,6 +46,11 @@ pub struct TermInput {
     /// effect that draws per step mixes it with the step index rather than taking numbers
     /// from the physics' stream, so switching such an effect on moves no other draw.
     pub run_seed: u64,
+    /// The operator is driving the robot between DRIVE steps (a re-orientation after an
+    /// interruption, [`crate::sim::Plant::begin_manoeuvre`]), not the protocol. An operator
+    /// closes the loop on where the robot goes; per-step effects of the protocol's steps do not
+    /// act there.
+    pub manoeuvre: bool,
 }
 
 impl TermInput {

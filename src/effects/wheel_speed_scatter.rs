@@ -21,8 +21,10 @@ use crate::kinematics::WheelSpeeds;
 ///
 /// `z` comes from a hash of the run's seed, the step index and the side: the same seed gives
 /// the same offsets, and switching the effect on moves no other random draw. A stop (both
-/// wheels told zero) gets none: a robot told to stop stands on its brakes. It acts before the
-/// speed limits, which clip a target pushed past them.
+/// wheels told zero) gets none: a robot told to stop stands on its brakes. Nor does the
+/// operator's manoeuvre between steps: an operator steers by where the robot goes (with the
+/// offsets, the simulated operator's open turns missed the centre and its runs left the site).
+/// It acts before the speed limits, which clip a target pushed past them.
 pub struct WheelSpeedScatter;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
@@ -58,7 +60,7 @@ impl Effect for WheelSpeedScatter {
         false
     }
     fn wheel_targets_in(&self, p: &[f64], w: WheelSpeeds, x: &TermInput) -> WheelSpeeds {
-        if p[0] == 0.0 || x.is_stop() {
+        if p[0] == 0.0 || x.is_stop() || x.manoeuvre {
             return w;
         }
         WheelSpeeds::new(
@@ -94,5 +96,10 @@ mod tests {
         };
         let zero = WheelSpeeds::default();
         assert_eq!(e.wheel_targets_in(&[0.5], zero, &stop), zero);
+        let manoeuvre = TermInput {
+            manoeuvre: true,
+            ..x(4, 0.1)
+        };
+        assert_eq!(e.wheel_targets_in(&[0.5], w, &manoeuvre), w);
     }
 }

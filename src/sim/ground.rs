@@ -178,6 +178,15 @@ impl Ground {
         }
     }
 
+    /// Half the side of the height field's square, m (`None` for the unbounded plane): beyond
+    /// it there is no ground.
+    pub fn half_extent_m(&self) -> Option<f64> {
+        match &self.shape {
+            Surface::Flat => None,
+            Surface::Field(grid) => Some(grid.half_m),
+        }
+    }
+
     /// Casts a ray from `origin` along the unit `dir` (world frame) up to `max_m`: the direct
     /// lookup of the module docs, parry's cast where the lookup declines.
     pub fn cast(&self, colliders: &ColliderSet, origin: [f64; 3], dir: [f64; 3], max_m: f64) -> Option<Hit> {

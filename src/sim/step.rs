@@ -68,6 +68,7 @@ impl Simulator {
             t_in_step_s: self.time_s - self.step_t0_s,
             step: self.ctx.step,
             run_seed: self.seed,
+            manoeuvre: self.manoeuvre,
         }
     }
 
@@ -436,6 +437,19 @@ impl Simulator {
             return Err(diverged(format!(
                 "the robot left the ground for more than {MAX_AIRBORNE_S} s at {p:?}"
             )));
+        }
+        // A robot that leaves the height field falls off its edge and rolls over; say where it
+        // went instead (an operator whose manoeuvres never bring it back, an effect that makes
+        // the protocol's steps leave the site).
+        if let Some(half) = self.ground.half_extent_m() {
+            if (p.x as f64).abs() > half || (p.y as f64).abs() > half {
+                return Err(diverged(format!(
+                    "the robot left the simulated ground, a {:.0} m square around the site, at ({:.1}, {:.1}) m: nothing brought it back to the safe area",
+                    2.0 * half,
+                    p.x,
+                    p.y
+                )));
+            }
         }
         let up = rb.position().rotation * Vector::Z;
         if up.z < 0.3 {
