@@ -174,6 +174,22 @@ pub fn tune(args: &TuneArgs) -> anyhow::Result<()> {
     staged.commit()?;
     print_outcome(&outcome)?;
     super::input::twin_hints(&args.real, &args.out, args.choose_on);
+    if outcome.accepted {
+        // The tuned values carry no interval: the judge, inverted, gives one (minutes each).
+        let names: Vec<String> = outcome
+            .params
+            .iter()
+            .map(|p| p.name.trim_start_matches("effect.").to_string())
+            .collect();
+        eprintln!(
+            "drive-sim: confidence sets for the tuned values (6-12 judgements each, on the steps they were chosen on): drive-sim judge {} --robot {} --terrain {} --real-steps {} --interval {}",
+            args.real.display(),
+            args.out.join("twin/robot.toml").display(),
+            args.out.join("twin/terrain.toml").display(),
+            args.choose_on.as_str(),
+            names.join(",")
+        );
+    }
     eprintln!(
         "drive-sim: wrote {} files into {} ({:.0} s)",
         written.len(),
