@@ -346,6 +346,9 @@ pub struct Analysis {
     /// Bootstrap intervals of the medians.
     #[serde(default)]
     pub median_ci95: MedianIntervals,
+    /// Step-to-step and within-step scatter of the steady wheel speeds ([`scatter`]).
+    #[serde(default)]
+    pub step_scatter: scatter::StepScatter,
     /// Flat rows for summary.json.
     pub rows: Vec<SummaryRow>,
 }
@@ -585,6 +588,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
     }
     rows.extend(exclusions.iter().map(SummaryRow::excluded));
     rows.sort_by_key(|r| (r.step, r.window.map_or(u32::MAX, |w| w)));
+    let step_scatter = scatter::step_scatter(&steps);
     Ok(Analysis {
         dataset: meta.name.clone(),
         robot: meta.robot.clone(),
@@ -605,6 +609,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         risk,
         transfer,
         median_ci95,
+        step_scatter,
         rows,
     })
 }

@@ -80,6 +80,20 @@ pub struct StepScatter {
     pub steps_with_two_windows: usize,
 }
 
+/// No pairs and no estimate (an analysis read from a file written before the scatter was).
+impl Default for StepScatter {
+    fn default() -> Self {
+        Self {
+            pairs: 0,
+            radius_rad_s: DEFAULT_RADIUS_RAD_S,
+            wheel_rad_s: None,
+            ci95: None,
+            within_step_rad_s: None,
+            steps_with_two_windows: 0,
+        }
+    }
+}
+
 /// What the estimator needs of one analysed step: its command and the realized wheel speeds
 /// of its steady windows.
 #[derive(Debug, Clone, PartialEq)]

@@ -50,6 +50,12 @@ impl Param {
         }
     }
 
+    /// The name options take (`--tune`, `--box`, `judge --interval`): an effect parameter's
+    /// key (`speed_droop_rad_s_per_knm`), a base parameter's report name ([`Param::name`]).
+    pub fn key(&self) -> String {
+        self.def().map_or_else(|| self.name(), |d| d.key.to_string())
+    }
+
     /// A property of the ground under the robot (fitted once per log when several logs of one
     /// robot are calibrated together, [`super::joint`]) rather than of the robot (fitted once
     /// for all): the terrain's friction and rolling resistance, and the effects that say so

@@ -4,7 +4,6 @@
 use crate::calibration::twin;
 use crate::experiments::judge::interval::{self, IntervalOptions, IntervalRequest, ParamInterval};
 use crate::experiments::judge::{self, JudgeOptions, JudgeRequest};
-use crate::experiments::tune::BoxOverride;
 use std::path::{Path, PathBuf};
 
 /// Options of `drive-sim judge`.
@@ -90,12 +89,7 @@ pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
         max_per_side: args.interval_max_per_side,
     };
     iopts.validate()?;
-    let boxes = args
-        .interval_box
-        .iter()
-        .map(|b| BoxOverride::parse(b))
-        .collect::<crate::Result<Vec<_>>>()
-        .map_err(rename_box)?;
+    let boxes = interval::parse_boxes(&args.interval_box)?;
     eprintln!("drive-sim: reading {}", args.real.display());
     let log = super::input::open_log(&args.real, &args.input)?;
     let models = super::input::starting_models(&log, &args.input)?;
@@ -164,20 +158,6 @@ pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `--interval-box` errors name that option (the parser names `--box`, `tune`'s).
-fn rename_box(e: crate::Error) -> crate::Error {
-    match e {
-        crate::Error::Config { file, field, message } if file.to_str() == Some("--box") => {
-            crate::Error::Config {
-                file: "--interval-box".into(),
-                field,
-                message,
-            }
-        }
-        other => other,
-    }
-}
-
 /// The twin's two files as text, when `--robot` and `--terrain` name files (read before any
 /// run, so that a file that vanished is an error before the long work).
 fn twin_file_texts(args: &JudgeArgs) -> anyhow::Result<Option<[(PathBuf, String); 2]>> {
@@ -201,7 +181,7 @@ fn twin_file_texts(args: &JudgeArgs) -> anyhow::Result<Option<[(PathBuf, String)
 }
 
 /// Writes `dir/robot.toml` and `dir/terrain.toml`: the twin's files with each set in its
-/// value's comment (in whichever file sets it); returns their paths.
+/// value's comment ([`judge::write::annotated_twin`]); returns their paths.
 fn write_annotated_twin(
     files: &[(PathBuf, String); 2],
     intervals: &[ParamInterval],
@@ -209,26 +189,14 @@ fn write_annotated_twin(
     steps: &str,
     dir: &Path,
 ) -> anyhow::Result<Vec<PathBuf>> {
-    let mut texts = [files[0].1.clone(), files[1].1.clone()];
-    for i in intervals {
-        let key = i.name.rsplit('.').next().unwrap_or(&i.name);
-        let note = i.comment(dataset, steps);
-        let done = texts
-            .iter_mut()
-            .any(|t| match twin::annotate_value(t, key, &note) {
-                Some(new) => {
-                    *t = new;
-                    true
-                }
-                None => false,
-            });
-        if !done {
-            eprintln!(
-                "drive-sim: `{key}` is set in neither {} nor {}: its set is in judge.json only",
-                files[0].0.display(),
-                files[1].0.display()
-            );
-        }
+    let (texts, unplaced) =
+        judge::write::annotated_twin([&files[0].1, &files[1].1], intervals, dataset, steps);
+    for key in unplaced {
+        eprintln!(
+            "drive-sim: `{key}` is set in neither {} nor {}: its set is in judge.json only",
+            files[0].0.display(),
+            files[1].0.display()
+        );
     }
     std::fs::create_dir_all(dir).map_err(|e| crate::Error::io(dir, e))?;
     let mut paths = Vec::new();

@@ -235,7 +235,6 @@ pub struct PreparedReal<'a> {
     opts: CompareOptions,
     analysis: Analysis,
     rows: Vec<StepRow>,
-    scatter: crate::analysis::scatter::StepScatter,
     space: CommandSpace,
     stats: Vec<Vec<f64>>,
     tf_grid: tf::TfSetup,
@@ -279,14 +278,11 @@ impl<'a> PreparedReal<'a> {
             opts.tf_yardstick_splits,
             opts.bootstrap.seed ^ 0x5917,
         );
-        // As `analyze` prints it (its own bootstrap): a diagnostic beside the verdict.
-        let scatter = crate::analysis::scatter::step_scatter(&analysis.steps);
         Ok(Self {
             input: real,
             opts: *opts,
             analysis,
             rows,
-            scatter,
             space,
             stats,
             tf_grid,
@@ -316,7 +312,6 @@ pub struct PreparedSim<'a> {
     input: Input<'a>,
     analysis: Analysis,
     rows: Vec<StepRow>,
-    scatter: crate::analysis::scatter::StepScatter,
 }
 
 impl<'a> PreparedSim<'a> {
@@ -324,12 +319,10 @@ impl<'a> PreparedSim<'a> {
     pub fn new(sim: Input<'a>) -> Result<Self> {
         let analysis = analysis_of(sim.log)?;
         let rows = rows(&analysis);
-        let scatter = crate::analysis::scatter::step_scatter(&analysis.steps);
         Ok(Self {
             input: sim,
             analysis,
             rows,
-            scatter,
         })
     }
 }
@@ -551,7 +544,8 @@ pub fn compare_prepared_sims(prepared: &PreparedReal, sims: &[PreparedSim]) -> R
             maps,
             time,
             curvature,
-            step_scatter: Some(scatter::ScatterDiff::new(prepared.scatter, prepared_sim.scatter)),
+            // As `analyze` prints them: a diagnostic beside the verdict.
+            step_scatter: Some(scatter::ScatterDiff::new(real_a.step_scatter, sim_a.step_scatter)),
             verdict,
             loss: None,
         };

@@ -179,7 +179,7 @@ pub fn write_analysis_report_of(
             risk: &a.risk,
             exclusions: &a.exclusions,
             rows: &a.rows,
-            step_scatter: crate::analysis::scatter::step_scatter(&a.steps),
+            step_scatter: a.step_scatter,
         })
         .collect();
     let med = |a: &Analysis| a.stats.rho.map_or(f64::NAN, |b| b.median);

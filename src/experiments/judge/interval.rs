@@ -160,17 +160,10 @@ pub fn short(v: f64) -> String {
     format!("{v:.digits$}")
 }
 
-/// The parameters `names` names (effect names, effect parameter keys or simulator base
-/// parameters, as `tune --tune` takes them), with the registry's boxes for the commands of
-/// `real` and the `boxes` given: checked before any run (an unknown name, a box that does not
-/// hold the twin's value: a configuration error naming `--interval` or `--interval-box`).
-pub fn interval_specs(
-    names: &[String],
-    boxes: &[BoxOverride],
-    model: &ModelParams,
-    real: &DriveLog,
-) -> Result<Vec<ParamSpec>> {
-    let rename = |e: Error| match e {
+/// `tune`'s errors for its `--tune` and `--box` as this walk's `--interval` and
+/// `--interval-box` (the parameters and boxes are resolved by the same code).
+fn as_interval_option(e: Error) -> Error {
+    match e {
         Error::Config { file, field, message } => {
             let option = match file.to_str() {
                 Some("--tune") => "--interval".into(),
@@ -184,7 +177,28 @@ pub fn interval_specs(
             }
         }
         other => other,
-    };
+    }
+}
+
+/// The boxes of `--interval-box KEY=LOWER:UPPER` (parsed before any log is read).
+pub fn parse_boxes(texts: &[String]) -> Result<Vec<BoxOverride>> {
+    texts
+        .iter()
+        .map(|b| BoxOverride::parse(b).map_err(as_interval_option))
+        .collect()
+}
+
+/// The parameters `names` names (effect names, effect parameter keys or simulator base
+/// parameters, as `tune --tune` takes them), with the registry's boxes for the commands of
+/// `real` and the `boxes` given: checked before any run (an unknown name, a box that does not
+/// hold the twin's value: a configuration error naming `--interval` or `--interval-box`).
+pub fn interval_specs(
+    names: &[String],
+    boxes: &[BoxOverride],
+    model: &ModelParams,
+    real: &DriveLog,
+) -> Result<Vec<ParamSpec>> {
+    let rename = as_interval_option;
     let reach = CommandReach::of_commands(real.samples.iter().map(|s| s.m.cmd), &model.robot.idd());
     let mut specs = tuned_specs(names, model, &reach).map_err(rename)?;
     apply_boxes(&mut specs, boxes).map_err(rename)?;
@@ -193,7 +207,7 @@ pub fn interval_specs(
         if !(value.is_finite() && spec.lower <= value && value <= spec.upper) {
             return Err(Error::config(
                 "--interval",
-                spec.param.def().map_or_else(|| spec.param.name(), |d| d.key.to_string()),
+                spec.param.key(),
                 format!(
                     "the twin's value {value} is not in the box [{}, {}] (a parameter the twin leaves off, or a box that misses it: `--interval-box KEY=LOWER:UPPER`)",
                     spec.lower, spec.upper
@@ -227,10 +241,7 @@ pub fn intervals(req: &IntervalRequest, progress: &(dyn Fn(&str) + Sync)) -> Res
     specs
         .iter()
         .map(|spec| {
-            let name = spec
-                .param
-                .def()
-                .map_or_else(|| spec.param.name(), |d| d.key.to_string());
+            let name = spec.param.key();
             let value = spec.param.get(model);
             // The twin's own value: its judgement is the centre's.
             let centre = Evaluation {

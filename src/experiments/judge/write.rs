@@ -3,8 +3,9 @@
 //! often the twin's runs fail each criterion against the real run, beside how often they fail
 //! it against the twin's own runs).
 
-use super::interval::short as short_number;
+use super::interval::{short as short_number, ParamInterval};
 use super::{JudgeOutcome, DIFFERS};
+use crate::calibration::twin::annotate_value;
 use crate::error::Result;
 use crate::provenance::Provenance;
 use crate::report::{bar_chart, AxisLabel, BarChart, BarSeries};
@@ -126,6 +127,36 @@ pub fn intervals_table(o: &JudgeOutcome) -> String {
     s
 }
 
+/// The twin's two files (`robot.toml`, `terrain.toml` as text) with each set of `intervals` in
+/// the comment of the line that sets its value, in whichever file sets it
+/// ([`crate::calibration::twin::annotate_value`]); and the keys neither file sets.
+pub fn annotated_twin(
+    texts: [&str; 2],
+    intervals: &[ParamInterval],
+    dataset: &str,
+    steps: &str,
+) -> ([String; 2], Vec<String>) {
+    let mut texts = texts.map(str::to_string);
+    let mut unplaced = Vec::new();
+    for i in intervals {
+        // A base parameter's report name is dotted (`terrain.friction.peak_longitudinal`); its
+        // file sets the last part.
+        let key = i.name.rsplit('.').next().unwrap_or(&i.name);
+        let note = i.comment(dataset, steps);
+        let placed = texts.iter_mut().any(|t| match annotate_value(t, key, &note) {
+            Some(new) => {
+                *t = new;
+                true
+            }
+            None => false,
+        });
+        if !placed {
+            unplaced.push(key.to_string());
+        }
+    }
+    (texts, unplaced)
+}
+
 /// Writes `judge.json` (stamped with `provenance`), `judge.md` and the rates' figure into
 /// `dir`; returns their paths.
 pub fn write_judge(o: &JudgeOutcome, provenance: &Provenance, dir: &Path) -> Result<Vec<PathBuf>> {
@@ -203,6 +234,54 @@ fn short(criterion: &str) -> String {
 
 #[cfg(test)]
 mod tests {
+    use super::super::interval::{Bound, ParamInterval};
+
+    /// Each set goes into whichever file sets its value; a key neither sets is returned.
+    #[test]
+    fn annotated_twin_places_each_set_in_its_file() {
+        let set = |name: &str| ParamInterval {
+            name: name.into(),
+            unit: "-".into(),
+            value: 1.0,
+            box_lower: 0.0,
+            box_upper: 2.0,
+            level: 0.95,
+            lower: Some(Bound {
+                value: 0.5,
+                rejected_at: Some(0.4),
+            }),
+            upper: Some(Bound {
+                value: 1.5,
+                rejected_at: Some(1.6),
+            }),
+            evaluations: Vec::new(),
+            method: String::new(),
+        };
+        let robot = "[effects]\nspeed_droop_rad_s_per_knm = 1.0  # [tune] no interval\n";
+        let terrain = "[friction]\npeak_longitudinal = 0.9\n";
+        let (texts, unplaced) = super::annotated_twin(
+            [robot, terrain],
+            &[
+                set("speed_droop_rad_s_per_knm"),
+                set("terrain.friction.peak_longitudinal"),
+                set("dead_time_s"),
+            ],
+            "d",
+            "all",
+        );
+        assert!(
+            texts[0].contains("# [tune] 95 % set [0.5000, 1.500]"),
+            "{}",
+            texts[0]
+        );
+        assert!(
+            texts[1].contains("peak_longitudinal = 0.9  # 95 % set"),
+            "{}",
+            texts[1]
+        );
+        assert_eq!(unplaced, vec!["dead_time_s".to_string()]);
+    }
+
     #[test]
     fn short_names() {
         for (long, s) in [

@@ -44,7 +44,7 @@ use runs::{evaluation, judged, loss_opts, run_against, seed_run, SeedRun};
 pub use write::twin_of;
 
 use crate::analysis::bootstrap::Bootstrap;
-use crate::calibration::params::{Param, ParamSpec};
+use crate::calibration::params::ParamSpec;
 use crate::calibration::{twin, ModelParams, PlantFactory, SimFactory};
 use crate::compare::loss::Loss;
 use crate::compare::{
@@ -445,13 +445,7 @@ fn format_values(specs: &[ParamSpec], x: &[f64]) -> String {
     specs
         .iter()
         .zip(x)
-        .map(|(s, v)| {
-            let name = match s.param {
-                Param::Effect { .. } => s.param.def().map_or("?", |d| d.key).to_string(),
-                _ => s.param.name(),
-            };
-            format!("{name}={v:.4}")
-        })
+        .map(|(s, v)| format!("{}={v:.4}", s.param.key()))
         .collect::<Vec<_>>()
         .join(" ")
 }

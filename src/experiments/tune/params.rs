@@ -116,11 +116,7 @@ impl BoxOverride {
 /// reversed, or outside an effect parameter's valid range is an error naming it.
 pub fn apply_boxes(specs: &mut [ParamSpec], boxes: &[BoxOverride]) -> Result<()> {
     for b in boxes {
-        let key_of = |s: &ParamSpec| {
-            s.param
-                .def()
-                .map_or_else(|| s.param.name(), |d| d.key.to_string())
-        };
+        let key_of = |s: &ParamSpec| s.param.key();
         let Some(s) = specs
             .iter_mut()
             .find(|s| key_of(s) == b.name || s.param.name() == b.name)
