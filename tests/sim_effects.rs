@@ -166,6 +166,53 @@ fn a_drooping_speed_loop_lets_the_ground_pull_both_sides_together() {
     assert!((straight - 8.0).abs() < 0.15, "{straight}");
 }
 
+/// The speed loop's integral (`droop_recovery`): with it, a pivot after a pivot the other way
+/// starts from the opposite torque, falls further short than a pivot after one the same way and
+/// wins the shortfall back over the step; a proportional droop falls short by the same amount
+/// whatever came before and wins nothing back; the recovery alone, without a droop, changes
+/// nothing.
+#[test]
+fn an_integral_in_the_speed_loop_remembers_the_previous_turn() {
+    // Shortfall of the left wheel (commanded 5 rad/s) in the windows 2-4 s and 4-6 s of a pivot
+    // that follows 6 s of `before`.
+    let pivot_after = |effects: &[(&str, f64)], before: WheelSpeeds| {
+        let (_, mut s) = setup("warthog", "asphalt", effects);
+        hold(&mut s, before, 6.0);
+        let run = hold(&mut s, WheelSpeeds::new(5.0, -5.0), 6.0);
+        let window = |from: usize| {
+            run[from..from + 40]
+                .iter()
+                .map(|x| x.0.enc.left_rad_s)
+                .sum::<f64>()
+                / 40.0
+        };
+        (1.0 - window(40) / 5.0, 1.0 - window(80) / 5.0)
+    };
+    let (same_way, other_way) = (WheelSpeeds::new(5.0, -5.0), WheelSpeeds::new(-5.0, 5.0));
+    let memory = [("speed_droop_rad_s_per_knm", 3.0), ("droop_recovery_s", 2.0)];
+    let (same1, same2) = pivot_after(&memory, same_way);
+    let (rev1, rev2) = pivot_after(&memory, other_way);
+    eprintln!("integral: same way {same1:.3} {same2:.3}, reversed {rev1:.3} {rev2:.3}");
+    assert!(
+        rev1 > same1 + 0.05,
+        "a reversed pivot falls further short: {rev1} vs {same1}"
+    );
+    assert!(rev2 < rev1 - 0.02, "and wins it back: {rev1} -> {rev2}");
+    assert!(same1.abs() < 0.05, "a learnt load costs little: {same1}");
+    let droop = [("speed_droop_rad_s_per_knm", 3.0)];
+    let (p_same1, p_same2) = pivot_after(&droop, same_way);
+    let (p_rev1, p_rev2) = pivot_after(&droop, other_way);
+    eprintln!("proportional: same way {p_same1:.3} {p_same2:.3}, reversed {p_rev1:.3} {p_rev2:.3}");
+    assert!(p_same1 > 0.05, "a proportional droop falls short: {p_same1}");
+    assert!(
+        (p_rev1 - p_same1).abs() < 0.01 && (p_rev2 - p_rev1).abs() < 0.01,
+        "and forgets"
+    );
+    let (ideal, _) = pivot_after(&[], other_way);
+    let (alone, _) = pivot_after(&[("droop_recovery_s", 2.0)], other_way);
+    assert_eq!(ideal, alone, "the recovery alone is the ideal loop");
+}
+
 #[test]
 fn more_turning_resistance_turns_slower() {
     let wz = |effects: &[(&str, f64)]| {

@@ -21,6 +21,7 @@ mod controller_kinematics;
 mod controller_wheel_limit;
 mod crab_angle;
 mod dead_time;
+mod droop_recovery;
 mod encoder_scale;
 mod icr_longitudinal_offset;
 mod imu_yaw_rate_bias;
@@ -276,6 +277,9 @@ pub struct PlantModifiers {
     /// The speed loop's droop: each side aims this many rad/s below its command per N·m it
     /// delivers (0: an ideal loop).
     pub speed_droop_rad_s_per_nm: f64,
+    /// Time constant of the speed loop's integral, which wins a drooped speed back, s
+    /// (infinite: a proportional loop, the droop stays).
+    pub speed_droop_recovery_s: f64,
 }
 
 impl Default for PlantModifiers {
@@ -291,6 +295,7 @@ impl Default for PlantModifiers {
             motor_stall_torque_nm: f64::INFINITY,
             motor_no_load_speed_rad_s: f64::INFINITY,
             speed_droop_rad_s_per_nm: 0.0,
+            speed_droop_recovery_s: f64::INFINITY,
         }
     }
 }
@@ -407,6 +412,7 @@ pub static REGISTRY: LazyLock<Vec<&'static dyn Effect>> = LazyLock::new(|| {
         &wheel_speed_saturation::WheelSpeedSaturation,
         &motor_torque_speed::MotorTorqueSpeed,
         &speed_droop::SpeedDroop,
+        &droop_recovery::DroopRecovery,
         &time_constant_scale::TimeConstantScale,
     ];
     // Discovered wheel terms act on the targets the motors receive, after the catalogue's

@@ -163,6 +163,7 @@ impl Simulator {
             contacts: vec![Contact::default(); n_wheels],
             forces: vec![ContactForce::default(); n_wheels],
             motor_torque_nm: [0.0; 2],
+            droop_integral_nm: [0.0; 2],
             saturated: [false; 2],
             time_s: 0.0,
             airborne_s: 0.0,

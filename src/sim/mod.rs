@@ -159,6 +159,8 @@ pub struct Simulator {
     forces: Vec<ContactForce>,
     /// Motor torque of each side in the last step, N·m.
     motor_torque_nm: [f64; 2],
+    /// The part of each side's torque the speed loop's integral supplies (droop recovery), N·m.
+    droop_integral_nm: [f64; 2],
     /// Whether each side was torque-limited in the last step.
     saturated: [bool; 2],
     time_s: f64,
@@ -237,6 +239,9 @@ impl Simulator {
         self.contacts.iter_mut().for_each(|c| *c = Contact::default());
         self.forces.iter_mut().for_each(|f| *f = ContactForce::default());
         self.motor_torque_nm = [0.0; 2];
+        // A replayed step starts with an empty integral: the log does not record the torque
+        // the previous step left in it.
+        self.droop_integral_nm = [0.0; 2];
         self.saturated = [false; 2];
         // Time restarts: a reset plant replays a step exactly as a new one would, so replays
         // can reuse one world for many steps.

@@ -222,11 +222,12 @@ impl Simulator {
         ];
         let tc = self.time_constant_s;
         // A drooping speed loop (an effect) aims below its command by the torque it delivered
-        // at the previous step: explicit, like the torque-speed line.
+        // at the previous step, less what its integral already supplies: explicit, like the
+        // torque-speed line.
         let droop = self.mods.speed_droop_rad_s_per_nm;
         let aim = [
-            self.ramp[0] - droop * self.motor_torque_nm[0],
-            self.ramp[1] - droop * self.motor_torque_nm[1],
+            self.ramp[0] - droop * (self.motor_torque_nm[0] - self.droop_integral_nm[0]),
+            self.ramp[1] - droop * (self.motor_torque_nm[1] - self.droop_integral_nm[1]),
         ];
         let target = [
             (self.omega[0] + dt / tc * aim[0]) / (1.0 + dt / tc),
@@ -309,6 +310,16 @@ impl Simulator {
             self.saturated[side] = saturated[side].is_some();
             self.motor_torque_nm[side] = saturated[side]
                 .unwrap_or_else(|| self.side_inertia_kg_m2 * (u[3 + side] - u0[3 + side]) / dt + react[side]);
+        }
+        // The speed loop's integral follows the torque (implicit Euler, stable at any step);
+        // without a recovery time it stays empty and the droop is proportional.
+        let recovery = self.mods.speed_droop_recovery_s;
+        if recovery.is_finite() {
+            let a = dt / recovery;
+            for side in 0..2 {
+                self.droop_integral_nm[side] =
+                    (self.droop_integral_nm[side] + a * self.motor_torque_nm[side]) / (1.0 + a);
+            }
         }
         if torsion > 0.0 {
             let tan_peak = self.tyre.tan_slip_angle_peak;

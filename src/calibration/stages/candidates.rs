@@ -492,6 +492,7 @@ mod tests {
             [
                 "motor_torque_speed",
                 "speed_droop",
+                "droop_recovery",
                 "turning_resistance_scale",
                 "suspension_torsion_m"
             ]
