@@ -337,3 +337,55 @@ fn the_step_scatter_a_model_lacks_is_measured_and_added() {
     let null = scatter_of(&plain, &model);
     assert!(!null.differs, "{null:?}");
 }
+
+/// The turn memory (`compare`'s diagnostic): a generator whose speed loop remembers the last
+/// turn (its own equation of the commands, not the simulator's torque-driven integral) against
+/// the simulated Warthog without one: `compare` says the simulated loop forgets; the simulator
+/// with `droop_recovery` has a memory of its own (interval above zero); and the generator without
+/// memory is not flagged against the model without it (the null case).
+#[test]
+fn the_turn_memory_a_model_lacks_is_measured() {
+    use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};
+    use drive_sim::calibration::twin;
+    use drive_sim::terrain::Terrain;
+    let generator = |memory_rad_s: f64| {
+        let extra = Unmodelled {
+            turn_memory_rad_s: memory_rad_s,
+            turn_memory_s: 3.0,
+            pose_yaw_noise_rad: 0.01,
+            ..Unmodelled::default()
+        };
+        drive_log_with("generator", TestRobotSpec::warthog_on_asphalt(5), extra, 150).0
+    };
+    let (terrain, _) = Terrain::resolve("asphalt").unwrap();
+    let (robot, _) = drive_sim::robot::Robot::resolve("warthog").unwrap();
+    let mut model = twin::lift_effects(&robot, &terrain).unwrap();
+    let memory_of = |real: &DriveLog, model: &drive_sim::calibration::ModelParams| {
+        let sim = drive_sim::experiments::tune::twin_run(model, 150, 11).unwrap();
+        let r = compare(input(real), &[input(&sim)], &CompareOptions::default()).unwrap();
+        let d = r.sims[0].turn_memory.unwrap();
+        eprintln!("{}", d.line());
+        d
+    };
+    let remembering = generator(2.0);
+    let without = memory_of(&remembering, &model);
+    assert!(
+        without.differs && without.line().contains("forgets"),
+        "{without:?}"
+    );
+    let real = without.real.reversed_minus_same.unwrap();
+    assert!(real > 0.1, "the generator's memory is measured: {real}");
+    model.effects.set("speed_droop_rad_s_per_knm", 3.0).unwrap();
+    model.effects.set("droop_recovery_s", 2.0).unwrap();
+    let with = memory_of(&remembering, &model);
+    let sim = with.sim.ci95.unwrap();
+    assert!(sim.lower > 0.0, "the simulator's integral remembers: {with:?}");
+    // The null case: a generator without memory, the model without it.
+    model.effects.set("droop_recovery_s", 0.0).unwrap();
+    model.effects.set("speed_droop_rad_s_per_knm", 0.0).unwrap();
+    let null = memory_of(&generator(0.0), &model);
+    assert!(!null.differs, "{null:?}");
+    // Measured as nothing: well within the tolerance (an exact interval may still miss zero by
+    // a hair, as 5 % of 95 % intervals do).
+    assert!(null.real.reversed_minus_same.unwrap().abs() < 0.02, "{null:?}");
+}

@@ -17,6 +17,7 @@ pub mod slip;
 pub mod smoother;
 pub mod spaces;
 pub mod stats;
+pub mod turn_memory;
 pub mod velocity;
 
 use crate::kinematics::{BodyVelocity, WheelSpeeds};
@@ -155,6 +156,11 @@ pub struct StepResult {
     pub steady: SlipRecord,
     /// ρ of the steady state.
     pub steady_rho: Rho,
+    /// Measured wheel speeds at the step's first sample, rad/s: what the robot was doing when
+    /// the step began (the previous step's end, or the operator's manoeuvre), which a half of a
+    /// run keeps although it drops the previous step ([`turn_memory`]).
+    #[serde(default)]
+    pub start_wheels: WheelSpeeds,
 }
 
 /// Box-plot statistics of the steady-state slips and ρ over the analysed steps.
@@ -349,6 +355,9 @@ pub struct Analysis {
     /// Step-to-step and within-step scatter of the steady wheel speeds ([`scatter`]).
     #[serde(default)]
     pub step_scatter: scatter::StepScatter,
+    /// How loaded wheels track by the previous step's turn ([`turn_memory`]).
+    #[serde(default)]
+    pub turn_memory: turn_memory::TurnMemory,
     /// Flat rows for summary.json.
     pub rows: Vec<SummaryRow>,
 }
@@ -450,8 +459,14 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
             mean_of(steady.iter().map(|w| w.slip.realized_body.wz_rad_s)),
         );
         let rec = slip::slip(&idd, cmd, wheels, body);
+        let start_wheels = wins
+            .first()
+            .and_then(|w| w.first())
+            .map(|s| s.enc)
+            .unwrap_or_default();
         steps.push(StepResult {
             step: seg.step,
+            start_wheels,
             windows,
             steady_rho: rho::rho(&mass, rec.cmd_body, rec.realized_body),
             steady: rec,
@@ -588,7 +603,9 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
     }
     rows.extend(exclusions.iter().map(SummaryRow::excluded));
     rows.sort_by_key(|r| (r.step, r.window.map_or(u32::MAX, |w| w)));
-    let step_scatter = scatter::step_scatter(&steps);
+    let wheels: Vec<scatter::StepWheels> = steps.iter().map(scatter::StepWheels::of).collect();
+    let step_scatter = scatter::step_scatter_of(&wheels);
+    let turn_memory = turn_memory::turn_memory(&wheels);
     Ok(Analysis {
         dataset: meta.name.clone(),
         robot: meta.robot.clone(),
@@ -610,6 +627,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         transfer,
         median_ci95,
         step_scatter,
+        turn_memory,
         rows,
     })
 }

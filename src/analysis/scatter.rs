@@ -104,6 +104,9 @@ pub struct StepWheels {
     pub cmd_rad_s: [f64; 2],
     /// Steady windows (index ≥ 1) and their mean realized wheel speeds (left, right), rad/s.
     pub steady_windows: Vec<(u32, [f64; 2])>,
+    /// Measured wheel speeds (left, right) at the step's first sample, rad/s: what the robot
+    /// was doing when the step began ([`super::turn_memory`]).
+    pub start_rad_s: [f64; 2],
 }
 
 impl StepWheels {
@@ -111,6 +114,7 @@ impl StepWheels {
     pub fn of(step: &StepResult) -> Self {
         Self {
             step: step.step,
+            start_rad_s: [step.start_wheels.left_rad_s, step.start_wheels.right_rad_s],
             cmd_rad_s: [
                 step.steady.cmd_wheels.left_rad_s,
                 step.steady.cmd_wheels.right_rad_s,
@@ -139,7 +143,7 @@ impl StepWheels {
     }
 
     /// The wheel speeds of window `k`, if finite.
-    fn window(&self, k: u32) -> Option<[f64; 2]> {
+    pub(crate) fn window(&self, k: u32) -> Option<[f64; 2]> {
         self.steady_windows
             .iter()
             .find(|(w, _)| *w == k)
@@ -190,7 +194,12 @@ fn nearest_pairs(pts: &[(u32, [f64; 2])], radius_rad_s: f64) -> Vec<(usize, usiz
 /// (2000 resamples, the project's seed).
 pub fn step_scatter(steps: &[StepResult]) -> StepScatter {
     let wheels: Vec<StepWheels> = steps.iter().map(StepWheels::of).collect();
-    step_scatter_with(&wheels, DEFAULT_RADIUS_RAD_S, &Bootstrap::default())
+    step_scatter_of(&wheels)
+}
+
+/// [`step_scatter`] of steps already reduced to their wheel speeds.
+pub fn step_scatter_of(wheels: &[StepWheels]) -> StepScatter {
+    step_scatter_with(wheels, DEFAULT_RADIUS_RAD_S, &Bootstrap::default())
 }
 
 /// The step-to-step scatter of `steps` (pairs closer than `radius_rad_s` in wheel-command
@@ -310,6 +319,7 @@ mod tests {
                     step,
                     cmd_rad_s: cmd,
                     steady_windows,
+                    start_rad_s: [0.0; 2],
                 }
             })
             .collect()
@@ -421,6 +431,7 @@ mod tests {
             step: k,
             cmd_rad_s: cmd,
             steady_windows: vec![(1, [cmd[0] + e[0], cmd[1] + e[1]]), (2, [cmd[0], cmd[1]])],
+            start_rad_s: [0.0; 2],
         };
         // Step 1 is 0.5 from both 0 and 2: its neighbour is step 0. Step 0's is 1, step 2's is
         // 1: pairs (0, 1) and (1, 2). Step 3 has no neighbour within 1 rad/s.

@@ -142,6 +142,7 @@ fn print_analysis_table(analyses: &[crate::analysis::Analysis]) -> anyhow::Resul
         // Steps with nearly the same command against the two steady windows of one step: a
         // step-level offset that window noise does not explain (see `analysis::scatter`).
         writeln!(out, "{:<20} {}", "", a.step_scatter)?;
+        writeln!(out, "{:<20} {}", "", a.turn_memory)?;
     }
     Ok(())
 }

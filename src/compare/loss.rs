@@ -142,6 +142,7 @@ mod tests {
             time: None,
             curvature: Default::default(),
             step_scatter: None,
+            turn_memory: None,
             verdict: Verdict {
                 reproduces: true,
                 significant: vec![],

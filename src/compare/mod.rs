@@ -30,6 +30,7 @@ mod options;
 mod report;
 pub mod scatter;
 pub mod tf;
+pub mod turn_memory;
 pub mod write;
 
 use options::check_options;
@@ -546,6 +547,10 @@ pub fn compare_prepared_sims(prepared: &PreparedReal, sims: &[PreparedSim]) -> R
             curvature,
             // As `analyze` prints them: a diagnostic beside the verdict.
             step_scatter: Some(scatter::ScatterDiff::new(real_a.step_scatter, sim_a.step_scatter)),
+            turn_memory: Some(turn_memory::TurnMemoryDiff::new(
+                real_a.turn_memory,
+                sim_a.turn_memory,
+            )),
             verdict,
             loss: None,
         };

@@ -163,6 +163,10 @@ pub struct SimComparison {
     /// files written before it existed.
     #[serde(default)]
     pub step_scatter: Option<super::scatter::ScatterDiff>,
+    /// Both runs' turn memory (a diagnostic, not in the verdict or the loss); absent from files
+    /// written before it existed.
+    #[serde(default)]
+    pub turn_memory: Option<super::turn_memory::TurnMemoryDiff>,
     /// Verdict.
     pub verdict: Verdict,
     /// The verdict in one number ([`loss::loss`]: each term 1 at its threshold, squared and

@@ -123,6 +123,9 @@ pub fn verdict_text(r: &ComparisonReport) -> String {
         if let Some(d) = &c.step_scatter {
             let _ = writeln!(s, "  {}", d.line());
         }
+        if let Some(d) = &c.turn_memory {
+            let _ = writeln!(s, "  {}", d.line());
+        }
         if let Some(t) = &c.time {
             let _ = writeln!(
                 s,
@@ -374,6 +377,15 @@ pub fn write_comparison(r: &ComparisonReport, real_u: &[(f64, f64)], dir: &Path)
     );
     for c in &r.sims {
         if let Some(d) = &c.step_scatter {
+            html.paragraph(format!("{}: {}", c.sim.name, d.line()));
+        }
+    }
+    html.section("Turn memory");
+    html.paragraph(
+        "How far a loaded wheel (a turn of at least 6 rad/s between the sides, the wheel commanded at least 3 rad/s) falls short of its command in the first steady window, after a turn the other way against after a turn the same way: the median shortfall's difference, with a 95 % two-sample bootstrap-by-step interval. A speed loop with an integral remembers the previous step's torque; one without does not. A diagnostic: not part of the verdict or the loss.",
+    );
+    for c in &r.sims {
+        if let Some(d) = &c.turn_memory {
             html.paragraph(format!("{}: {}", c.sim.name, d.line()));
         }
     }

@@ -82,6 +82,8 @@ struct DatasetSummary<'a> {
     /// Step-to-step against within-step scatter of the steady wheel speeds, computed from the
     /// same analysed steps as `rows`.
     step_scatter: crate::analysis::scatter::StepScatter,
+    /// How loaded wheels track by the previous step's turn, from the same analysed steps.
+    turn_memory: crate::analysis::turn_memory::TurnMemory,
 }
 
 fn steady(a: &Analysis, f: impl Fn(&StepResult) -> f64) -> Vec<f64> {
@@ -180,6 +182,7 @@ pub fn write_analysis_report_of(
             exclusions: &a.exclusions,
             rows: &a.rows,
             step_scatter: a.step_scatter,
+            turn_memory: a.turn_memory,
         })
         .collect();
     let med = |a: &Analysis| a.stats.rho.map_or(f64::NAN, |b| b.median);

@@ -84,6 +84,16 @@ pub struct Unmodelled {
     /// when a step begins and held for it (the step-to-step scatter of the measured runs); a
     /// stop gets none.
     pub step_offset_rad_s: f64,
+    /// A speed loop that remembers the last turn's load: a skid-steer turn loads the wheels by
+    /// its direction more than by its rate, `s = tanh(d / 2 rad/s)` of the commanded difference
+    /// `d = u_l − u_r`; the loop has learnt a load `m` that follows `s` with time constant
+    /// [`Unmodelled::turn_memory_s`], and the wheels give way by this many rad/s times `s − m`,
+    /// the outer wheel slower, the inner faster (a new turn, most of all one the other way,
+    /// costs speed until learnt). This file's own equation of the commands, not the
+    /// simulator's torque-driven integral. 0: none.
+    pub turn_memory_rad_s: f64,
+    /// Time constant of the learnt turn, s.
+    pub turn_memory_s: f64,
 }
 
 /// The generator as a [`Plant`] the protocol runner can drive.
@@ -93,6 +103,8 @@ pub struct TestRobot {
     step: u32,
     /// This step's wheel offsets ([`Unmodelled::step_offset_rad_s`]), rad/s.
     offset: [f64; 2],
+    /// The learnt turn load ([`Unmodelled::turn_memory_rad_s`]), between -1 and 1.
+    learnt_turn: f64,
     body_v: f64,
     body_w: f64,
     rng: ChaCha8Rng,
@@ -117,6 +129,7 @@ impl TestRobot {
             extra,
             step: 0,
             offset: [0.0; 2],
+            learnt_turn: 0.0,
             body_v: 0.0,
             body_w: 0.0,
             rng: ChaCha8Rng::seed_from_u64(spec.seed),
@@ -187,7 +200,14 @@ impl Plant for TestRobot {
             let l = self.extra.wheel_limit_rad_s;
             target = target.map(|t| t.clamp(-l, l));
         }
+        let turn = ((self.cmd.left_rad_s - self.cmd.right_rad_s) / 2.0).tanh();
         for _ in 0..n {
+            let mut target = target;
+            if self.extra.turn_memory_rad_s > 0.0 {
+                let give = self.extra.turn_memory_rad_s * (turn - self.learnt_turn);
+                target = [target[0] - give, target[1] + give];
+                self.learnt_turn += h / self.extra.turn_memory_s * (turn - self.learnt_turn);
+            }
             for (w, t) in self.wheels.iter_mut().zip(target) {
                 *w += h / self.spec.lag_s * (t - *w);
             }

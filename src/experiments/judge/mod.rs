@@ -56,6 +56,9 @@ pub const DIFFERS: &str = "differs";
 /// The step scatter's criterion name ([`crate::compare::scatter`]): outside the verdict, counted
 /// like the others so that a twin without the real run's step-to-step scatter shows it.
 pub const STEP_SCATTER: &str = "step_scatter";
+/// The turn memory's criterion name ([`crate::compare::turn_memory`]): outside the verdict,
+/// counted like the step scatter.
+pub const TURN_MEMORY: &str = "turn_memory";
 
 /// Options of [`judge`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -255,8 +258,9 @@ pub struct JudgeOutcome {
 }
 
 /// The criteria a comparison fails, in a fixed order: the verdict, the medians, the areas,
-/// the maps, then the step scatter ([`STEP_SCATTER`], a diagnostic outside the verdict and the
-/// loss: its intervals miss each other). Returns (names, failed flags).
+/// the maps, then the step scatter ([`STEP_SCATTER`]) and the turn memory ([`TURN_MEMORY`]),
+/// diagnostics outside the verdict and the loss (their intervals miss each other). Returns
+/// (names, failed flags).
 pub fn criteria_of(c: &SimComparison) -> Vec<(String, bool)> {
     let mut out = vec![(DIFFERS.to_string(), !c.verdict.reproduces)];
     for m in c.metrics.iter().filter(|m| m.tolerance.is_none()) {
@@ -272,6 +276,7 @@ pub fn criteria_of(c: &SimComparison) -> Vec<(String, bool)> {
         STEP_SCATTER.to_string(),
         c.step_scatter.is_some_and(|d| d.differs),
     ));
+    out.push((TURN_MEMORY.to_string(), c.turn_memory.is_some_and(|d| d.differs)));
     out
 }
 

@@ -225,6 +225,8 @@ fn short(criterion: &str) -> String {
         format!("T/U {frame}")
     } else if criterion == super::STEP_SCATTER {
         "step scatter".into()
+    } else if criterion == super::TURN_MEMORY {
+        "turn memory".into()
     } else if let Some(m) = criterion.strip_prefix("median_slip_") {
         format!("slip {m}")
     } else {
