@@ -243,6 +243,18 @@ fn judge_refuses_too_few_references_and_a_twin_of_another_robot() {
         &before,
     );
     assert!(!stderr(&o).contains("judge: "), "{}", stderr(&o));
+    // `--inject`: an unknown effect parameter and a value outside its range.
+    let o = drive_sim(
+        &["judge", &log, "--inject", "droop_recovery=2", "--out", "out"],
+        d,
+    );
+    assert_refused(&o, &["droop_recovery", "droop_recovery_s"], d, &before);
+    let o = drive_sim(
+        &["judge", &log, "--inject", "droop_recovery_s=-1", "--out", "out"],
+        d,
+    );
+    assert_refused(&o, &["droop_recovery_s", "-1"], d, &before);
+    assert!(!stderr(&o).contains("judge: "), "{}", stderr(&o));
 }
 
 /// Case 4: a pose outlier (a localisation jump) and a gap in a measured log are detected,

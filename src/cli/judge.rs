@@ -56,6 +56,10 @@ pub struct JudgeArgs {
     /// Most judgements per side of one parameter (steps outwards and bisections).
     #[arg(long, default_value_t = IntervalOptions::default().max_per_side)]
     pub interval_max_per_side: u32,
+    /// Set an effect parameter of the twin on top of its files, `NAME=VALUE` (repeatable, as
+    /// `tune --inject`): judge a variant without writing its files.
+    #[arg(long = "inject", value_name = "EFFECT=VALUE")]
+    pub inject: Vec<String>,
     /// Output directory.
     #[arg(long, default_value = "out/judge")]
     pub out: PathBuf,
@@ -93,7 +97,10 @@ pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
     eprintln!("drive-sim: reading {}", args.real.display());
     let log = super::input::open_log(&args.real, &args.input)?;
     let models = super::input::starting_models(&log, &args.input)?;
-    let model = twin::lift_effects(&models.robot, &models.terrain)?;
+    let mut model = twin::lift_effects(&models.robot, &models.terrain)?;
+    for a in &args.inject {
+        model.effects.apply_assignment(a)?;
+    }
     let specs = if args.interval.is_empty() {
         Vec::new()
     } else {
@@ -130,11 +137,15 @@ pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
             "options": opts,
             "robot": args.input.robot,
             "terrain": args.input.terrain,
+            "inject": args.inject,
         }),
     );
     let mut written = judge::write::write_judge(&outcome, &provenance, staged.path())?;
     if !outcome.intervals.is_empty() {
         match &twin_files {
+            Some(_) if !args.inject.is_empty() => eprintln!(
+                "drive-sim: --inject changed the twin its files describe: the sets are in judge.json and judge.md only"
+            ),
             Some(files) => written.extend(write_annotated_twin(
                 files,
                 &outcome.intervals,
