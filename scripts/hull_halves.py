@@ -8,7 +8,15 @@ and of the reached ones (T) in each half, then every step of `--half` whose reac
 adds more than `--min` (rad/s)² to the other half's T hull, with its command.
 
     drive-sim analyze ../shared/data/measured/warthog_asphalt.csv --out out/an
-    python3 scripts/hull_halves.py out/an/summary.json [--half even] [--min 3]
+    python3 scripts/hull_halves.py out/an/summary.json [--half even] [--min 3] [--halvings 500]
+
+With `--halvings N` it also asks whether the odd/even split is unusual: it splits the run's
+steps into two random halves N times (seeded) and prints where the odd/even difference of the T
+hulls falls among theirs (median, 90th and 95th percentiles, and the share of random halvings
+that differ at least as much, and by the target's `--tolerance` or more), in percentage points
+of the area of U (the commanded square,
+`--u-half-width` rad/s either side of zero). A difference that random halvings often reach is
+the luck of the split, which no model chosen on one half can foresee in the other.
 
 Areas are unclipped hulls in (rad/s)², so they differ from `t_area_pct_wheels` (clipped by U,
 as a percentage of it) by that clipping and scale; the question here is which steps make the
@@ -17,6 +25,7 @@ cover area the odd steps never showed (README, "Can `compare` tell them apart?")
 """
 import argparse
 import json
+import random
 
 
 def hull(points):
@@ -51,6 +60,10 @@ def main():
     ap.add_argument("summary")
     ap.add_argument("--half", choices=["odd", "even"], default="even", help="the half whose steps are examined")
     ap.add_argument("--min", type=float, default=3.0, help="smallest added area reported, (rad/s)²")
+    ap.add_argument("--halvings", type=int, default=0, help="random halvings to place the odd/even split among")
+    ap.add_argument("--u-half-width", type=float, default=16.67, help="U's half-width, rad/s (the Warthog's)")
+    ap.add_argument("--tolerance", type=float, default=5.0, help="the target's T/U tolerance, pp of U")
+    ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
     for d in json.load(open(args.summary))["datasets"]:
         steps = {}
@@ -71,6 +84,23 @@ def main():
             if added > args.min:
                 print(f"  {args.half} step {k}: command ({cmd(k)[0]:.1f}, {cmd(k)[1]:.1f}) reached "
                       f"({reached(k)[0]:.1f}, {reached(k)[1]:.1f}) rad/s: adds {added:.0f} (rad/s)² to the other half's T hull")
+        if args.halvings > 0:
+            u = (2.0 * args.u_half_width) ** 2
+            gap = lambda a, b: abs(area([reached(k) for k in a]) - area([reached(k) for k in b])) / u * 100.0
+            split = gap(half["odd"], half["even"])
+            rng = random.Random(args.seed)
+            keys = sorted(steps)
+            diffs = []
+            for _ in range(args.halvings):
+                k = keys[:]
+                rng.shuffle(k)
+                diffs.append(gap(k[: len(k) // 2], k[len(k) // 2:]))
+            diffs.sort()
+            q = lambda p: diffs[min(len(diffs) - 1, int(p * len(diffs)))]
+            print(f"  T hulls' odd/even difference {split:.1f} pp of U; {args.halvings} random halvings: median "
+                  f"{q(0.5):.1f}, 90 % {q(0.9):.1f}, 95 % {q(0.95):.1f} pp; "
+                  f"{sum(x >= split for x in diffs) / len(diffs):.0%} differ at least as much, "
+                  f"{sum(x >= args.tolerance for x in diffs) / len(diffs):.0%} by {args.tolerance:g} pp or more")
 
 
 if __name__ == "__main__":
