@@ -23,30 +23,19 @@ Prints a markdown table and writes it to OUT/table.md; every command run is in O
 import argparse
 import json
 import os
-import subprocess
-import sys
 
-MEASURED = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "measured")
+from script_common import DEFAULT_BIN, MEASURED, Runner
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("twins", nargs="+", help="DATASET=TWIN_DIR")
     ap.add_argument("--out", required=True)
-    ap.add_argument("--bin", default=os.path.join(os.path.dirname(__file__), "..", "target", "release", "drive-sim"))
+    ap.add_argument("--bin", default=DEFAULT_BIN)
     ap.add_argument("--references", type=int, default=19)
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
-    os.makedirs(args.out, exist_ok=True)
-    log = open(os.path.join(args.out, "commands.txt"), "w")
-
-    def run(cmd):
-        log.write(" ".join(cmd) + "\n")
-        log.flush()
-        r = subprocess.run(cmd, capture_output=True, text=True)
-        if r.returncode != 0:
-            sys.exit(f"failed ({r.returncode}): {' '.join(cmd)}\n{r.stderr}")
-        return r
+    run = Runner(args.out).run
 
     rows = []
     for spec in args.twins:
