@@ -24,7 +24,7 @@ import argparse
 import json
 import os
 
-from script_common import DEFAULT_BIN, MEASURED, Runner
+from script_common import DEFAULT_BIN, MEASURED, Runner, write_table
 TUNED = "motor_torque_speed,speed_droop,droop_recovery,turning_resistance_scale"
 
 
@@ -71,12 +71,10 @@ def main():
         rows.append(f"| {dataset} | {chosen_on} / {judged_on} | {before} | "
                     f"{value['effect.speed_droop_rad_s_per_knm']:.2f}, {value['effect.droop_recovery_s']:.2f} s"
                     f" ({'accepted' if t['accepted'] else 'start kept'}) | {after} |")
-    table = ("| dataset | chosen / judged on | loss p, twin | runs whose turn memory differs | step scatter differs | "
-             "T/U wheels differ | droop (rad/s per kN·m), recovery | loss p, twin + integral | turn memory differs | "
-             "step scatter differs | T/U wheels differ |\n"
-             "|---|---|---|---|---|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n")
-    open(os.path.join(args.out, "table.md"), "w").write(table)
-    print(table)
+    write_table(args.out, ["dataset", "chosen / judged on", "loss p, twin", "runs whose turn memory differs",
+                           "step scatter differs", "T/U wheels differ", "droop (rad/s per kN·m), recovery",
+                           "loss p, twin + integral", "turn memory differs", "step scatter differs",
+                           "T/U wheels differ"], rows)
 
 
 if __name__ == "__main__":

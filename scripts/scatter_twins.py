@@ -24,7 +24,7 @@ import argparse
 import json
 import os
 
-from script_common import DEFAULT_BIN, MEASURED, Runner
+from script_common import DEFAULT_BIN, MEASURED, Runner, write_table
 
 
 def main():
@@ -72,11 +72,9 @@ def main():
         cell = lambda k: (f"{res[k][0]:.2f} | {res[k][1]} of {res[k][3]} (own runs {res[k][2]:.1f})" if k in res else "- | -")
         rows.append(f"| {dataset} | {fmt(d['real'])} | {fmt(d['sim'])} | "
                     f"{'%.2f' % sigma if sigma is not None else 'none (alike)'} | {cell('before')} | {cell('after')} |")
-    table = ("| dataset | step scatter, real (rad/s per wheel, 95 %) | twin's run | wheel_speed_scatter_rad_s added | "
-             "loss p, twin | runs whose step scatter differs, twin | loss p, twin + scatter | the same, twin + scatter |\n"
-             "|---|---|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n")
-    open(os.path.join(args.out, "table.md"), "w").write(table)
-    print(table)
+    write_table(args.out, ["dataset", "step scatter, real (rad/s per wheel, 95 %)", "twin's run",
+                           "wheel_speed_scatter_rad_s added", "loss p, twin", "runs whose step scatter differs, twin",
+                           "loss p, twin + scatter", "the same, twin + scatter"], rows)
 
 
 if __name__ == "__main__":

@@ -10,6 +10,15 @@ MEASURED = os.path.join(HERE, "..", "..", "shared", "data", "measured")
 DEFAULT_BIN = os.path.join(HERE, "..", "target", "release", "drive-sim")
 
 
+def write_table(out, header, rows):
+    """A markdown table of `header` (column titles) and `rows` (lines `| ... |`), printed and
+    written to `out/table.md`."""
+    table = ("| " + " | ".join(header) + " |\n|" + "---|" * len(header) + "\n" + "\n".join(rows) + "\n")
+    with open(os.path.join(out, "table.md"), "w") as f:
+        f.write(table)
+    print(table)
+
+
 class Runner:
     """Runs commands, each written to `out/commands.txt` first."""
 

@@ -58,6 +58,13 @@ impl Interval {
     pub fn contains(&self, v: f64) -> bool {
         v >= self.lower && v <= self.upper
     }
+
+    /// Whether the two intervals share no value: a conservative reading of "two estimates
+    /// differ" (two 95 % intervals that miss each other differ at well below 5 %), the one
+    /// `compare` uses for its diagnostics beside the verdict.
+    pub fn misses(&self, other: &Interval) -> bool {
+        self.lower > other.upper || other.lower > self.upper
+    }
 }
 
 /// `n^n`, or `None` when it exceeds `cap`.

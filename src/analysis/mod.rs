@@ -604,7 +604,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
     rows.extend(exclusions.iter().map(SummaryRow::excluded));
     rows.sort_by_key(|r| (r.step, r.window.map_or(u32::MAX, |w| w)));
     let wheels: Vec<scatter::StepWheels> = steps.iter().map(scatter::StepWheels::of).collect();
-    let step_scatter = scatter::step_scatter_of(&wheels);
+    let step_scatter = scatter::step_scatter(&wheels);
     let turn_memory = turn_memory::turn_memory(&wheels);
     Ok(Analysis {
         dataset: meta.name.clone(),

@@ -191,14 +191,9 @@ fn nearest_pairs(pts: &[(u32, [f64; 2])], radius_rad_s: f64) -> Vec<(usize, usiz
 }
 
 /// [`step_scatter_with`] with the default radius ([`DEFAULT_RADIUS_RAD_S`]) and bootstrap
-/// (2000 resamples, the project's seed).
-pub fn step_scatter(steps: &[StepResult]) -> StepScatter {
-    let wheels: Vec<StepWheels> = steps.iter().map(StepWheels::of).collect();
-    step_scatter_of(&wheels)
-}
-
-/// [`step_scatter`] of steps already reduced to their wheel speeds.
-pub fn step_scatter_of(wheels: &[StepWheels]) -> StepScatter {
+/// (2000 resamples, the project's seed), of analysed steps reduced to their wheel speeds
+/// ([`StepWheels::of`]).
+pub fn step_scatter(wheels: &[StepWheels]) -> StepScatter {
     step_scatter_with(wheels, DEFAULT_RADIUS_RAD_S, &Bootstrap::default())
 }
 

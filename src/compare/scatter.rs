@@ -39,9 +39,7 @@ impl ScatterDiff {
     /// The two runs' scatters compared.
     pub fn new(real: StepScatter, sim: StepScatter) -> Self {
         let differs = match (real.ci95, sim.ci95, real.wheel_rad_s, sim.wheel_rad_s) {
-            (Some(r), Some(s), Some(a), Some(b)) => {
-                (r.lower > s.upper || s.lower > r.upper) && (a - b).abs() >= SCATTER_TOLERANCE_RAD_S
-            }
+            (Some(r), Some(s), Some(a), Some(b)) => r.misses(&s) && (a - b).abs() >= SCATTER_TOLERANCE_RAD_S,
             _ => false,
         };
         let offset_to_add_rad_s = match (real.wheel_rad_s, sim.wheel_rad_s) {

@@ -37,9 +37,7 @@ impl TurnMemoryDiff {
             real.reversed_minus_same,
             sim.reversed_minus_same,
         ) {
-            (Some(r), Some(s), Some(a), Some(b)) => {
-                (r.lower > s.upper || s.lower > r.upper) && (a - b).abs() >= TURN_MEMORY_TOLERANCE
-            }
+            (Some(r), Some(s), Some(a), Some(b)) => r.misses(&s) && (a - b).abs() >= TURN_MEMORY_TOLERANCE,
             _ => false,
         };
         Self { real, sim, differs }
