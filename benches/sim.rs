@@ -12,7 +12,7 @@
 //! Target: a 300-step Warthog DRIVE with logging ≥ 2500× real time in productive time on one core.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use drive_sim::experiments::simulate::simulated_meta;
+use drive_sim::harness::simulate::simulated_meta;
 use drive_sim::log::mcap::{Container, McapWriter};
 use drive_sim::protocol::sampler::UniformWheel;
 use drive_sim::protocol::{run_drive, ProtocolConfig, RunSummary};

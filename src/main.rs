@@ -1,5 +1,7 @@
-//! The `drive-sim` binary: see `drive_sim::cli`.
+//! The `drive-sim` binary: parses the command line ([`cli`]), calls the library and prints.
+
+mod cli;
 
 fn main() {
-    std::process::exit(drive_sim::cli::main());
+    std::process::exit(cli::main());
 }

@@ -260,7 +260,7 @@ fn intervals_of_a_three_step_fixture_match_a_hand_computation() {
 /// model"; measured 2.51 → 1.44 for the left wheel).
 #[test]
 fn an_exact_model_passes_the_wheel_maps_with_the_local_linear_smoother() {
-    use drive_sim::experiments::simulate::simulate;
+    use drive_sim::harness::simulate::simulate;
     use drive_sim::robot::Robot;
     use drive_sim::sim::SensorNoise;
     use drive_sim::terrain::Terrain;
@@ -318,7 +318,7 @@ fn the_step_scatter_a_model_lacks_is_measured_and_added() {
     let (terrain, _) = Terrain::resolve("asphalt").unwrap();
     let mut model = twin::lift_effects(&robot, &terrain).unwrap();
     let scatter_of = |real: &DriveLog, model: &drive_sim::calibration::ModelParams| {
-        let sim = drive_sim::experiments::tune::twin_run(model, 150, 11).unwrap();
+        let sim = drive_sim::compare::tune::twin_run(model, 150, 11).unwrap();
         let r = compare(input(real), &[input(&sim)], &CompareOptions::default()).unwrap();
         let d = r.sims[0].step_scatter.unwrap();
         eprintln!("{}", d.line());
@@ -361,7 +361,7 @@ fn the_turn_memory_a_model_lacks_is_measured() {
     let (robot, _) = drive_sim::robot::Robot::resolve("warthog").unwrap();
     let mut model = twin::lift_effects(&robot, &terrain).unwrap();
     let memory_of = |real: &DriveLog, model: &drive_sim::calibration::ModelParams| {
-        let sim = drive_sim::experiments::tune::twin_run(model, 150, 11).unwrap();
+        let sim = drive_sim::compare::tune::twin_run(model, 150, 11).unwrap();
         let r = compare(input(real), &[input(&sim)], &CompareOptions::default()).unwrap();
         let d = r.sims[0].turn_memory.unwrap();
         eprintln!("{}", d.line());

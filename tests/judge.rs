@@ -1,4 +1,4 @@
-//! Judging a twin (`drive_sim::experiments::judge`): a Monte Carlo test of whether `compare`
+//! Judging a twin (`drive_sim::compare::judge`): a Monte Carlo test of whether `compare`
 //! can tell a real run from the twin's own runs, on cases whose answer is known:
 //! - the null case: the "real" run is a run of the model itself, with a seed neither its runs
 //!   nor its references use: indistinguishable;
@@ -10,7 +10,7 @@
 mod common;
 use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};
 use drive_sim::calibration::twin;
-use drive_sim::experiments::judge::{judge, JudgeOptions, JudgeOutcome, JudgeRequest, DIFFERS};
+use drive_sim::compare::judge::{judge, JudgeOptions, JudgeOutcome, JudgeRequest, DIFFERS};
 use drive_sim::log::{DriveLog, UseSteps};
 use drive_sim::terrain::Terrain;
 
@@ -53,7 +53,7 @@ fn judged(real: &DriveLog, model: &drive_sim::calibration::ModelParams) -> Judge
         &|line| eprintln!("{line}"),
     )
     .unwrap();
-    eprintln!("{}", drive_sim::experiments::judge::write::table(&j));
+    eprintln!("{}", drive_sim::compare::judge::write::table(&j));
     j
 }
 
@@ -65,7 +65,7 @@ fn runs_of_the_model_itself_are_rejected_at_about_the_tests_level() {
     // most: 3 or more rejections of 5 has probability 0.0086.
     let mut rejected = Vec::new();
     for seed in [777, 778, 779, 780, 781] {
-        let own = drive_sim::experiments::tune::twin_run(&model, 100, seed).unwrap();
+        let own = drive_sim::compare::tune::twin_run(&model, 100, seed).unwrap();
         let null = judged(&own, &model);
         assert_eq!(null.criteria[0].criterion, DIFFERS);
         assert_eq!(null.references.len(), 9);
@@ -177,12 +177,10 @@ fn the_command_prints_the_table_and_writes_its_files() {
 /// step, one at the largest command clips none.
 #[test]
 fn the_inverted_judge_gives_a_set_that_holds_the_true_limit() {
-    use drive_sim::experiments::judge::interval::{
-        interval_specs, intervals, IntervalOptions, IntervalRequest,
-    };
+    use drive_sim::compare::judge::interval::{interval_specs, intervals, IntervalOptions, IntervalRequest};
     let (_, mut model) = generator_and_model(10.0);
     model.effects.set("wheel_speed_saturation_rad_s", 10.0).unwrap();
-    let real = drive_sim::experiments::tune::twin_run(&model, 100, 777).unwrap();
+    let real = drive_sim::compare::tune::twin_run(&model, 100, 777).unwrap();
     let generator = &real;
     let o = opts();
     let specs = interval_specs(&["wheel_speed_saturation_rad_s".into()], &[], &model, generator).unwrap();

@@ -8,11 +8,11 @@
 
 use drive_sim::analysis::smoother::smooth_exact;
 use drive_sim::analysis::{analyze, Analysis, AnalysisParams};
-use drive_sim::experiments::simulate::{
+use drive_sim::harness::ground_truth::{transfer_error, TruthField};
+use drive_sim::harness::simulate::{
     analysis_params_without_smoother, kernel_for, simulate, simulate_with, simulator_truth, truth_grid,
 };
 use drive_sim::kinematics::{BodyVelocity, WheelSpeeds};
-use drive_sim::protocol::ground_truth::{transfer_error, TruthField};
 use drive_sim::protocol::sampler::{Sampler, SamplingContext};
 use drive_sim::protocol::ProtocolConfig;
 use drive_sim::robot::Robot;

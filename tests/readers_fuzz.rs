@@ -7,12 +7,12 @@
 //! `DRIVE_SIM_FUZZ_CASES=5000 cargo test --release --test readers_fuzz`.
 
 use drive_sim::config::parse_toml;
+use drive_sim::harness::sweep::SweepMatrix;
 use drive_sim::log::mcap::{decode_mcap, encode_mcap};
 use drive_sim::log::{Frame, LogMeta, Nominal, Origin, Phase};
 use drive_sim::protocol::{run_drive, sampler::UniformWheel, ProtocolConfig};
 use drive_sim::robot::{Robot, BUILTIN_ROBOTS};
 use drive_sim::sim::IdealPlant;
-use drive_sim::sweep::SweepMatrix;
 use drive_sim::terrain::{Terrain, BUILTIN_TERRAINS};
 use proptest::prelude::*;
 use std::path::Path;

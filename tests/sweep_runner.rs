@@ -1,7 +1,9 @@
 //! Sweep runner: expansion, sharding, resume, merge, and errors on bad matrix files, with a
 //! fake run callback.
 
-use drive_sim::sweep::{merge, run_sweep, RunOptions, RunOutcome, RunSpec, Shard, SweepMatrix, DONE_FILE};
+use drive_sim::harness::sweep::{
+    merge, run_sweep, RunOptions, RunOutcome, RunSpec, Shard, SweepMatrix, DONE_FILE,
+};
 use drive_sim::Error;
 use serde_json::{json, Value};
 use std::collections::BTreeSet;
@@ -222,7 +224,7 @@ fn merged_shards_equal_the_unsharded_sweep() {
     assert!(half.missing.contains(&"warthog-ice-uniform-wheel-s2".to_string()));
     let (json_path, csv_path) = a.write(&tmp.path().join("merged")).unwrap();
     assert_eq!(std::fs::read_to_string(csv_path).unwrap(), csv);
-    let back: drive_sim::sweep::MergedReport =
+    let back: drive_sim::harness::sweep::MergedReport =
         serde_json::from_str(&std::fs::read_to_string(json_path).unwrap()).unwrap();
     assert_eq!(back, a);
 }
@@ -271,7 +273,7 @@ fn merge_reports_runs_done_twice_and_refuses_conflicting_parameters() {
 /// into the whole sweep.
 #[test]
 fn a_sweep_split_across_batch_tasks_runs_every_run_once_and_merges() {
-    use drive_sim::sweep::{select_shard, ShardSource};
+    use drive_sim::harness::sweep::{select_shard, ShardSource};
     let tmp = tempfile::tempdir().unwrap();
     let m = matrix();
     let calls = AtomicUsize::new(0);

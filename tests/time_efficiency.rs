@@ -8,7 +8,7 @@
 //! every run must gather data at least 60 % of the time. Measured at session 13: ice on 47 x 20
 //! m 70.1 / 68.9 / 68.3 % (paper 62.8 %), asphalt on 50 x 25 m 80.7 / 79.5 / 76.5 % (paper 71.3 %).
 
-use drive_sim::experiments::simulate::simulate;
+use drive_sim::harness::simulate::simulate;
 use drive_sim::robot::{Robot, SafeArea};
 use drive_sim::sim::SensorNoise;
 use drive_sim::terrain::Terrain;

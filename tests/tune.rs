@@ -1,4 +1,4 @@
-//! Closed-loop tuning (`drive_sim::experiments::tune`) on DRIVE runs of an independent
+//! Closed-loop tuning (`drive_sim::compare::tune`) on DRIVE runs of an independent
 //! generator (`tests/common/generator.rs`, not the project's plants), whose answer is known:
 //! - its motors clip at 10 rad/s: tuning the simulated Warthog's wheel-speed limit against
 //!   the generator's odd steps finds it, the check on fresh seeds accepts it, and on the even
@@ -17,7 +17,7 @@
 mod common;
 use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};
 use drive_sim::calibration::twin;
-use drive_sim::experiments::tune::{search::SearchOptions, tune, TuneOptions, TuneRequest};
+use drive_sim::compare::tune::{search::SearchOptions, tune, TuneOptions, TuneRequest};
 use drive_sim::log::UseSteps;
 use drive_sim::terrain::Terrain;
 
@@ -34,7 +34,7 @@ fn generator_log(limit_rad_s: f64) -> (drive_sim::log::DriveLog, drive_sim::robo
     drive_log_with("generator", TestRobotSpec::warthog_on_asphalt(3), extra, 120)
 }
 
-fn tuned(limit_rad_s: f64) -> drive_sim::experiments::tune::TuneOutcome {
+fn tuned(limit_rad_s: f64) -> drive_sim::compare::tune::TuneOutcome {
     let (log, robot) = generator_log(limit_rad_s);
     let (terrain, _) = Terrain::resolve("asphalt").unwrap();
     let start = twin::lift_effects(&robot, &terrain).unwrap();
@@ -107,7 +107,7 @@ fn a_wheel_speed_limit_is_found_in_closed_loop_and_judged_on_held_out_steps() {
     assert_eq!(m.effects.get("wheel_speed_saturation_rad_s"), Some(p.chosen));
     // Its files round-trip, and running them (what `drive-sim run --robot twin/robot.toml
     // --terrain twin/terrain.toml --steps N --seed S` does) gives the judged run again.
-    let files = drive_sim::experiments::tune::twin_of(&o, "the test's start", "cargo test").unwrap();
+    let files = drive_sim::compare::tune::twin_of(&o, "the test's start", "cargo test").unwrap();
     assert!(
         files.robot_toml.contains("[tune] generator"),
         "{}",
@@ -121,7 +121,7 @@ fn a_wheel_speed_limit_is_found_in_closed_loop_and_judged_on_held_out_steps() {
     let (log, _) = generator_log(LIMIT_RAD_S);
     let even = UseSteps::Even.select(&log);
     let seed = h.chosen[0].seed;
-    let run = drive_sim::experiments::tune::twin_run(&back, o.steps_per_run, seed).unwrap();
+    let run = drive_sim::compare::tune::twin_run(&back, o.steps_per_run, seed).unwrap();
     let c = drive_sim::compare::compare(
         drive_sim::compare::Input {
             log: &even,

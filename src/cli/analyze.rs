@@ -1,6 +1,6 @@
 //! `drive-sim analyze`: the slip and ρ pipeline on any DRIVE logs, and its report.
 
-use crate::experiments::analyze::{analyze_logs, AnalyzeEvent, AnalyzeOptions};
+use drive_sim::harness::analyze::{analyze_logs, AnalyzeEvent, AnalyzeOptions};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -75,7 +75,7 @@ pub fn print_progress(event: AnalyzeEvent) {
 /// along the command (positive = slower than commanded; |vy| for the lateral one), median ρ,
 /// the ideal differential-drive RMSE, the area of T, the yaw-rate source; below it the medians'
 /// intervals and the step-to-step scatter of the steady wheel speeds.
-fn print_analysis_table(analyses: &[crate::analysis::Analysis]) -> anyhow::Result<()> {
+fn print_analysis_table(analyses: &[drive_sim::analysis::Analysis]) -> anyhow::Result<()> {
     let mut out = std::io::stdout().lock();
     writeln!(
         out,
@@ -94,7 +94,7 @@ fn print_analysis_table(analyses: &[crate::analysis::Analysis]) -> anyhow::Resul
         "T/U B%",
         "T/U W%"
     )?;
-    let med = |b: Option<crate::analysis::stats::BoxStats>| b.map_or(f64::NAN, |b| b.median);
+    let med = |b: Option<drive_sim::analysis::stats::BoxStats>| b.map_or(f64::NAN, |b| b.median);
     for a in analyses {
         let s = &a.stats.along_command;
         writeln!(
@@ -119,7 +119,7 @@ fn print_analysis_table(analyses: &[crate::analysis::Analysis]) -> anyhow::Resul
         )?;
         // The same medians' bootstrap-by-step intervals (the definition `compare` uses).
         let ci = &a.median_ci95;
-        let f = |i: &Option<crate::analysis::bootstrap::Interval>| {
+        let f = |i: &Option<drive_sim::analysis::bootstrap::Interval>| {
             i.map_or("(none)".to_string(), |i| {
                 format!("[{:.3}, {:.3}]", i.lower, i.upper)
             })

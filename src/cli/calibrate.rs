@@ -1,8 +1,8 @@
 //! `drive-sim replay` and `drive-sim calibrate`: the simulator against measured data (or any
 //! DRIVE log, e.g. a simulated one carrying an undeclared `--inject`ed effect).
 
-use crate::calibration::{self, CalibrationOptions, CalibrationReport, ModelKind};
-use crate::error::Result;
+use drive_sim::calibration::{self, CalibrationOptions, CalibrationReport, ModelKind};
+use drive_sim::error::Result;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -62,7 +62,7 @@ pub struct CalibrateArgs {
     /// Calibrate on the odd or even steps only (the twin is then judged on the other half with
     /// `compare --real-steps`), or on all of them.
     #[arg(long, value_enum, default_value = "all")]
-    pub use_steps: crate::log::UseSteps,
+    pub use_steps: drive_sim::log::UseSteps,
     /// Skip equation discovery: the catalogue's effects only (much faster on measured data,
     /// where discovery refits every candidate term beside every selected effect).
     #[arg(long)]
@@ -118,12 +118,12 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<()> {
     let models = super::input::starting_models(&log, &args.input)?;
     let score = match &args.score_like {
         Some(p) => {
-            let text = std::fs::read_to_string(p).map_err(|e| crate::Error::io(p, e))?;
+            let text = std::fs::read_to_string(p).map_err(|e| drive_sim::Error::io(p, e))?;
             Some(calibration::ScoreSteps::from_json(&text, p)?)
         }
         None => None,
     };
-    let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
+    let staged = drive_sim::output::StagedDir::begin(&args.out, "--out")?;
     let request = calibration::ReplayRequest {
         log: &log,
         log_file: &args.log,
@@ -200,7 +200,7 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
     let kind = ModelKind::parse(&args.model)?;
     let optimizer = calibration::Optimizer::parse(&args.optimizer)?;
     // The output folder is checked (and staged) before the long work; it appears whole.
-    let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
+    let staged = drive_sim::output::StagedDir::begin(&args.out, "--out")?;
     eprintln!("drive-sim: reading {}", log_path.display());
     let log = args
         .use_steps
@@ -277,14 +277,14 @@ fn calibrate_joint(args: &CalibrateArgs) -> anyhow::Result<()> {
     let kind = ModelKind::parse(&args.model)?;
     let optimizer = calibration::Optimizer::parse(&args.optimizer)?;
     if args.input.terrain.is_some() {
-        return Err(crate::Error::config(
+        return Err(drive_sim::Error::config(
             "--terrain",
             "terrain",
             "with several logs each starts from its own terrain; `--terrain` names one for all",
         )
         .into());
     }
-    let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
+    let staged = drive_sim::output::StagedDir::begin(&args.out, "--out")?;
     let mut logs = Vec::new();
     for p in &args.logs {
         eprintln!("drive-sim: reading {}", p.display());

@@ -1,7 +1,7 @@
 //! `drive-sim compare REAL SIM... --out DIR`: does the simulation reproduce the real run?
 
-use crate::analysis::bootstrap::Bootstrap;
-use crate::compare::{
+use drive_sim::analysis::bootstrap::Bootstrap;
+use drive_sim::compare::{
     compare as run_compare, write::verdict_text, write::write_comparison, CompareOptions, Input,
 };
 use std::path::PathBuf;
@@ -33,15 +33,15 @@ pub struct CompareArgs {
     /// Smoother of the compared maps: `kernel` (the paper's weighted mean) or `local-linear`
     /// (a weighted plane: no bias from which commands a run drew on a sloped map).
     #[arg(long, value_enum, default_value = "kernel")]
-    pub tf_smoother: crate::compare::TfSmoother,
+    pub tf_smoother: drive_sim::compare::TfSmoother,
     /// Halvings of the real run whose mean split-half RMS is the maps' yardstick (its odd and
     /// even steps, then random balanced halvings); 1: the odd and even steps alone.
-    #[arg(long, default_value_t = crate::compare::DEFAULT_YARDSTICK_SPLITS)]
+    #[arg(long, default_value_t = drive_sim::compare::DEFAULT_YARDSTICK_SPLITS)]
     pub yardstick_splits: usize,
     /// Compare only the real log's odd or even steps (e.g. those a twin was not calibrated on,
     /// `calibrate --use-steps`), or all of them.
     #[arg(long, value_enum, default_value = "all")]
-    pub real_steps: crate::log::UseSteps,
+    pub real_steps: drive_sim::log::UseSteps,
     /// How to read a bag.
     #[command(flatten)]
     pub input: super::input::InputArgs,
@@ -50,7 +50,7 @@ pub struct CompareArgs {
 /// Reads the logs, compares them, writes the report and prints the verdict table.
 pub fn compare(args: &CompareArgs) -> anyhow::Result<()> {
     if args.resamples < 100 {
-        return Err(crate::Error::config(
+        return Err(drive_sim::Error::config(
             "--resamples",
             "resamples",
             format!("must be at least 100, got {}", args.resamples),
@@ -58,7 +58,7 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<()> {
         .into());
     }
     if args.yardstick_splits == 0 {
-        return Err(crate::Error::config(
+        return Err(drive_sim::Error::config(
             "--yardstick-splits",
             "yardstick_splits",
             "must be at least 1 (1: the odd and even steps alone), got 0",

@@ -1,8 +1,8 @@
 //! `drive-sim demo` (and `drive-sim` with no arguments): runs
-//! [`crate::experiments::demo`] and says what it is doing.
+//! [`drive_sim::harness::demo`] and says what it is doing.
 
-use crate::experiments::demo::{run_demo, DemoEvent, DemoOptions, SCENARIOS};
-use crate::experiments::run::{describe, RunEvent};
+use drive_sim::harness::demo::{run_demo, DemoEvent, DemoOptions, SCENARIOS};
+use drive_sim::harness::run::{describe, RunEvent};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 

@@ -1,7 +1,7 @@
 //! Opening any DRIVE input from the command line (`--robot`, `--terrain`, `--roles` for bags),
 //! and `drive-sim inspect`.
 
-use crate::log::{DriveLog, OpenOptions};
+use drive_sim::log::{DriveLog, OpenOptions};
 use std::path::{Path, PathBuf};
 
 /// What a rosbag2 bag does not record; ignored for `.csv` and drive-sim `.mcap` logs.
@@ -36,9 +36,9 @@ impl InputArgs {
     }
 }
 
-/// Opens `path` with [`crate::log::open`], printing how it was read and what was left out.
-pub fn open_log(path: &Path, args: &InputArgs) -> crate::Result<DriveLog> {
-    let o = crate::log::open(path, &args.options())?;
+/// Opens `path` with [`drive_sim::log::open`], printing how it was read and what was left out.
+pub fn open_log(path: &Path, args: &InputArgs) -> drive_sim::Result<DriveLog> {
+    let o = drive_sim::log::open(path, &args.options())?;
     for n in &o.notes {
         eprintln!("drive-sim: {n}");
     }
@@ -53,9 +53,9 @@ pub fn open_log(path: &Path, args: &InputArgs) -> crate::Result<DriveLog> {
 pub fn starting_models(
     log: &DriveLog,
     args: &InputArgs,
-) -> crate::Result<crate::calibration::StartingModels> {
+) -> drive_sim::Result<drive_sim::calibration::StartingModels> {
     let models =
-        crate::calibration::StartingModels::resolve(log, args.robot.as_deref(), args.terrain.as_deref())?;
+        drive_sim::calibration::StartingModels::resolve(log, args.robot.as_deref(), args.terrain.as_deref())?;
     for n in &models.notes {
         eprintln!("drive-sim: {n}");
     }
@@ -74,11 +74,11 @@ pub struct InspectArgs {
 
 /// Prints what the bag holds, as far as it can be read; bad input still exits with code 2.
 pub fn inspect(args: &InspectArgs) -> anyhow::Result<()> {
-    let i = crate::log::bag::inspect(&args.bag, &args.input.options());
+    let i = drive_sim::log::bag::inspect(&args.bag, &args.input.options());
     print!("{i}");
     match i.problems.first() {
         None => Ok(()),
-        Some(_) => Err(crate::Error::log(
+        Some(_) => Err(drive_sim::Error::log(
             &args.bag,
             "inspect",
             format!("{} problem(s), listed above", i.problems.len()),
@@ -89,14 +89,14 @@ pub fn inspect(args: &InspectArgs) -> anyhow::Result<()> {
 
 /// The lines that tell how to run a twin just written into `out/twin/` and how to judge it
 /// against the real log's steps it was not chosen on (all of them when it saw every step).
-pub fn twin_hints(real: &Path, out: &Path, chosen_on: crate::log::UseSteps) {
+pub fn twin_hints(real: &Path, out: &Path, chosen_on: drive_sim::log::UseSteps) {
     let (robot, terrain) = (out.join("twin/robot.toml"), out.join("twin/terrain.toml"));
     eprintln!(
         "drive-sim: twin: drive-sim run --robot {} --terrain {}",
         robot.display(),
         terrain.display()
     );
-    let judged = chosen_on.other_half().unwrap_or(crate::log::UseSteps::All);
+    let judged = chosen_on.other_half().unwrap_or(drive_sim::log::UseSteps::All);
     eprintln!(
         "drive-sim: can compare tell it from the run? drive-sim judge {} --robot {} --terrain {} --real-steps {}",
         real.display(),

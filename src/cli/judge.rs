@@ -1,9 +1,9 @@
 //! `drive-sim judge REAL --robot TWIN --terrain TWIN --out DIR`: can `compare` tell the real
-//! run from a run of the twin? ([`crate::experiments::judge`]).
+//! run from a run of the twin? ([`drive_sim::compare::judge`]).
 
-use crate::calibration::twin;
-use crate::experiments::judge::interval::{self, IntervalOptions, IntervalRequest, ParamInterval};
-use crate::experiments::judge::{self, JudgeOptions, JudgeRequest};
+use drive_sim::calibration::twin;
+use drive_sim::compare::judge::interval::{self, IntervalOptions, IntervalRequest, ParamInterval};
+use drive_sim::compare::judge::{self, JudgeOptions, JudgeRequest};
 use std::path::{Path, PathBuf};
 
 /// Options of `drive-sim judge`.
@@ -14,7 +14,7 @@ pub struct JudgeArgs {
     /// The real steps to judge against: all, or the half the twin was not calibrated on
     /// (`calibrate --use-steps`, `tune --choose-on`).
     #[arg(long, value_enum, default_value = "all")]
-    pub real_steps: crate::log::UseSteps,
+    pub real_steps: drive_sim::log::UseSteps,
     /// Runs of the twin compared with the real run and with each reference.
     #[arg(long, default_value_t = JudgeOptions::default().sims)]
     pub sims: u32,
@@ -31,7 +31,7 @@ pub struct JudgeArgs {
     pub seed: u64,
     /// Smoother of the compared maps (as `compare --tf-smoother`).
     #[arg(long, value_enum, default_value = "kernel")]
-    pub tf_smoother: crate::compare::TfSmoother,
+    pub tf_smoother: drive_sim::compare::TfSmoother,
     /// Bootstrap resamples of each comparison's intervals.
     #[arg(long, default_value_t = JudgeOptions::default().resamples)]
     pub resamples: usize,
@@ -107,7 +107,7 @@ pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
         interval::interval_specs(&args.interval, &boxes, &model, &log)?
     };
     let twin_files = twin_file_texts(args)?;
-    let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
+    let staged = drive_sim::output::StagedDir::begin(&args.out, "--out")?;
     let t0 = std::time::Instant::now();
     let progress = |line: &str| eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64());
     let request = JudgeRequest {
@@ -184,7 +184,7 @@ fn twin_file_texts(args: &JudgeArgs) -> anyhow::Result<Option<[(PathBuf, String)
     let (Some(robot), Some(terrain)) = (file(&args.input.robot), file(&args.input.terrain)) else {
         return Ok(None);
     };
-    let read = |p: &Path| std::fs::read_to_string(p).map_err(|e| crate::Error::io(p, e));
+    let read = |p: &Path| std::fs::read_to_string(p).map_err(|e| drive_sim::Error::io(p, e));
     Ok(Some([
         (robot.clone(), read(&robot)?),
         (terrain.clone(), read(&terrain)?),
@@ -209,11 +209,11 @@ fn write_annotated_twin(
             files[1].0.display()
         );
     }
-    std::fs::create_dir_all(dir).map_err(|e| crate::Error::io(dir, e))?;
+    std::fs::create_dir_all(dir).map_err(|e| drive_sim::Error::io(dir, e))?;
     let mut paths = Vec::new();
     for (name, text) in ["robot.toml", "terrain.toml"].iter().zip(&texts) {
         let p = dir.join(name);
-        crate::output::write_atomic(&p, text.as_bytes())?;
+        drive_sim::output::write_atomic(&p, text.as_bytes())?;
         paths.push(p);
     }
     Ok(paths)

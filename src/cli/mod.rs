@@ -11,9 +11,9 @@ pub mod samplers;
 pub mod sweep;
 pub mod tune;
 
-use crate::robot::{Robot, BUILTIN_ROBOTS};
-use crate::terrain::{Terrain, BUILTIN_TERRAINS};
 use clap::{Parser, Subcommand};
+use drive_sim::robot::{Robot, BUILTIN_ROBOTS};
+use drive_sim::terrain::{Terrain, BUILTIN_TERRAINS};
 use std::io::Write;
 
 /// Simulation-backed test harness for the DRIVE protocol.
@@ -76,9 +76,9 @@ pub enum Command {
     /// error against the open-loop truth, coverage, interruptions, energy.
     Samplers(samplers::SamplersArgs),
     /// Runs a sweep matrix (robots × terrains × samplers × seeds), sharded and resumable.
-    Sweep(crate::sweep::SweepArgs),
+    Sweep(drive_sim::harness::sweep::SweepArgs),
     /// Merges sweep output directories (e.g. one per shard) into merged.json and merged.csv.
-    SweepMerge(crate::sweep::MergeArgs),
+    SweepMerge(drive_sim::harness::sweep::MergeArgs),
 }
 
 /// An error and its causes, `outer: inner`, each said once: a cause whose text the message
@@ -113,20 +113,20 @@ pub fn main() -> i32 {
         Err(e)
             if e.chain().any(|c| {
                 matches!(
-                    c.downcast_ref::<crate::Error>(),
-                    Some(crate::Error::Interrupted { .. })
+                    c.downcast_ref::<drive_sim::Error>(),
+                    Some(drive_sim::Error::Interrupted { .. })
                 )
             }) =>
         {
             eprintln!("drive-sim: {}", describe_error(&e));
-            crate::interrupt::EXIT_CODE
+            drive_sim::interrupt::EXIT_CODE
         }
         Err(e) => {
             eprintln!("drive-sim: error: {}", describe_error(&e));
             // Exit code 2 for bad input (as clap does for bad arguments), 1 for a failed run.
             if e.chain().any(|c| {
-                c.downcast_ref::<crate::Error>()
-                    .is_some_and(crate::Error::is_bad_input)
+                c.downcast_ref::<drive_sim::Error>()
+                    .is_some_and(drive_sim::Error::is_bad_input)
             }) {
                 2
             } else {
@@ -139,15 +139,15 @@ pub fn main() -> i32 {
 fn dispatch(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         None => {
-            crate::interrupt::install();
+            drive_sim::interrupt::install();
             demo::demo(&demo::DemoArgs::default())
         }
         Some(Command::Demo(a)) => {
-            crate::interrupt::install();
+            drive_sim::interrupt::install();
             demo::demo(&a)
         }
         Some(Command::Run(a)) => {
-            crate::interrupt::install();
+            drive_sim::interrupt::install();
             let r = run::run(&a)?;
             println!("{}", run::describe(&r));
             Ok(())
@@ -166,7 +166,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Inspect(a)) => input::inspect(&a),
         Some(Command::Samplers(a)) => samplers::samplers(&a),
         Some(Command::Sweep(a)) => {
-            crate::interrupt::install();
+            drive_sim::interrupt::install();
             sweep::sweep(&a)
         }
         Some(Command::SweepMerge(a)) => sweep::sweep_merge(&a),
@@ -174,7 +174,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
 }
 
 fn list_effects() -> anyhow::Result<()> {
-    use crate::effects::{ParamKind, SearchBox, REGISTRY};
+    use drive_sim::effects::{ParamKind, SearchBox, REGISTRY};
     let mut out = std::io::stdout().lock();
     for e in REGISTRY.iter() {
         writeln!(out, "{} ({}): {}", e.name(), e.stage().as_str(), e.doc())?;
@@ -232,8 +232,8 @@ fn list_robots() -> anyhow::Result<()> {
         "{:<10} {:>8} {:>7} {:>7} {:>9} {:>10}  source",
         "robot", "mass_kg", "r_m", "b_m", "vmax_m_s", "wmax_rad_s"
     )?;
-    for e in crate::config::catalog("robot", BUILTIN_ROBOTS) {
-        match crate::config::parse_toml::<Robot>(&e.text, &e.origin) {
+    for e in drive_sim::config::catalog("robot", BUILTIN_ROBOTS) {
+        match drive_sim::config::parse_toml::<Robot>(&e.text, &e.origin) {
             Ok(r) => writeln!(
                 out,
                 "{:<10} {:>8.1} {:>7.3} {:>7.3} {:>9.2} {:>10.2}  {}",
@@ -258,8 +258,8 @@ fn list_terrains() -> anyhow::Result<()> {
         "{:<10} {:>8} {:>8} {:>8}  description",
         "terrain", "mu_peak", "mu_slide", "c_roll"
     )?;
-    for e in crate::config::catalog("terrain", BUILTIN_TERRAINS) {
-        match crate::config::parse_toml::<Terrain>(&e.text, &e.origin) {
+    for e in drive_sim::config::catalog("terrain", BUILTIN_TERRAINS) {
+        match drive_sim::config::parse_toml::<Terrain>(&e.text, &e.origin) {
             Ok(t) => writeln!(
                 out,
                 "{:<10} {:>8.2} {:>8.2} {:>8.3}  {}",

@@ -1,10 +1,10 @@
 //! `drive-sim run`: DRIVE in closed loop on the simulated robot, logged to MCAP.
 
-use crate::effects::Effects;
-use crate::error::{Error, Result};
-pub use crate::experiments::run::{describe, RunReport};
-use crate::experiments::run::{record_run, RunEvent, RunRequest};
-use crate::sim::{SensorNoise, SimConfig};
+use drive_sim::effects::Effects;
+use drive_sim::error::{Error, Result};
+pub use drive_sim::harness::run::{describe, RunReport};
+use drive_sim::harness::run::{record_run, RunEvent, RunRequest};
+use drive_sim::sim::{SensorNoise, SimConfig};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 
@@ -53,11 +53,11 @@ pub struct RunArgs {
     /// robot file's (the paper's minimum, 45 x 20 m for the Warthog): sites differ, and the
     /// interruptions and time efficiency with them.
     #[arg(long, value_name = "LxW", value_parser = parse_safe_area)]
-    pub safe_area: Option<crate::robot::SafeArea>,
+    pub safe_area: Option<drive_sim::robot::SafeArea>,
 }
 
 /// `50x25` as a safe area of 50 m by 25 m.
-fn parse_safe_area(s: &str) -> std::result::Result<crate::robot::SafeArea, String> {
+fn parse_safe_area(s: &str) -> std::result::Result<drive_sim::robot::SafeArea, String> {
     let (l, w) = s
         .split_once(['x', 'X'])
         .ok_or_else(|| format!("expected LENGTHxWIDTH in metres (e.g. 50x25), got `{s}`"))?;
@@ -66,7 +66,7 @@ fn parse_safe_area(s: &str) -> std::result::Result<crate::robot::SafeArea, Strin
             .parse::<f64>()
             .map_err(|_| format!("`{t}` is not a number of metres (in `{s}`)"))
     };
-    Ok(crate::robot::SafeArea {
+    Ok(drive_sim::robot::SafeArea {
         length_m: num(l)?,
         width_m: num(w)?,
     })

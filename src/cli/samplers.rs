@@ -1,8 +1,8 @@
 //! `drive-sim samplers`: parses the options, runs the comparison of
-//! [`crate::experiments::samplers`], prints its table.
+//! [`drive_sim::harness::samplers`], prints its table.
 
-use crate::experiments::samplers::{compare, table, write_outputs, SamplersOptions};
-use crate::protocol::samplers::REGISTRY;
+use drive_sim::harness::samplers::{compare, table, write_outputs, SamplersOptions};
+use drive_sim::protocol::samplers::REGISTRY;
 use std::path::PathBuf;
 
 /// Options of `drive-sim samplers`.
@@ -74,8 +74,8 @@ pub fn samplers(args: &SamplersArgs) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::SensorNoise;
     use clap::Parser;
+    use drive_sim::sim::SensorNoise;
 
     #[derive(Debug, Parser)]
     struct Cli {

@@ -1,15 +1,17 @@
 //! `drive-sim sweep` and `drive-sim sweep-merge`: many simulated DRIVE runs from a matrix file,
-//! sharded and resumable (see [`crate::sweep`]; what each run does is
-//! [`crate::experiments::sweep`]), and the merge of the shards' tables.
+//! sharded and resumable (see [`drive_sim::harness::sweep`]; what each run does is
+//! [`drive_sim::harness::sweep_run`]), and the merge of the shards' tables.
 
-use crate::experiments::sweep::sweep_run_with;
-use crate::sweep::{merge, run_sweep_with_progress, MergeArgs, RunOutcome, SweepArgs, SweepMatrix};
+use drive_sim::harness::sweep::{
+    merge, run_sweep_with_progress, MergeArgs, RunOutcome, SweepArgs, SweepMatrix,
+};
+use drive_sim::harness::sweep_run::sweep_run_with;
 
 /// `drive-sim sweep`.
 pub fn sweep(args: &SweepArgs) -> anyhow::Result<()> {
     let matrix = SweepMatrix::load(&args.matrix)?;
     matrix.check_names(&args.matrix)?;
-    crate::experiments::sweep::validate_matrix(&matrix, &args.matrix)?;
+    drive_sim::harness::sweep_run::validate_matrix(&matrix, &args.matrix)?;
     let choice = args.shard_choice(&|name| std::env::var(name).ok())?;
     let opts = args.options(choice.shard);
     let total = matrix.shard(opts.shard).len();
@@ -28,7 +30,8 @@ pub fn sweep(args: &SweepArgs) -> anyhow::Result<()> {
         }
     );
     let keep = args.keep_logs;
-    let run = |spec: &crate::sweep::RunSpec, dir: &std::path::Path| sweep_run_with(spec, dir, keep);
+    let run =
+        |spec: &drive_sim::harness::sweep::RunSpec, dir: &std::path::Path| sweep_run_with(spec, dir, keep);
     let report = run_sweep_with_progress(&matrix, &opts, run, |o| match o {
         RunOutcome::Done(r) => eprintln!("  done    {}", r.spec.id),
         RunOutcome::Skipped(r) => eprintln!("  skipped {} (complete)", r.spec.id),
@@ -40,12 +43,12 @@ pub fn sweep(args: &SweepArgs) -> anyhow::Result<()> {
         report.skipped(),
         report.failed()
     );
-    if crate::interrupt::requested() {
+    if drive_sim::interrupt::requested() {
         eprintln!(
             "drive-sim sweep: interrupted; {} runs complete are kept; rerun the same command to resume where it stopped",
             report.done() + report.skipped()
         );
-        return Err(crate::Error::Interrupted {
+        return Err(drive_sim::Error::Interrupted {
             step: (report.done() + report.skipped()) as u32,
             time_s: 0.0,
         }

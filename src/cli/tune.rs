@@ -1,8 +1,8 @@
 //! `drive-sim tune REAL --tune NAMES --out DIR`: a twin's parameters chosen in closed loop by
-//! `compare`'s statistics ([`crate::experiments::tune`]).
+//! `compare`'s statistics ([`drive_sim::compare::tune`]).
 
-use crate::calibration::twin;
-use crate::experiments::tune::{self, search::SearchOptions, TuneOptions, TuneOutcome, TuneRequest};
+use drive_sim::calibration::twin;
+use drive_sim::compare::tune::{self, search::SearchOptions, TuneOptions, TuneOutcome, TuneRequest};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -19,7 +19,7 @@ pub struct TuneArgs {
     /// Choose on the real log's odd or even steps (the other half then judges the choice), or
     /// on all of them (no held-out judgement).
     #[arg(long, value_enum, default_value = "odd")]
-    pub choose_on: crate::log::UseSteps,
+    pub choose_on: drive_sim::log::UseSteps,
     /// A search box instead of the registry's, `KEY=LOWER:UPPER` (repeatable; an effect
     /// parameter's key or a base parameter's name), e.g. `turning_resistance_scale=0.5:1.5`.
     #[arg(long = "box", value_name = "KEY=LOWER:UPPER")]
@@ -50,7 +50,7 @@ pub struct TuneArgs {
     pub loss_resamples: usize,
     /// Smoother of the compared maps, in the loss and the judgement (as `compare --tf-smoother`).
     #[arg(long, value_enum, default_value = "kernel")]
-    pub tf_smoother: crate::compare::TfSmoother,
+    pub tf_smoother: drive_sim::compare::TfSmoother,
     /// Output directory.
     #[arg(long, default_value = "out/tune")]
     pub out: PathBuf,
@@ -92,7 +92,7 @@ impl TuneArgs {
             self.max_evaluations,
             self.loss_resamples
         );
-        if self.tf_smoother != crate::compare::TfSmoother::Kernel {
+        if self.tf_smoother != drive_sim::compare::TfSmoother::Kernel {
             s.push_str(" --tf-smoother local-linear");
         }
         for i in &self.inject {
@@ -119,7 +119,7 @@ pub fn tune(args: &TuneArgs) -> anyhow::Result<()> {
         .boxes
         .iter()
         .map(|b| tune::BoxOverride::parse(b))
-        .collect::<crate::Result<Vec<_>>>()?;
+        .collect::<drive_sim::Result<Vec<_>>>()?;
     eprintln!("drive-sim: reading {}", args.real.display());
     let log = super::input::open_log(&args.real, &args.input)?;
     let models = super::input::starting_models(&log, &args.input)?;
@@ -127,7 +127,7 @@ pub fn tune(args: &TuneArgs) -> anyhow::Result<()> {
     for a in &args.inject {
         start.effects.apply_assignment(a)?;
     }
-    let staged = crate::output::StagedDir::begin(&args.out, "--out")?;
+    let staged = drive_sim::output::StagedDir::begin(&args.out, "--out")?;
     let t0 = std::time::Instant::now();
     let outcome = tune::tune(
         &TuneRequest {

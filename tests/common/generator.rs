@@ -220,7 +220,7 @@ impl Plant for TestRobot {
             let vy = self.lateral();
             self.x += h * (v * self.yaw.cos() - vy * self.yaw.sin());
             self.y += h * (v * self.yaw.sin() + vy * self.yaw.cos());
-            self.yaw = drive_sim::sim::plant::wrap_angle(self.yaw + h * w);
+            self.yaw = drive_sim::geometry::wrap_angle(self.yaw + h * w);
             self.t += h;
         }
         Ok(())

@@ -1,0 +1,490 @@
+//! Equation discovery by sparse regression: which few columns of a library of candidate
+//! features explain a response, with how much confidence.
+//!
+//! The method is SINDy's sequentially thresholded least squares (STLSQ; Brunton, Proctor and
+//! Kutz 2016) with the safeguards a small, noisy system-identification dataset needs:
+//!
+//! 1. **Rows are weighted and grouped.** Each row carries a weight (the calibration divides a
+//!    residual by its channel's noise floor, so the steady and transient rows of one channel
+//!    are comparable) and a group (its step): resamples and validation work by group, because
+//!    rows of one step share its errors.
+//! 2. **Columns are screened and scaled.** A column that is constant (but the intercept),
+//!    non-finite or almost collinear with an earlier one (|r| > [`MAX_COLUMN_CORRELATION`]) is
+//!    left out with the reason; the others are scaled to unit root mean square, so the
+//!    threshold reads in the response's units (after weighting: in noise floors).
+//! 3. **The threshold is chosen on validation rows.** Each threshold of a grid gives a sparse
+//!    fit on the training rows; the validation loss picks the largest threshold whose loss is
+//!    within one standard error (over validation groups) of the smallest — the one-standard-
+//!    error rule, which prefers the sparser of two equally good equations — or, when larger,
+//!    within [`DiscoveryOptions::good_enough_rms`] of the response's noise: below the noise
+//!    floor, a smaller threshold buys terms that only fit it.
+//! 4. **A term is kept only if it is stable** (stability selection; Meinshausen and Bühlmann
+//!    2010): STLSQ on bootstrap resamples of the training groups, and a term is kept if
+//!    chosen in at least [`STABILITY_THRESHOLD`] of them. The resamples use half the chosen
+//!    threshold: the one-standard-error rule puts the threshold just under the smallest term
+//!    it keeps, and at that same threshold the resampling noise alone would drop the term
+//!    half of the time.
+//! 5. **Coefficients and intervals.** Least squares on the kept terms over all training rows;
+//!    the 95 % interval is the percentile interval of the same fit over the bootstrap
+//!    resamples. The validation R² is uncentred, `1 - Σ(y - ŷ)² / Σ y²`: the share of the
+//!    residual's energy the equation explains (a constant offset counts).
+//!
+//! Bad designs (too few rows or groups, no usable column, a singular system) give a
+//! [`Skipped`] reason, never a NaN coefficient.
+
+use nalgebra::{DMatrix, DVector};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+/// Columns correlated beyond this with an earlier column are left out (one of two near copies
+/// cannot be told from the other).
+pub const MAX_COLUMN_CORRELATION: f64 = 0.98;
+/// Share of bootstrap resamples in which a term must be chosen to be kept ("most").
+pub const STABILITY_THRESHOLD: f64 = 0.7;
+/// Fewest groups (steps) a fit needs in training and in validation.
+pub const MIN_GROUPS: usize = 4;
+/// STLSQ thresholds tried, in response units per unit-RMS column (noise floors when the
+/// response is floor-weighted).
+///
+/// The smallest is 0.1: a term worth less than a tenth of a noise floor changes no score a
+/// user reads, and on a residual many floors large, smaller thresholds admit terms that fit
+/// the noise of the large one.
+pub const THRESHOLDS: [f64; 9] = [0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0];
+
+/// Rows of one regression: response, features, weight and group per row.
+#[derive(Debug, Clone, Default)]
+pub struct Rows {
+    /// Response per row.
+    pub y: Vec<f64>,
+    /// Feature values per row (one entry per library column).
+    pub x: Vec<Vec<f64>>,
+    /// Weight per row (the row and its response are multiplied by it).
+    pub w: Vec<f64>,
+    /// Group per row (rows of a group are resampled together).
+    pub group: Vec<u32>,
+}
+
+impl Rows {
+    /// Appends one row.
+    pub fn push(&mut self, y: f64, x: Vec<f64>, w: f64, group: u32) {
+        self.y.push(y);
+        self.x.push(x);
+        self.w.push(w);
+        self.group.push(group);
+    }
+
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.y.len()
+    }
+
+    /// No row.
+    pub fn is_empty(&self) -> bool {
+        self.y.is_empty()
+    }
+
+    fn groups(&self) -> Vec<u32> {
+        let mut g = self.group.clone();
+        g.sort_unstable();
+        g.dedup();
+        g
+    }
+}
+
+/// The library: column names, and which column is the intercept (never screened as constant).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Library {
+    /// Column names.
+    pub names: Vec<String>,
+    /// Index of the intercept column, if any.
+    pub intercept: Option<usize>,
+}
+
+/// Options of [`discover`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DiscoveryOptions {
+    /// Bootstrap resamples for stability selection and intervals.
+    pub bootstrap: usize,
+    /// Seed of the resamples.
+    pub seed: u64,
+    /// STLSQ iterations at most.
+    pub max_iter: usize,
+    /// Validation RMS of the weighted response below which an equation is good enough (in
+    /// noise floors when rows are weighted by 1 / floor): the threshold is then the largest
+    /// one that reaches it, whatever smaller thresholds would fit below the floor.
+    pub good_enough_rms: f64,
+}
+
+impl Default for DiscoveryOptions {
+    fn default() -> Self {
+        Self {
+            bootstrap: 100,
+            seed: 0,
+            max_iter: 10,
+            good_enough_rms: 1.2,
+        }
+    }
+}
+
+/// A library column left out, and why.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Skipped {
+    /// Column (or, for a whole regression, the response's name).
+    pub what: String,
+    /// Why.
+    pub reason: String,
+}
+
+/// One term of a discovered equation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Term {
+    /// Library column.
+    pub feature: String,
+    /// Coefficient (response units per feature unit).
+    pub coefficient: f64,
+    /// 95 % percentile bootstrap interval (by group).
+    pub ci95: [f64; 2],
+    /// Share of bootstrap resamples in which STLSQ chose it.
+    pub stability: f64,
+}
+
+/// A discovered equation `y = Σ c_k φ_k`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Equation {
+    /// The kept terms (none: nothing the library explains).
+    pub terms: Vec<Term>,
+    /// STLSQ threshold chosen on validation (response units per unit-RMS column).
+    pub threshold: f64,
+    /// Uncentred validation R² (see the module doc).
+    pub validation_r2: f64,
+    /// Weighted RMS of the response on validation rows, before and after the equation.
+    pub validation_rms: [f64; 2],
+    /// Terms chosen in some but not most resamples (unstable), with their frequency.
+    pub unstable: Vec<(String, f64)>,
+    /// Columns left out before the fit.
+    pub skipped: Vec<Skipped>,
+    /// Training and validation rows.
+    pub rows: [usize; 2],
+}
+
+/// Discovers a sparse equation for `train` (threshold chosen on `validation`); see the
+/// module doc. `Err` says why no regression could be run.
+pub fn discover(
+    library: &Library,
+    train: &Rows,
+    validation: &Rows,
+    opts: &DiscoveryOptions,
+) -> Result<Equation, Skipped> {
+    let skip = |reason: String| Skipped {
+        what: "regression".into(),
+        reason,
+    };
+    let p = library.names.len();
+    if train.x.iter().chain(&validation.x).any(|r| r.len() != p) {
+        return Err(skip(format!("a row does not have the library's {p} columns")));
+    }
+    let (g_train, g_val) = (train.groups().len(), validation.groups().len());
+    if g_train < MIN_GROUPS || g_val < MIN_GROUPS {
+        return Err(skip(format!(
+            "too few steps to fit a library: {g_train} training and {g_val} validation (at least {MIN_GROUPS} each)"
+        )));
+    }
+    if train.y.iter().chain(&validation.y).any(|v| !v.is_finite()) {
+        return Err(skip("the response has non-finite values".into()));
+    }
+    // Column screening and scales, on the training rows.
+    let mut skipped = Vec::new();
+    let mut cols: Vec<usize> = Vec::new();
+    let mut scales: Vec<f64> = Vec::new();
+    for j in 0..p {
+        let v: Vec<f64> = train.x.iter().zip(&train.w).map(|(r, w)| r[j] * w).collect();
+        let name = &library.names[j];
+        if v.iter().any(|x| !x.is_finite()) {
+            skipped.push(Skipped {
+                what: name.clone(),
+                reason: "non-finite values".into(),
+            });
+            continue;
+        }
+        let raw: Vec<f64> = train.x.iter().map(|r| r[j]).collect();
+        let mean = raw.iter().sum::<f64>() / raw.len() as f64;
+        let spread = raw.iter().map(|x| (x - mean).abs()).fold(0.0, f64::max);
+        let rms = (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+        if Some(j) != library.intercept && spread <= 1e-12 * mean.abs().max(1.0) {
+            skipped.push(Skipped {
+                what: name.clone(),
+                reason: if rms == 0.0 {
+                    "zero on every row".into()
+                } else {
+                    "constant on every row (the intercept stands for it)".into()
+                },
+            });
+            continue;
+        }
+        if rms == 0.0 {
+            skipped.push(Skipped {
+                what: name.clone(),
+                reason: "zero on every row".into(),
+            });
+            continue;
+        }
+        if let Some(&k) = cols.iter().find(|&&k| {
+            let u: Vec<f64> = train.x.iter().zip(&train.w).map(|(r, w)| r[k] * w).collect();
+            correlation(&u, &v).abs() > MAX_COLUMN_CORRELATION
+        }) {
+            skipped.push(Skipped {
+                what: name.clone(),
+                reason: format!(
+                    "collinear with `{}` (|r| > {MAX_COLUMN_CORRELATION})",
+                    library.names[k]
+                ),
+            });
+            continue;
+        }
+        // A combination of several earlier columns (Δcmd = cmd − previous cmd) is as
+        // unusable as a copy of one.
+        if !cols.is_empty() {
+            let kept = DMatrix::from_fn(train.len(), cols.len(), |i, k| {
+                train.x[i][cols[k]] * train.w[i] / scales[k]
+            });
+            let vv = DVector::from_vec(v.clone());
+            if let Some(c) = minimum_norm_least_squares(&kept, &vv) {
+                let fit = &kept * c;
+                let explained = 1.0 - (&vv - fit).norm_squared() / vv.norm_squared();
+                if explained > MAX_COLUMN_CORRELATION * MAX_COLUMN_CORRELATION {
+                    skipped.push(Skipped {
+                        what: name.clone(),
+                        reason: format!(
+                            "a combination of earlier columns (R² {explained:.4} > {:.4})",
+                            MAX_COLUMN_CORRELATION * MAX_COLUMN_CORRELATION
+                        ),
+                    });
+                    continue;
+                }
+            }
+        }
+        cols.push(j);
+        scales.push(rms);
+    }
+    if cols.is_empty() {
+        return Err(skip("no usable library column".into()));
+    }
+    let design = |rows: &Rows| -> (DMatrix<f64>, DVector<f64>) {
+        let n = rows.len();
+        let a = DMatrix::from_fn(n, cols.len(), |i, k| rows.x[i][cols[k]] * rows.w[i] / scales[k]);
+        let b = DVector::from_fn(n, |i, _| rows.y[i] * rows.w[i]);
+        (a, b)
+    };
+    let (a, b) = design(train);
+    let (av, bv) = design(validation);
+    // Threshold by validation loss, one-standard-error rule over validation groups.
+    let val_groups = validation.groups();
+    let group_index: Vec<usize> = validation
+        .group
+        .iter()
+        .map(|g| val_groups.binary_search(g).unwrap_or(0))
+        .collect();
+    let mut losses = Vec::new();
+    for &lambda in &THRESHOLDS {
+        let xi = stlsq(&a, &b, lambda, opts.max_iter);
+        let r = &bv - &av * &xi;
+        let mut per_group = vec![0.0; val_groups.len()];
+        for (i, v) in r.iter().enumerate() {
+            per_group[group_index[i]] += v * v;
+        }
+        let total: f64 = per_group.iter().sum();
+        let m = per_group.len() as f64;
+        let mean = total / m;
+        let sd = (per_group.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
+        losses.push((lambda, total, sd * m.sqrt()));
+    }
+    let best = losses
+        .iter()
+        .copied()
+        .min_by(|x, y| x.1.total_cmp(&y.1))
+        .ok_or_else(|| skip("no threshold".into()))?;
+    // An equation that already brings the response to `good_enough_rms` is as good as any:
+    // terms below the noise floor only fit it.
+    let enough = opts.good_enough_rms.powi(2) * validation.len() as f64;
+    let threshold = losses
+        .iter()
+        .filter(|l| l.1 <= (best.1 + best.2).max(enough))
+        .map(|l| l.0)
+        .fold(best.0, f64::max);
+    // Stability selection and intervals over bootstrap resamples of the training groups.
+    let groups = train.groups();
+    let rows_of: Vec<Vec<usize>> = groups
+        .iter()
+        .map(|g| (0..train.len()).filter(|&i| train.group[i] == *g).collect())
+        .collect();
+    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
+    let mut chosen = vec![0usize; cols.len()];
+    let mut resamples: Vec<Vec<usize>> = Vec::with_capacity(opts.bootstrap);
+    for _ in 0..opts.bootstrap {
+        let idx: Vec<usize> = (0..groups.len())
+            .flat_map(|_| rows_of[rng.random_range(0..groups.len())].iter().copied())
+            .collect();
+        let ab = a.select_rows(idx.iter());
+        let bb = b.select_rows(idx.iter());
+        let xi = stlsq(&ab, &bb, 0.5 * threshold, opts.max_iter);
+        for (k, c) in chosen.iter_mut().enumerate() {
+            if xi[k] != 0.0 {
+                *c += 1;
+            }
+        }
+        resamples.push(idx);
+    }
+    let freq: Vec<f64> = chosen
+        .iter()
+        .map(|&c| c as f64 / opts.bootstrap.max(1) as f64)
+        .collect();
+    let kept: Vec<usize> = (0..cols.len())
+        .filter(|&k| freq[k] >= STABILITY_THRESHOLD)
+        .collect();
+    let unstable = (0..cols.len())
+        .filter(|&k| freq[k] > 0.0 && freq[k] < STABILITY_THRESHOLD)
+        .map(|k| (library.names[cols[k]].clone(), freq[k]))
+        .collect();
+    let rms = |r: &DVector<f64>| (r.norm_squared() / r.len().max(1) as f64).sqrt();
+    let mut eq = Equation {
+        terms: Vec::new(),
+        threshold,
+        validation_r2: 0.0,
+        validation_rms: [rms(&bv), rms(&bv)],
+        unstable,
+        skipped,
+        rows: [train.len(), validation.len()],
+    };
+    if kept.is_empty() {
+        return Ok(eq);
+    }
+    let ak = a.select_columns(kept.iter());
+    let Some(xi) = least_squares(&ak, &b) else {
+        eq.skipped.push(Skipped {
+            what: "regression".into(),
+            reason: "the kept terms' design matrix is singular".into(),
+        });
+        return Ok(eq);
+    };
+    let mut boot: Vec<Vec<f64>> = vec![Vec::new(); kept.len()];
+    for idx in &resamples {
+        if let Some(x) = least_squares(&ak.select_rows(idx.iter()), &b.select_rows(idx.iter())) {
+            for (k, v) in x.iter().enumerate() {
+                boot[k].push(*v / scales[kept[k]]);
+            }
+        }
+    }
+    let avk = av.select_columns(kept.iter());
+    let r = &bv - &avk * &xi;
+    let energy = bv.norm_squared();
+    eq.validation_r2 = if energy > 0.0 {
+        1.0 - r.norm_squared() / energy
+    } else {
+        0.0
+    };
+    eq.validation_rms[1] = rms(&r);
+    for (k, &c) in kept.iter().enumerate() {
+        let coefficient = xi[k] / scales[c];
+        let ci95 = percentile_interval(&mut boot[k]).unwrap_or([coefficient, coefficient]);
+        eq.terms.push(Term {
+            feature: library.names[cols[c]].clone(),
+            coefficient,
+            ci95,
+            stability: freq[c],
+        });
+    }
+    Ok(eq)
+}
+
+/// Sequentially thresholded least squares: least squares, zero every coefficient below
+/// `lambda` in magnitude, refit on the rest, until the support stops changing.
+pub fn stlsq(a: &DMatrix<f64>, b: &DVector<f64>, lambda: f64, max_iter: usize) -> DVector<f64> {
+    let p = a.ncols();
+    let mut support: Vec<usize> = (0..p).collect();
+    let mut xi = DVector::zeros(p);
+    for _ in 0..max_iter.max(1) {
+        xi = DVector::zeros(p);
+        if support.is_empty() {
+            break;
+        }
+        let sub = a.select_columns(support.iter());
+        let Some(x) = least_squares(&sub, b) else {
+            break;
+        };
+        for (k, &j) in support.iter().enumerate() {
+            xi[j] = x[k];
+        }
+        let next: Vec<usize> = support
+            .iter()
+            .copied()
+            .filter(|&j| xi[j].abs() >= lambda)
+            .collect();
+        if next.len() == support.len() {
+            break;
+        }
+        support = next;
+    }
+    for j in 0..p {
+        if xi[j].abs() < lambda {
+            xi[j] = 0.0;
+        }
+    }
+    xi
+}
+
+/// Least squares by SVD; `None` when the matrix is rank-deficient (a singular design), has
+/// no row, or gives a non-finite solution.
+pub fn least_squares(a: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
+    if a.nrows() < a.ncols() || a.ncols() == 0 {
+        return None;
+    }
+    let svd = a.clone().svd(true, true);
+    let smax = svd.singular_values.max();
+    let smin = svd.singular_values.min();
+    if smax.is_nan() || smax <= 0.0 || smin <= smax * 1e-10 {
+        return None;
+    }
+    let x = svd.solve(b, 0.0).ok()?;
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+/// Least squares by SVD with singular values below 1e-10 of the largest treated as zero (the
+/// minimum-norm solution of a rank-deficient system).
+fn minimum_norm_least_squares(a: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
+    if a.ncols() == 0 || a.nrows() == 0 {
+        return None;
+    }
+    let svd = a.clone().svd(true, true);
+    let eps = svd.singular_values.max() * 1e-10;
+    let x = svd.solve(b, eps).ok()?;
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+fn correlation(u: &[f64], v: &[f64]) -> f64 {
+    // Uncentred: two columns that are multiples of each other cannot both be fitted, whatever
+    // their means (the intercept is one column among others).
+    let uv: f64 = u.iter().zip(v).map(|(a, b)| a * b).sum();
+    let uu: f64 = u.iter().map(|a| a * a).sum();
+    let vv: f64 = v.iter().map(|a| a * a).sum();
+    if uu == 0.0 || vv == 0.0 {
+        0.0
+    } else {
+        uv / (uu * vv).sqrt()
+    }
+}
+
+/// 2.5 and 97.5 % percentiles (linear interpolation); `None` for fewer than 2 values.
+fn percentile_interval(v: &mut [f64]) -> Option<[f64; 2]> {
+    if v.len() < 2 {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    Some([
+        drive_sim_analysis::stats::quantile_sorted(v, 0.025),
+        drive_sim_analysis::stats::quantile_sorted(v, 0.975),
+    ])
+}
+
+#[cfg(test)]
+mod tests;

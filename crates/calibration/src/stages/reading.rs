@@ -1,0 +1,161 @@
+//! Reading a discovered equation: its text, what its structure says in words, and the
+//! catalogue's named effects it points to (a constant in vy: a lateral drift; vy in wz: a
+//! turning centre off the origin). Discovery tries those effects beside the equation's generic
+//! term ([`super::discovery`]), so that a physical effect can win where it explains as much.
+
+use crate::discovery::Equation;
+use drive_sim_model::effects::{Feature, TermTarget};
+
+/// `Δvy = 0.101 [0.097, 0.105] · vx·wz - 0.02 [...]`.
+pub(super) fn text_of(target: TermTarget, eq: &Equation) -> String {
+    let terms: Vec<String> = eq
+        .terms
+        .iter()
+        .map(|t| {
+            let sym = Feature::from_name(&t.feature).map_or(t.feature.as_str(), |f| f.symbol());
+            let coef = format!("{:.4} [{:.4}, {:.4}]", t.coefficient, t.ci95[0], t.ci95[1]);
+            if sym == "1" {
+                coef
+            } else {
+                format!("{coef} · {sym}")
+            }
+        })
+        .collect();
+    format!(
+        "{} = {}   (validation R² {:.2})",
+        target.symbol(),
+        terms.join(" + "),
+        eq.validation_r2
+    )
+}
+
+/// A plain-language reading of an equation's structure, and the catalogue effects it points
+/// to.
+pub(super) fn read(target: TermTarget, eq: &Equation) -> (Vec<String>, Vec<String>) {
+    let has = |f: Feature| eq.terms.iter().any(|t| t.feature == f.name());
+    let coef = |f: Feature| {
+        eq.terms
+            .iter()
+            .find(|t| t.feature == f.name())
+            .map_or(0.0, |t| t.coefficient)
+    };
+    let mut reading = Vec::new();
+    let mut suggests: Vec<&str> = Vec::new();
+    let wheel = matches!(target, TermTarget::WheelLeft | TermTarget::WheelRight);
+    if has(Feature::Step) || has(Feature::StepCmdWheel) || has(Feature::StepCmdVx) {
+        reading.push("gain changes over the run (battery sag, motors heating)".into());
+        suggests.push("motor_gain_drift");
+    }
+    if target == TermTarget::BodyVy && has(Feature::One) {
+        reading.push(format!(
+            "lateral drift of {:.3} m/s in every step: a side slope or a crabbing chassis",
+            coef(Feature::One)
+        ));
+        suggests.push("lateral_drift");
+    }
+    if target == TermTarget::BodyVy && has(Feature::VxWz) {
+        reading.push(format!(
+            "lateral slip with the centripetal acceleration ({:.3} s · vx·wz): tyres slip sideways in turns",
+            coef(Feature::VxWz)
+        ));
+        suggests.push("centripetal_slip");
+    }
+    if target == TermTarget::BodyVy && has(Feature::Wz) {
+        // A rigid body turning about a point x_ICR along its axis moves its origin sideways
+        // at -x_ICR · wz, whichever way it drives.
+        reading.push(format!(
+            "lateral slip with the yaw rate ({:.3} m · wz): the robot turns about a point {:.3} m {} its origin (load nearer one axle, or a pose frame off the turning centre)",
+            coef(Feature::Wz),
+            coef(Feature::Wz).abs(),
+            if coef(Feature::Wz) > 0.0 { "behind" } else { "ahead of" }
+        ));
+        suggests.push("icr_longitudinal_offset");
+    }
+    if target == TermTarget::BodyVy && has(Feature::Vx) {
+        reading.push(format!(
+            "lateral slip with the forward speed ({:.3} · vx): the robot moves {:.1}° off its axis (axles out of square, or a pose frame yawed against the body)",
+            coef(Feature::Vx),
+            coef(Feature::Vx).atan().to_degrees()
+        ));
+        suggests.push("crab_angle");
+    }
+    if has(Feature::ReverseVx)
+        || has(Feature::ReverseWz)
+        || has(Feature::ReverseCmdWheel)
+        || has(Feature::SignVx)
+    {
+        reading.push("direction-dependent: the robot behaves differently in reverse".into());
+        if target == TermTarget::BodyWz {
+            suggests.push("reverse_baseline_scale");
+        }
+    }
+    if has(Feature::Ax) || has(Feature::Alpha) {
+        // A body lagging the model by τ reads as a residual −τ · (the model's acceleration):
+        // a negative coefficient is a lag of that many seconds, a positive one a lead.
+        let c = [Feature::Ax, Feature::Alpha]
+            .into_iter()
+            .filter(|&f| has(f))
+            .map(coef)
+            .fold(f64::INFINITY, f64::min);
+        reading.push(if c < 0.0 {
+            format!(
+                "a lag: the body follows its wheels with a time constant of about {:.2} s",
+                -c
+            )
+        } else {
+            format!("a term in the acceleration ({c:+.3} s): the body responds faster than the model")
+        });
+        if !wheel {
+            suggests.push("body_lag");
+        } else {
+            suggests.push("time_constant_scale");
+        }
+    }
+    if wheel && has(Feature::CmdWheel) {
+        reading.push("a wheel gain error: the wheel settles off its target in proportion to it".into());
+        suggests.push("motor_gain");
+    }
+    if target == TermTarget::ImuWz {
+        if has(Feature::One) {
+            reading.push("an IMU yaw-rate bias".into());
+            suggests.push("imu_yaw_rate_bias");
+        }
+        if has(Feature::Wz) {
+            reading.push("an IMU yaw-rate scale error".into());
+            suggests.push("imu_yaw_rate_scale");
+        }
+    }
+    if has(Feature::TimeInStep) {
+        reading.push("changes within the step: a transient the model lacks".into());
+    }
+    if has(Feature::PrevCmdVx)
+        || has(Feature::PrevCmdWz)
+        || has(Feature::DeltaCmdVx)
+        || has(Feature::DeltaCmdWz)
+    {
+        reading.push("depends on the previous command: memory from one step to the next".into());
+        // In a step response, a residual that depends on where the previous step left the
+        // robot is a lag that has not caught up.
+        if wheel {
+            suggests.push("time_constant_scale");
+        } else {
+            suggests.push("body_lag");
+        }
+    }
+    if has(Feature::VxSq) || has(Feature::WzSq) || has(Feature::AbsVx) || has(Feature::AbsWz) {
+        reading.push("nonlinear in speed (drag, a soft limit)".into());
+    }
+    if reading.is_empty() {
+        reading.push(format!(
+            "a {} correction linear in the model's state",
+            target.stage().as_str()
+        ));
+    }
+    let mut unique: Vec<&str> = Vec::new();
+    for x in suggests {
+        if !unique.contains(&x) {
+            unique.push(x);
+        }
+    }
+    (reading, unique.into_iter().map(String::from).collect())
+}

@@ -1,0 +1,300 @@
+//! A judgement's files: `judge.json` (every run's score against the real run and against each
+//! reference), `judge.md` (the table `drive-sim judge` prints) and `judge_rates.svg|png` (how
+//! often the twin's runs fail each criterion against the real run, beside how often they fail
+//! it against the twin's own runs).
+
+use super::interval::{short as short_number, ParamInterval};
+use super::{JudgeOutcome, DIFFERS};
+use drive_sim_calibration::twin::annotate_value;
+use drive_sim_model::error::Result;
+use drive_sim_model::provenance::Provenance;
+use drive_sim_report::{bar_chart, AxisLabel, BarChart, BarSeries};
+use std::path::{Path, PathBuf};
+
+/// The table: one row per criterion, the verdict first.
+pub fn table(o: &JudgeOutcome) -> String {
+    let n = o.sim_seeds.len();
+    let m = o.references.len();
+    let mut s = format!(
+        "{}: the twin's {n} runs against the {} {} real steps, and against {m} runs of its own ({} DRIVE steps each)\n\n",
+        o.dataset,
+        o.real_steps_analysed,
+        o.options.real_steps.as_str(),
+        o.steps_per_run
+    );
+    s.push_str(&format!(
+        "**{}**: the loss's Monte Carlo p {:.3} (mean loss {:.2} against the real run, {:.2} against the twin's runs; alpha {}); the verdict's {:.3}\n\n",
+        if o.indistinguishable {
+            "indistinguishable"
+        } else {
+            "distinguishable"
+        },
+        o.loss.p,
+        o.loss.real,
+        drive_sim_analysis::stats::mean(&o.loss.references),
+        o.options.alpha,
+        o.criteria[0].p
+    ));
+    s.push_str("| criterion | runs failing it against the real run | against the twin's own runs (mean, range) | p | p (Holm) |\n|---|---|---|---|---|\n");
+    for c in &o.criteria {
+        let lo = c.reference_fails.iter().min().copied().unwrap_or(0);
+        let hi = c.reference_fails.iter().max().copied().unwrap_or(0);
+        s.push_str(&format!(
+            "| {}{} | {} of {n} | {:.1} of {n} ({lo}–{hi}) | {:.3} | {} |\n",
+            c.criterion,
+            if c.criterion == DIFFERS {
+                " (the verdict)"
+            } else {
+                ""
+            },
+            c.real_fails,
+            c.reference_rate * n as f64,
+            c.p,
+            if c.criterion == DIFFERS {
+                "-".to_string()
+            } else {
+                format!("{:.3}", c.p_holm)
+            }
+        ));
+    }
+    if !o.short_on.is_empty() {
+        s.push_str(&format!(
+            "\nShort on (Holm-adjusted p ≤ {}): {}\n",
+            o.options.alpha,
+            o.short_on.join(", ")
+        ));
+    }
+    if !o.flagged.is_empty() {
+        s.push_str(&format!(
+            "\nFlagged (own p ≤ {}, uncorrected: a diagnostic, not a test): {}\n",
+            o.options.alpha,
+            o.flagged.join(", ")
+        ));
+    }
+    for note in &o.notes {
+        s.push_str(&format!("\nNote: {note}\n"));
+    }
+    if !o.intervals.is_empty() {
+        s.push_str(&intervals_table(o));
+    }
+    s
+}
+
+/// The parameters' sets (`judge --interval`): one row per parameter, then every judged value.
+pub fn intervals_table(o: &JudgeOutcome) -> String {
+    let level = 100.0 * (1.0 - o.options.alpha);
+    let mut s = format!(
+        "\n**{level:.0} % sets by inverting this test** (one parameter moves, the others stay at the twin's values; the same seeds at every value):\n\n| parameter | twin's value | set | box | judged values (p) |\n|---|---|---|---|---|\n"
+    );
+    for i in &o.intervals {
+        let unit = if i.unit == "-" {
+            String::new()
+        } else {
+            format!(" {}", i.unit)
+        };
+        let set = match (&i.lower, &i.upper) {
+            (Some(lo), Some(hi)) => {
+                let end = |b: &super::interval::Bound| match b.rejected_at {
+                    None => format!("{:.4} (box)", b.value),
+                    Some(r) => format!("{:.4} (rejected at {:.4})", b.value, r),
+                };
+                format!("[{}, {}]", end(lo), end(hi))
+            }
+            _ => "empty: the twin's own value is rejected".into(),
+        };
+        let mut judged = i.evaluations.clone();
+        judged.sort_by(|a, b| a.value.total_cmp(&b.value));
+        let judged: Vec<String> = judged
+            .iter()
+            .map(|e| {
+                format!(
+                    "{:.4} ({:.2}{})",
+                    e.value,
+                    e.p,
+                    if e.accepted { "" } else { ", out" }
+                )
+            })
+            .collect();
+        s.push_str(&format!(
+            "| {} | {}{unit} | {set} | [{}, {}] | {} |\n",
+            i.name,
+            short_number(i.value),
+            short_number(i.box_lower),
+            short_number(i.box_upper),
+            judged.join(", ")
+        ));
+    }
+    s
+}
+
+/// The twin's two files (`robot.toml`, `terrain.toml` as text) with each set of `intervals` in
+/// the comment of the line that sets its value, in whichever file sets it
+/// ([`drive_sim_calibration::twin::annotate_value`]); and the keys neither file sets.
+pub fn annotated_twin(
+    texts: [&str; 2],
+    intervals: &[ParamInterval],
+    dataset: &str,
+    steps: &str,
+) -> ([String; 2], Vec<String>) {
+    let mut texts = texts.map(str::to_string);
+    let mut unplaced = Vec::new();
+    for i in intervals {
+        // A base parameter's report name is dotted (`terrain.friction.peak_longitudinal`); its
+        // file sets the last part.
+        let key = i.name.rsplit('.').next().unwrap_or(&i.name);
+        let note = i.comment(dataset, steps);
+        let placed = texts.iter_mut().any(|t| match annotate_value(t, key, &note) {
+            Some(new) => {
+                *t = new;
+                true
+            }
+            None => false,
+        });
+        if !placed {
+            unplaced.push(key.to_string());
+        }
+    }
+    (texts, unplaced)
+}
+
+/// Writes `judge.json` (stamped with `provenance`), `judge.md` and the rates' figure into
+/// `dir`; returns their paths.
+pub fn write_judge(o: &JudgeOutcome, provenance: &Provenance, dir: &Path) -> Result<Vec<PathBuf>> {
+    let json = dir.join("judge.json");
+    drive_sim_model::output::write_json_atomic(&json, o)?;
+    drive_sim_model::provenance::stamp_json_file(&json, provenance)?;
+    let md = dir.join("judge.md");
+    drive_sim_model::output::write_atomic(&md, table(o).as_bytes())?;
+    let n = o.sim_seeds.len() as f64;
+    let quantile = |k: usize, q: f64| {
+        drive_sim_analysis::stats::quantile(
+            &o.criteria[k]
+                .reference_fails
+                .iter()
+                .map(|x| *x as f64 / n)
+                .collect::<Vec<_>>(),
+            q,
+        )
+    };
+    let chart = BarChart {
+        categories: o.criteria.iter().map(|c| short(&c.criterion)).collect(),
+        series: vec![
+            BarSeries {
+                label: "against the real run".into(),
+                values: o.criteria.iter().map(|c| Some(c.real_fails as f64 / n)).collect(),
+            },
+            BarSeries {
+                label: "against the twin's own runs (mean)".into(),
+                values: o.criteria.iter().map(|c| Some(c.reference_rate)).collect(),
+            },
+            BarSeries {
+                label: format!("(its {:.0}th percentile)", 100.0 * (1.0 - o.options.alpha)),
+                values: (0..o.criteria.len())
+                    .map(|k| Some(quantile(k, 1.0 - o.options.alpha)))
+                    .collect(),
+            },
+        ],
+        value: AxisLabel::new("share of the twin's runs failing", ""),
+        log: false,
+        references: vec![],
+    };
+    let fig = bar_chart(
+        dir,
+        "judge_rates",
+        &format!(
+            "{} ({} steps): how often compare fails the twin's runs, by criterion",
+            o.dataset,
+            o.options.real_steps.as_str()
+        ),
+        &chart,
+    )?;
+    Ok(vec![json, md, fig.svg, fig.png])
+}
+
+/// A criterion's name on the figure's axis: `slip vx`, `T/U body`, `vx map`.
+fn short(criterion: &str) -> String {
+    let unitless = |c: &str| {
+        c.trim_start_matches("slip_")
+            .trim_end_matches("_m_s")
+            .trim_end_matches("_rad_s")
+            .to_string()
+    };
+    if let Some(channel) = criterion.strip_suffix(" map") {
+        format!("{} map", unitless(channel))
+    } else if let Some(frame) = criterion.strip_prefix("t_area_pct_") {
+        format!("T/U {frame}")
+    } else if criterion == super::STEP_SCATTER {
+        "step scatter".into()
+    } else if criterion == super::TURN_MEMORY {
+        "turn memory".into()
+    } else if let Some(m) = criterion.strip_prefix("median_slip_") {
+        format!("slip {m}")
+    } else {
+        criterion.trim_start_matches("median_").to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::interval::{Bound, ParamInterval};
+
+    /// Each set goes into whichever file sets its value; a key neither sets is returned.
+    #[test]
+    fn annotated_twin_places_each_set_in_its_file() {
+        let set = |name: &str| ParamInterval {
+            name: name.into(),
+            unit: "-".into(),
+            value: 1.0,
+            box_lower: 0.0,
+            box_upper: 2.0,
+            level: 0.95,
+            lower: Some(Bound {
+                value: 0.5,
+                rejected_at: Some(0.4),
+            }),
+            upper: Some(Bound {
+                value: 1.5,
+                rejected_at: Some(1.6),
+            }),
+            evaluations: Vec::new(),
+            method: String::new(),
+        };
+        let robot = "[effects]\nspeed_droop_rad_s_per_knm = 1.0  # [tune] no interval\n";
+        let terrain = "[friction]\npeak_longitudinal = 0.9\n";
+        let (texts, unplaced) = super::annotated_twin(
+            [robot, terrain],
+            &[
+                set("speed_droop_rad_s_per_knm"),
+                set("terrain.friction.peak_longitudinal"),
+                set("dead_time_s"),
+            ],
+            "d",
+            "all",
+        );
+        assert!(
+            texts[0].contains("# [tune] 95 % set [0.5000, 1.500]"),
+            "{}",
+            texts[0]
+        );
+        assert!(
+            texts[1].contains("peak_longitudinal = 0.9  # 95 % set"),
+            "{}",
+            texts[1]
+        );
+        assert_eq!(unplaced, vec!["dead_time_s".to_string()]);
+    }
+
+    #[test]
+    fn short_names() {
+        for (long, s) in [
+            ("differs", "differs"),
+            ("median_rho", "rho"),
+            ("median_slip_vx", "slip vx"),
+            ("t_area_pct_wheels", "T/U wheels"),
+            ("slip_wz_rad_s map", "wz map"),
+            ("slip_vx_m_s map", "vx map"),
+        ] {
+            assert_eq!(super::short(long), s);
+        }
+    }
+}

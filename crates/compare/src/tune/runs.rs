@@ -1,0 +1,104 @@
+//! One seeded DRIVE run of a model against real steps: the twin's run, compare, the loss.
+
+use super::*;
+
+/// The loss of one seeded DRIVE run of a model against the real steps.
+pub(super) struct SeedRun {
+    pub(super) outcome: std::result::Result<Loss, String>,
+}
+
+/// The protocol run of `drive-sim run --robot twin/robot.toml --terrain twin/terrain.toml
+/// --steps N --seed S`, in memory.
+pub fn twin_run(model: &ModelParams, steps: u32, seed: u64) -> Result<DriveLog> {
+    let (robot, terrain) = twin::twin_models(model)?;
+    drive_sim_harness::simulate(&robot, &terrain, SAMPLER, steps, seed, SensorNoise::typical()).map(|r| r.log)
+}
+
+/// Compare's options for the loss of the search and the check: `resamples` bootstrap draws,
+/// the maps smoothed by `smoother`, and no permutation test of the maps (the loss does not use
+/// it, and it would cost every run a few hundred smoothings). The judgement uses compare's
+/// defaults with the same smoother.
+pub(super) fn loss_opts(resamples: usize, smoother: TfSmoother) -> CompareOptions {
+    CompareOptions {
+        bootstrap: Bootstrap {
+            resamples,
+            ..Bootstrap::default()
+        },
+        tf_permutations: 0,
+        tf_smoother: smoother,
+        ..CompareOptions::default()
+    }
+}
+
+/// DRIVE runs of `models` with `seed`, compared with the real steps prepared once.
+pub(super) fn run_against(
+    real: &PreparedReal,
+    models: &[&ModelParams],
+    steps: u32,
+    seed: u64,
+) -> Result<ComparisonReport> {
+    let logs = models
+        .iter()
+        .map(|m| twin_run(m, steps, seed))
+        .collect::<Result<Vec<_>>>()?;
+    let inputs: Vec<Input> = logs.iter().map(|log| Input { log, file: None }).collect();
+    compare_prepared(real, &inputs)
+}
+
+/// The loss of one seeded run of `model` against `real` (prepared with [`loss_opts`]).
+pub(super) fn seed_run(real: &PreparedReal, model: &ModelParams, steps: u32, seed: u64) -> SeedRun {
+    let outcome = run_against(real, &[model], steps, seed)
+        .map_err(|e| e.to_string())
+        .and_then(|r| {
+            r.sims[0]
+                .loss
+                .clone()
+                .ok_or_else(|| "compare gave no loss".to_string())
+        });
+    SeedRun { outcome }
+}
+
+/// Mean of the seeds' losses; `None` when one failed.
+pub(super) fn mean_loss(runs: &[SeedRun]) -> Option<f64> {
+    let mut sum = 0.0;
+    for r in runs {
+        sum += r.outcome.as_ref().ok()?.total;
+    }
+    Some(sum / runs.len().max(1) as f64)
+}
+
+pub(super) fn evaluation(values: Vec<f64>, runs: &[SeedRun]) -> PointEvaluation {
+    PointEvaluation {
+        values,
+        loss: mean_loss(runs),
+        seed_losses: runs
+            .iter()
+            .map(|r| r.outcome.as_ref().ok().map(|o| o.total))
+            .collect(),
+        error: runs.iter().find_map(|r| r.outcome.as_ref().err().cloned()),
+    }
+}
+
+pub(super) fn judged(r: std::result::Result<&ComparisonReport, &String>, i: usize, seed: u64) -> JudgedRun {
+    match r {
+        Ok(rep) => {
+            let c = &rep.sims[i];
+            JudgedRun {
+                seed,
+                loss: c.loss.clone(),
+                metrics: c.metrics.clone(),
+                transfer: c.transfer.clone(),
+                verdict: Some(c.verdict.clone()),
+                error: None,
+            }
+        }
+        Err(e) => JudgedRun {
+            seed,
+            loss: None,
+            metrics: vec![],
+            transfer: vec![],
+            verdict: None,
+            error: Some(e.clone()),
+        },
+    }
+}

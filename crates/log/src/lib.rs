@@ -1,0 +1,178 @@
+//! DRIVE logs on disk: readers and writers of every format, all meeting in the common
+//! [`DriveLog`].
+//!
+//! The data model itself ([`DriveLog`], [`Frame`], [`Measurement`], ...) lives in
+//! [`drive_sim_model::measurement`], below the simulator and the protocol that produce it; it is
+//! re-exported here so that `crate::Pose` and friends keep working.
+
+pub mod bag;
+pub mod cdr;
+pub mod csv;
+pub mod mcap;
+pub mod ros_msgs;
+
+pub use drive_sim_model::measurement::{
+    DriveLog, Frame, FrameSink, GroundTruth, ImuReading, Interruption, LogMeta, Measurement, Nominal, Origin,
+    Phase, Pose, Sample, UseSteps,
+};
+
+/// Reads a DRIVE log of either kind: a simulated `.mcap` or a measured `.csv` (with its JSON).
+pub fn read_log(path: &std::path::Path) -> drive_sim_model::Result<DriveLog> {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("mcap") => mcap::read_mcap(path),
+        Some("csv") => csv::read_measured_csv(path),
+        _ => Err(drive_sim_model::Error::log(
+            path,
+            "file name",
+            "expected a .mcap (simulated) or .csv (measured) DRIVE log",
+        )),
+    }
+}
+
+/// What [`open`] needs besides the path: what a bag does not record (ignored for the other
+/// formats, which declare their robot and terrain).
+pub type OpenOptions = bag::BagOptions;
+
+/// A log opened by [`open`], with what the user should be told about how it was read.
+#[derive(Debug, Clone)]
+pub struct Opened {
+    /// The log.
+    pub log: DriveLog,
+    /// Decisions made while reading (roles, nominal values, segmentation).
+    pub notes: Vec<String>,
+    /// Data left out, and why (steps excluded by a gap, incomplete steps).
+    pub warnings: Vec<String>,
+}
+
+/// Opens any supported DRIVE input into the common [`DriveLog`]: a measured `.csv` (JSON
+/// beside it), a drive-sim `.mcap`, or a rosbag2 recording of the DRIVE node (a bag directory,
+/// a `.db3`, or a rosbag2 `.mcap`).
+pub fn open(path: &std::path::Path, opts: &OpenOptions) -> drive_sim_model::Result<Opened> {
+    let plain = |log| Opened {
+        log,
+        notes: Vec::new(),
+        warnings: Vec::new(),
+    };
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let from_bag = |b: bag::BagLog| Opened {
+        log: b.log,
+        notes: b.notes,
+        warnings: b.warnings,
+    };
+    let opened = if path.is_dir() {
+        bag::read_bag(path, opts).map(from_bag)
+    } else {
+        open_file(path, ext.as_deref(), opts, plain, from_bag)
+    }?;
+    settle_terrain(opened, path, opts)
+}
+
+fn open_file(
+    path: &std::path::Path,
+    ext: Option<&str>,
+    opts: &OpenOptions,
+    plain: impl Fn(DriveLog) -> Opened,
+    from_bag: impl Fn(bag::BagLog) -> Opened,
+) -> drive_sim_model::Result<Opened> {
+    match ext {
+        Some("csv") => csv::read_measured_csv(path).map(plain),
+        Some("mcap") if !path.exists() => Err(drive_sim_model::Error::io(
+            path,
+            std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+        )),
+        Some("mcap") if mcap::read::is_drive_sim_mcap(path)? => mcap::read_mcap(path).map(plain),
+        Some("mcap") | Some("db3") | Some("zstd") => bag::read_bag(path, opts).map(from_bag),
+        _ => Err(drive_sim_model::Error::log(
+            path,
+            "file name",
+            "expected a measured .csv, a drive-sim .mcap, or a rosbag2 bag (directory, .db3 or .mcap, or either as .zstd)",
+        )),
+    }
+}
+
+/// The terrain label of a log that does not say which terrain it was recorded on.
+pub const UNLABELLED: &str = "unlabelled";
+
+/// The terrain models start from for an [`UNLABELLED`] log (a stated default, with a warning).
+pub const DEFAULT_TERRAIN: &str = "asphalt";
+
+/// The terrain model of a log's terrain label: the terrain of that name (or file); for
+/// [`UNLABELLED`], [`DEFAULT_TERRAIN`] with a warning (returned); for a label no terrain file
+/// provides, an error naming the label and `file`, pointing to `--terrain`. The origin of a
+/// simulated log also names the terrain file it was run on, tried when the label is not in
+/// the catalog.
+pub fn terrain_of_log(
+    meta: &LogMeta,
+    file: &std::path::Path,
+) -> drive_sim_model::Result<(drive_sim_model::terrain::Terrain, Option<String>)> {
+    use drive_sim_model::terrain::Terrain;
+    let label = meta.terrain.as_str();
+    if label == UNLABELLED {
+        let (t, _) = Terrain::resolve(DEFAULT_TERRAIN)?;
+        return Ok((
+            t,
+            Some(format!(
+                "terrain `{UNLABELLED}`: the log does not say which terrain it was recorded on; \
+                 models start from the default `{DEFAULT_TERRAIN}` (pass `--terrain NAME|FILE` to say which)"
+            )),
+        ));
+    }
+    match Terrain::resolve(label) {
+        Ok((t, _)) => Ok((t, None)),
+        Err(e @ drive_sim_model::Error::Config { .. }) => Err(e),
+        Err(unknown) => {
+            if let Origin::Simulated { terrain_file, .. } = &meta.origin {
+                if let Ok((t, _)) = Terrain::resolve(terrain_file) {
+                    return Ok((t, None));
+                }
+            }
+            let known = match unknown {
+                drive_sim_model::Error::Unknown { available, .. } => format!(" (known: {available})"),
+                _ => String::new(),
+            };
+            Err(drive_sim_model::Error::log(
+                file,
+                "metadata `terrain`",
+                format!(
+                    "unknown terrain `{label}`{known}; pass `--terrain NAME|FILE` to say which \
+                     terrain model this log was recorded on"
+                ),
+            ))
+        }
+    }
+}
+
+/// Applies `--terrain` to an opened log (its label becomes the name or file given), or checks
+/// the label the log declares (see [`terrain_of_log`]).
+fn settle_terrain(
+    mut o: Opened,
+    path: &std::path::Path,
+    opts: &OpenOptions,
+) -> drive_sim_model::Result<Opened> {
+    match &opts.terrain {
+        Some(t) => {
+            let (terrain, _) = drive_sim_model::terrain::Terrain::resolve(t)?;
+            if o.log.meta.terrain != *t && o.log.meta.terrain != terrain.name {
+                o.notes.push(format!(
+                    "terrain: `{t}` as --terrain says (the log declares `{}`)",
+                    o.log.meta.terrain
+                ));
+            }
+            o.log.meta.terrain = t.clone();
+        }
+        None => {
+            if let (_, Some(w)) = terrain_of_log(&o.log.meta, path)? {
+                o.warnings.push(w);
+            }
+        }
+    }
+    Ok(o)
+}

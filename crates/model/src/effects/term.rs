@@ -1,0 +1,535 @@
+//! Generic model terms: an additive correction `Σ_k c_k φ_k(x)` acting on one quantity of the
+//! model (a wheel target, a body velocity, the IMU), where the features `φ_k` are computed from
+//! what a plant knows while it runs — its command, its own state, the time in the step, the
+//! step index — and never from a measurement. Equation discovery ([`drive_sim_calibration::discovery`]) finds
+//! such a term in a residual; registered here, it runs in the kinematic model and the
+//! simulator like any catalogue effect, and calibration refits and judges it by the same rules.
+//!
+//! Each [`TermTarget`] is one registered effect (`term_body_vy`, ...) whose parameters are the
+//! coefficients of every [`Feature`], all neutral at 0: a discovered equation switches on the
+//! few it uses. A coefficient's key is `term_<target>__<feature>` (`term_body_vy__vx_wz`), so
+//! terms serialize, `--inject` and appear in `calibration.json` like every other parameter.
+
+use super::{Effect, ParamDef, ParamKind, SearchBox, Stage};
+use crate::kinematics::{BodyVelocity, WheelSpeeds};
+use std::sync::LazyLock;
+
+/// What a plant knows about the step it is running: set at the start of each step (by the
+/// protocol runner in closed loop, by the replay when replaying a log).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StepContext {
+    /// Step index in the run (0 for the first).
+    pub step: u32,
+    /// The previous step's command (zero before the first).
+    pub previous_cmd: WheelSpeeds,
+}
+
+/// Everything a term's features may read at one instant: the command, the model's own state
+/// and the step context; never a measurement.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TermInput {
+    /// The command (wheel speeds the robot was told), rad/s.
+    pub cmd: WheelSpeeds,
+    /// The command in the nominal body space.
+    pub cmd_body: BodyVelocity,
+    /// The previous step's command in the nominal body space.
+    pub previous_cmd_body: BodyVelocity,
+    /// The model's body velocity before any body term.
+    pub body: BodyVelocity,
+    /// The model's body acceleration: d vx/dt m/s², d wz/dt rad/s².
+    pub accel: [f64; 2],
+    /// Time since the step started, s.
+    pub t_in_step_s: f64,
+    /// Step index.
+    pub step: u32,
+    /// Seed of the run's random draws (`drive-sim run --seed`; 0 where a plant has none). An
+    /// effect that draws per step mixes it with the step index rather than taking numbers
+    /// from the physics' stream, so switching such an effect on moves no other draw.
+    pub run_seed: u64,
+    /// The operator is driving the robot between DRIVE steps (a re-orientation after an
+    /// interruption, [`drive_sim_sim::Plant::begin_manoeuvre`]), not the protocol. An operator
+    /// closes the loop on where the robot goes; per-step effects of the protocol's steps do not
+    /// act there.
+    pub manoeuvre: bool,
+}
+
+impl TermInput {
+    /// The command is a stop (both wheels told zero). A discovered wheel or body term then acts
+    /// not at all: it was fitted on DRIVE steps, whose commands are never a stop, and a robot
+    /// told to stop brakes its wheels and stands on them (a constant or time-dependent term
+    /// would otherwise push a twin that its operator is stopping, and the stop never ends).
+    /// Sensor terms still act: a gyro's bias reads at rest too.
+    pub fn is_stop(&self) -> bool {
+        self.cmd.left_rad_s == 0.0 && self.cmd.right_rad_s == 0.0
+    }
+}
+
+/// A candidate feature of a term: a function of a [`TermInput`] (and, for wheel targets, of
+/// the side's own command).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Feature {
+    /// 1: a constant offset.
+    One,
+    /// Model forward speed vx, m/s.
+    Vx,
+    /// Model yaw rate wz, rad/s.
+    Wz,
+    /// Commanded forward speed, m/s.
+    CmdVx,
+    /// Commanded yaw rate, rad/s.
+    CmdWz,
+    /// The side's own wheel command, rad/s (wheel targets only).
+    CmdWheel,
+    /// vx·wz (centripetal acceleration), m/s².
+    VxWz,
+    /// |vx|, m/s.
+    AbsVx,
+    /// |wz|, rad/s.
+    AbsWz,
+    /// sign(cmd vx): the direction of travel.
+    SignVx,
+    /// vx², m²/s².
+    VxSq,
+    /// wz², rad²/s².
+    WzSq,
+    /// Command change since the previous step in vx, m/s.
+    DeltaCmdVx,
+    /// Command change since the previous step in wz, rad/s.
+    DeltaCmdWz,
+    /// The previous step's commanded vx, m/s.
+    PrevCmdVx,
+    /// The previous step's commanded wz, rad/s.
+    PrevCmdWz,
+    /// Time in the step, s.
+    TimeInStep,
+    /// Step index.
+    Step,
+    /// Step index × the side's own wheel command (a gain drifting over the run).
+    StepCmdWheel,
+    /// Step index × commanded vx.
+    StepCmdVx,
+    /// Reverse indicator × model vx (1 when the command drives backwards).
+    ReverseVx,
+    /// Reverse indicator × model wz.
+    ReverseWz,
+    /// Reverse indicator × the side's own wheel command.
+    ReverseCmdWheel,
+    /// Model forward acceleration, m/s² (a lag shows as a term in it).
+    Ax,
+    /// Model yaw acceleration, rad/s².
+    Alpha,
+}
+
+impl Feature {
+    /// Every feature, in a fixed order (the order of the term parameters).
+    pub const ALL: [Feature; 25] = [
+        Feature::One,
+        Feature::Vx,
+        Feature::Wz,
+        Feature::CmdVx,
+        Feature::CmdWz,
+        Feature::CmdWheel,
+        Feature::VxWz,
+        Feature::AbsVx,
+        Feature::AbsWz,
+        Feature::SignVx,
+        Feature::VxSq,
+        Feature::WzSq,
+        Feature::DeltaCmdVx,
+        Feature::DeltaCmdWz,
+        Feature::PrevCmdVx,
+        Feature::PrevCmdWz,
+        Feature::TimeInStep,
+        Feature::Step,
+        Feature::StepCmdWheel,
+        Feature::StepCmdVx,
+        Feature::ReverseVx,
+        Feature::ReverseWz,
+        Feature::ReverseCmdWheel,
+        Feature::Ax,
+        Feature::Alpha,
+    ];
+
+    /// Short name, used in parameter keys and equations.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::One => "1",
+            Self::Vx => "vx",
+            Self::Wz => "wz",
+            Self::CmdVx => "cmd_vx",
+            Self::CmdWz => "cmd_wz",
+            Self::CmdWheel => "cmd_wheel",
+            Self::VxWz => "vx_wz",
+            Self::AbsVx => "abs_vx",
+            Self::AbsWz => "abs_wz",
+            Self::SignVx => "sign_vx",
+            Self::VxSq => "vx_sq",
+            Self::WzSq => "wz_sq",
+            Self::DeltaCmdVx => "dcmd_vx",
+            Self::DeltaCmdWz => "dcmd_wz",
+            Self::PrevCmdVx => "prev_vx",
+            Self::PrevCmdWz => "prev_wz",
+            Self::TimeInStep => "t",
+            Self::Step => "step",
+            Self::StepCmdWheel => "step_cmd_wheel",
+            Self::StepCmdVx => "step_cmd_vx",
+            Self::ReverseVx => "rev_vx",
+            Self::ReverseWz => "rev_wz",
+            Self::ReverseCmdWheel => "rev_cmd_wheel",
+            Self::Ax => "ax",
+            Self::Alpha => "alpha",
+        }
+    }
+
+    /// How the feature reads in an equation (`vx·wz`, `[reverse]·wz`, ...).
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Self::One => "1",
+            Self::Vx => "vx",
+            Self::Wz => "wz",
+            Self::CmdVx => "vx_cmd",
+            Self::CmdWz => "wz_cmd",
+            Self::CmdWheel => "ω_cmd",
+            Self::VxWz => "vx·wz",
+            Self::AbsVx => "|vx|",
+            Self::AbsWz => "|wz|",
+            Self::SignVx => "sign(vx_cmd)",
+            Self::VxSq => "vx²",
+            Self::WzSq => "wz²",
+            Self::DeltaCmdVx => "Δvx_cmd",
+            Self::DeltaCmdWz => "Δwz_cmd",
+            Self::PrevCmdVx => "vx_cmd[k-1]",
+            Self::PrevCmdWz => "wz_cmd[k-1]",
+            Self::TimeInStep => "t",
+            Self::Step => "k",
+            Self::StepCmdWheel => "k·ω_cmd",
+            Self::StepCmdVx => "k·vx_cmd",
+            Self::ReverseVx => "[reverse]·vx",
+            Self::ReverseWz => "[reverse]·wz",
+            Self::ReverseCmdWheel => "[reverse]·ω_cmd",
+            Self::Ax => "dvx/dt",
+            Self::Alpha => "dwz/dt",
+        }
+    }
+
+    /// Unit of the feature (a coefficient's unit is the target's over this).
+    pub fn unit(self) -> &'static str {
+        match self {
+            Self::One | Self::SignVx | Self::Step => "1",
+            Self::Vx | Self::CmdVx | Self::AbsVx | Self::DeltaCmdVx | Self::PrevCmdVx => "m/s",
+            Self::StepCmdVx | Self::ReverseVx => "m/s",
+            Self::Wz | Self::CmdWz | Self::AbsWz | Self::DeltaCmdWz | Self::PrevCmdWz => "rad/s",
+            Self::ReverseWz => "rad/s",
+            Self::CmdWheel | Self::StepCmdWheel | Self::ReverseCmdWheel => "rad/s",
+            Self::VxWz | Self::Ax => "m/s²",
+            Self::VxSq => "m²/s²",
+            Self::WzSq => "rad²/s²",
+            Self::TimeInStep => "s",
+            Self::Alpha => "rad/s²",
+        }
+    }
+
+    /// Whether the feature reads the side's own wheel command (only wheel targets have one).
+    pub fn needs_side(self) -> bool {
+        matches!(self, Self::CmdWheel | Self::StepCmdWheel | Self::ReverseCmdWheel)
+    }
+
+    /// The value at `x`; `side_cmd` is the side's own wheel command (wheel targets).
+    pub fn value(self, x: &TermInput, side_cmd: f64) -> f64 {
+        let reverse = if x.cmd_body.vx_m_s < 0.0 { 1.0 } else { 0.0 };
+        let (vx, wz) = (x.body.vx_m_s, x.body.wz_rad_s);
+        let k = x.step as f64;
+        match self {
+            Self::One => 1.0,
+            Self::Vx => vx,
+            Self::Wz => wz,
+            Self::CmdVx => x.cmd_body.vx_m_s,
+            Self::CmdWz => x.cmd_body.wz_rad_s,
+            Self::CmdWheel => side_cmd,
+            Self::VxWz => vx * wz,
+            Self::AbsVx => vx.abs(),
+            Self::AbsWz => wz.abs(),
+            Self::SignVx => {
+                if x.cmd_body.vx_m_s > 0.0 {
+                    1.0
+                } else if x.cmd_body.vx_m_s < 0.0 {
+                    -1.0
+                } else {
+                    0.0
+                }
+            }
+            Self::VxSq => vx * vx,
+            Self::WzSq => wz * wz,
+            Self::DeltaCmdVx => x.cmd_body.vx_m_s - x.previous_cmd_body.vx_m_s,
+            Self::DeltaCmdWz => x.cmd_body.wz_rad_s - x.previous_cmd_body.wz_rad_s,
+            Self::PrevCmdVx => x.previous_cmd_body.vx_m_s,
+            Self::PrevCmdWz => x.previous_cmd_body.wz_rad_s,
+            Self::TimeInStep => x.t_in_step_s,
+            Self::Step => k,
+            Self::StepCmdWheel => k * side_cmd,
+            Self::StepCmdVx => k * x.cmd_body.vx_m_s,
+            Self::ReverseVx => reverse * vx,
+            Self::ReverseWz => reverse * wz,
+            Self::ReverseCmdWheel => reverse * side_cmd,
+            Self::Ax => x.accel[0],
+            Self::Alpha => x.accel[1],
+        }
+    }
+
+    /// The feature named `name` ([`Feature::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|f| f.name() == name)
+    }
+}
+
+/// The model quantity a term corrects.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum TermTarget {
+    /// The left wheel's speed target (command side: the encoder and the body follow), rad/s.
+    WheelLeft,
+    /// The right wheel's speed target, rad/s.
+    WheelRight,
+    /// Body forward velocity (the wheels do not see it), m/s.
+    BodyVx,
+    /// Body lateral velocity, m/s.
+    BodyVy,
+    /// Body yaw rate (the IMU sees it, the wheels do not), rad/s.
+    BodyWz,
+    /// The IMU's yaw-rate reading only, rad/s.
+    ImuWz,
+}
+
+impl TermTarget {
+    /// Every target, in the order a command meets them.
+    pub const ALL: [TermTarget; 6] = [
+        TermTarget::WheelLeft,
+        TermTarget::WheelRight,
+        TermTarget::BodyVx,
+        TermTarget::BodyVy,
+        TermTarget::BodyWz,
+        TermTarget::ImuWz,
+    ];
+
+    /// Name (the registered effect is `term_<name>`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::WheelLeft => "wheel_left",
+            Self::WheelRight => "wheel_right",
+            Self::BodyVx => "body_vx",
+            Self::BodyVy => "body_vy",
+            Self::BodyWz => "body_wz",
+            Self::ImuWz => "imu_wz",
+        }
+    }
+
+    /// Name of the registered effect (`term_body_vy`, ...).
+    pub fn effect_name(self) -> &'static str {
+        match self {
+            Self::WheelLeft => "term_wheel_left",
+            Self::WheelRight => "term_wheel_right",
+            Self::BodyVx => "term_body_vx",
+            Self::BodyVy => "term_body_vy",
+            Self::BodyWz => "term_body_wz",
+            Self::ImuWz => "term_imu_wz",
+        }
+    }
+
+    /// The quantity's symbol in an equation.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Self::WheelLeft => "Δω_left",
+            Self::WheelRight => "Δω_right",
+            Self::BodyVx => "Δvx",
+            Self::BodyVy => "Δvy",
+            Self::BodyWz => "Δwz",
+            Self::ImuWz => "Δimu_wz",
+        }
+    }
+
+    /// Unit of the corrected quantity.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Self::WheelLeft | Self::WheelRight | Self::BodyWz | Self::ImuWz => "rad/s",
+            Self::BodyVx | Self::BodyVy => "m/s",
+        }
+    }
+
+    /// Where it acts.
+    pub fn stage(self) -> Stage {
+        match self {
+            Self::WheelLeft | Self::WheelRight => Stage::Wheel,
+            Self::BodyVx | Self::BodyVy | Self::BodyWz => Stage::Body,
+            Self::ImuWz => Stage::Sensor,
+        }
+    }
+
+    /// Whether `f` is a feature of this target (side features only on wheel targets).
+    pub fn has_feature(self, f: Feature) -> bool {
+        !f.needs_side() || matches!(self, Self::WheelLeft | Self::WheelRight)
+    }
+
+    /// The features of this target, in parameter order.
+    pub fn features(self) -> Vec<Feature> {
+        Feature::ALL
+            .into_iter()
+            .filter(|f| self.has_feature(*f))
+            .collect()
+    }
+
+    /// The registered effect of this target.
+    pub fn effect(self) -> &'static Term {
+        let terms: &'static [Term; 6] = &TERMS;
+        &terms[Self::ALL.iter().position(|t| *t == self).unwrap_or(0)]
+    }
+
+    /// The parameter key of `feature`'s coefficient on this target.
+    pub fn key(self, feature: Feature) -> String {
+        format!("term_{}__{}", self.name(), feature.name())
+    }
+}
+
+/// The registered effect of one [`TermTarget`]: one coefficient per feature.
+pub struct Term {
+    target: TermTarget,
+    name: &'static str,
+    features: Vec<Feature>,
+    params: Vec<ParamDef>,
+}
+
+impl Term {
+    fn new(target: TermTarget) -> Self {
+        let name = target.effect_name();
+        let features = target.features();
+        let params = features
+            .iter()
+            .map(|&f| ParamDef {
+                // Built once per process: the registry's keys are 'static.
+                key: Box::leak(target.key(f).into_boxed_str()),
+                unit: Box::leak(
+                    if f.unit() == "1" {
+                        target.unit().to_string()
+                    } else if f.unit() == target.unit() {
+                        "-".to_string()
+                    } else {
+                        format!("({})/({})", target.unit(), f.unit())
+                    }
+                    .into_boxed_str(),
+                ),
+                kind: ParamKind::Continuous,
+                min: -1e4,
+                max: 1e4,
+                neutral: 0.0,
+                // Discovery sets each coefficient's box around its regression estimate; this
+                // one is only what `--inject` accepts.
+                search: SearchBox::Fixed {
+                    lower: -1e4,
+                    upper: 1e4,
+                },
+                resolution: None,
+            })
+            .collect();
+        Self {
+            target,
+            name,
+            features,
+            params,
+        }
+    }
+
+    /// The corrected quantity.
+    pub fn target(&self) -> TermTarget {
+        self.target
+    }
+
+    /// The features, in the order of the parameters.
+    pub fn features(&self) -> &[Feature] {
+        &self.features
+    }
+
+    /// `Σ c_k φ_k(x)` with the side's own command `side_cmd`.
+    pub fn evaluate(&self, p: &[f64], x: &TermInput, side_cmd: f64) -> f64 {
+        self.features
+            .iter()
+            .zip(p)
+            .filter(|(_, c)| **c != 0.0)
+            .map(|(f, c)| c * f.value(x, side_cmd))
+            .sum()
+    }
+}
+
+/// One term effect per target, in [`TermTarget::ALL`] order (registered in
+/// [`super::REGISTRY`]).
+pub static TERMS: LazyLock<[Term; 6]> = LazyLock::new(|| {
+    [
+        Term::new(TermTarget::WheelLeft),
+        Term::new(TermTarget::WheelRight),
+        Term::new(TermTarget::BodyVx),
+        Term::new(TermTarget::BodyVy),
+        Term::new(TermTarget::BodyWz),
+        Term::new(TermTarget::ImuWz),
+    ]
+});
+
+impl Effect for Term {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+    fn doc(&self) -> &'static str {
+        match self.target {
+            TermTarget::WheelLeft | TermTarget::WheelRight => {
+                "a discovered additive term on one wheel's speed target (Σ c_k φ_k of command and model state)"
+            }
+            TermTarget::BodyVx | TermTarget::BodyVy | TermTarget::BodyWz => {
+                "a discovered additive term on the body velocity, which the wheels do not see"
+            }
+            TermTarget::ImuWz => "a discovered additive term on the IMU's yaw-rate reading",
+        }
+    }
+    fn stage(&self) -> Stage {
+        self.target.stage()
+    }
+    fn params(&self) -> &'static [ParamDef] {
+        // The registered instance lives in a static, whose storage is 'static.
+        &self.target.effect().params
+    }
+    fn generic(&self) -> bool {
+        true
+    }
+    fn moves_body(&self) -> bool {
+        self.target.stage() == Stage::Body
+    }
+    fn wheel_targets_in(&self, p: &[f64], w: WheelSpeeds, x: &TermInput) -> WheelSpeeds {
+        if x.is_stop() {
+            return w;
+        }
+        match self.target {
+            TermTarget::WheelLeft => WheelSpeeds::new(
+                w.left_rad_s + self.evaluate(p, x, x.cmd.left_rad_s),
+                w.right_rad_s,
+            ),
+            TermTarget::WheelRight => WheelSpeeds::new(
+                w.left_rad_s,
+                w.right_rad_s + self.evaluate(p, x, x.cmd.right_rad_s),
+            ),
+            _ => w,
+        }
+    }
+    fn body_offset(&self, p: &[f64], x: &TermInput) -> BodyVelocity {
+        if x.is_stop() {
+            return BodyVelocity::default();
+        }
+        let v = self.evaluate(p, x, 0.0);
+        match self.target {
+            TermTarget::BodyVx => BodyVelocity::new(v, 0.0, 0.0),
+            TermTarget::BodyVy => BodyVelocity::new(0.0, v, 0.0),
+            TermTarget::BodyWz => BodyVelocity::new(0.0, 0.0, v),
+            _ => BodyVelocity::default(),
+        }
+    }
+    fn imu_yaw_rate_in(&self, p: &[f64], wz: f64, x: &TermInput) -> f64 {
+        match self.target {
+            TermTarget::ImuWz => wz + self.evaluate(p, x, 0.0),
+            _ => wz,
+        }
+    }
+}
