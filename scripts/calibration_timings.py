@@ -1,14 +1,14 @@
 #!/usr/bin/env python3
-"""Issue 11's timing targets: wall and CPU time of `drive-sim calibrate` on the measured
-datasets, with the per-stage times of its `timings.json`, whether every fit converged, and the
+"""Wall and CPU time of `drive-sim calibrate` on the measured datasets, with the per-stage
+times of its `timings.json`, whether every fit converged, and the
 test score. Run it on an idle machine (it says the load it started with).
 
     cargo build --release
     python3 scripts/calibration_timings.py [--models kinematic,simulator] [--datasets ...]
         [--discovery] [--out out/timings]
 
-Without `--discovery` the calibrations run with `--no-discovery` (the issue's targets are the
-calibration's; discovery is issue 12's and is timed by scripts/discovery_table.py).
+Without `--discovery` the calibrations run with `--no-discovery` (the timing targets are the
+calibration's, README "Closing the loop"; discovery is timed by scripts/discovery_table.py).
 """
 import argparse
 import json

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Issue 12's measured table: per channel, the residual / noise floor on the test steps before
+"""The discovery table on the measured data: per channel, the residual / noise floor on the test steps before
 (declared model) and after calibration with discovery, for every measured dataset and both
 models. Runs `drive-sim calibrate` once per dataset and model (skipping those whose
 calibration.json is already in OUT), then prints a Markdown table.

@@ -18,7 +18,7 @@ the lowest *choosing* loss (`tune.json` `chosen_loss` when the check accepted th
 `start_loss`: on the choosing steps and seeds only) is marked: that is the twin a user would
 pick without looking at the judged steps.
 
-    python3 scripts/judge_table.py --tables line=out/s15/tune_table_line,droop=out/s15/tune_table_droop
+    python3 scripts/judge_table.py --tables line=out/tune_table_line,droop=out/tune_table_droop
                                    [--bin target/release/drive-sim] [--out out/judge_table]
                                    [--datasets warthog_asphalt,...] [--sims 10] [--references 19]
                                    [--seed S] [--picked-only]

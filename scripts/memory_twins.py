@@ -15,8 +15,8 @@ judged on the even ones, else every step for both):
    is kept: a twin it does not accept is the start, integral included);
 3. `drive-sim judge` of that twin, as in 1.
 
-    python3 scripts/memory_twins.py --out out/s18/memory_twins \\
-        warthog_asphalt=out/s15/tune_table_droop/warthog_asphalt/tune_all/twin ...
+    python3 scripts/memory_twins.py --out out/memory_twins \\
+        warthog_asphalt=out/tune_table_droop/warthog_asphalt/tune_all/twin ...
 
 Prints a markdown table and writes it to OUT/table.md; every command run is in OUT/commands.txt.
 """

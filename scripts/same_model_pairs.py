@@ -14,7 +14,7 @@ that is exactly right.
 
 `--pairs N` judges seeds 1 vs 0, 3 vs 2, ... up to 2N-1 vs 2N-2 (the same seeds on every terrain,
 so the terrains' rows share their commands). `--yardstick-splits K` is passed to `compare` (its
-default when absent; 1 is the yardstick of one odd/even split, as before session 15).
+default when absent; 1 is the yardstick of one odd/even split).
 
 Prints a Markdown table (OUT/table.md) and a count of the verdicts; runs and comparisons that
 exist are reused.
@@ -79,8 +79,8 @@ def main():
             ratios = ", ".join("%.2f" % x["ratio"] for x in c["transfer"])
             ps = ", ".join("%.3f" % x["p_permutation_holm"] for x in c["transfer"])
             verdict = "reproduces" if v["reproduces"] else "differs"
-            # compare's loss (what `drive-sim tune` minimises); comparisons written before it
-            # existed have none: delete them to recompute.
+            # compare's loss (what `drive-sim tune` minimises); a comparison.json without one is
+            # reused as it is and shows "-": delete it to recompute.
             loss = (c.get("loss") or {}).get("total")
             if loss is not None:
                 losses.append(loss)

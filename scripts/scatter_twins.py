@@ -15,8 +15,8 @@ For each twin (`DATASET=TWIN_DIR`, a directory with `robot.toml` and `terrain.to
 The scatter is estimated on every step: the halves of the measured runs hold 1-6 pairs of
 steps within 1 rad/s, too few for an estimate, so held-out twins are not done here.
 
-    python3 scripts/scatter_twins.py --out out/s17/scatter_twins \\
-        warthog_asphalt=out/s15/tune_table_droop/warthog_asphalt/tune_all/twin ...
+    python3 scripts/scatter_twins.py --out out/scatter_twins \\
+        warthog_asphalt=out/tune_table_droop/warthog_asphalt/tune_all/twin ...
 
 Prints a markdown table and writes it to OUT/table.md; every command run is in OUT/commands.txt.
 """

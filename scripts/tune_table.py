@@ -12,8 +12,8 @@ judged by `tune` itself on the even steps with three fresh seeds. A first row pe
 compares the real odd steps themselves with the even ones: the closest any model that matches
 the odd steps can come.
 
-A second table does the same on every step (the issue's first target: a twin against the run it
-was made from): the twin calibrated by replay on all steps, tuned with `--choose-on all`, both
+A second table does the same on every step (a twin against the run it was made from): the twin
+calibrated by replay on all steps, tuned with `--choose-on all`, both
 judged by `tune` on all steps with three fresh seeds (not held out). The table gives, per start and
 per model (start, tuned), the means over the three judging seeds: median ρ difference, T/U
 areas (sim − real, percentage points), transfer-function RMS over the yardstick, and in how
@@ -35,7 +35,7 @@ import os
 from twin_table import DATA, DATASETS, REPO, declared_models, run
 
 # What each robot's twins tune, and the options of `tune` that go with it. For the Warthog
-# (session 15, `--warthog line`, the default): the motor's torque-speed line *instead of* the
+# (`--warthog line`, the default): the motor's torque-speed line *instead of* the
 # wheel-speed clamp (switched off), because on asphalt and gravel the fast wheel's steady speed
 # falls from ~13 rad/s driving straight to ~10.5 rad/s pivoting about a nearly stopped side,
 # while on ice, where nothing loads it, it stays at ~13 whatever the turn (README, "A ceiling
@@ -44,7 +44,8 @@ from twin_table import DATA, DATASETS, REPO, declared_models, run
 # what its turning friction implies. `--warthog droop` adds the speed loop's droop, because on
 # asphalt and gravel the slower wheel of a curve runs faster than commanded and the faster one
 # slower, where on ice both track (README, "A speed loop that gives way"). `--warthog clamp`
-# is session 14's: the line, the lateral scale and the clamp. For the Husky as its run was configured (session 14), the wheel-speed
+# tunes the line, the lateral scale and the clamp. For the Husky as its run was configured
+# (robots/husky_2023.toml), the wheel-speed
 # limit its file declares, its velocity controller's yaw-rate limit, and the rolling-radius
 # scale its replay calibrations select (0.75-0.78: with the limit it caps the straight-line
 # speed at 0.7 m/s where the run reaches 0.96 m/s, a stand-in the closed loop judges).

@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
 """Declared models and twins against every measured dataset, through `drive-sim compare`.
 
-Issue 13's table: for each measured run, the declared robot and terrain and a twin calibrated
+For each measured run, the declared robot and terrain and a twin calibrated
 with the simulator model on the run's odd steps each run their own DRIVE (150 steps, seed 0),
 and `compare` judges both against the run's even steps, which the twin's calibration never saw.
 Then a twin calibrated on all the steps runs its DRIVE and is judged against the whole run,
-beside the declared model (the issue's first target; this twin has seen every step it is
+beside the declared model (not held out: this twin has seen every step it is
 judged on).
 
     python3 scripts/twin_table.py [--bin target/release/drive-sim] [--out out/twin_table]
