@@ -1,14 +1,13 @@
 //! Speed of the simulator with MCAP logging: a Warthog DRIVE on gravel written to an MCAP file,
-//! as `drive-sim run` does, in four configurations of the same code, each the one before a
-//! speed-up: the reference physics step with the `mcap` crate's container writer (before
-//! session 7), the Newton step with the crate's writer (before our container writer), the
-//! Newton step with ours at zstd level 1 (session 9), and the fast step (predicted start,
-//! chord iterations, ray lookup) with ours at level -1 (what `drive-sim run` does now).
+//! as `drive-sim run` does, in three configurations: the reference physics step with the `mcap`
+//! crate's container writer (the oracles of the `oracle` features), the fast step with the
+//! crate's writer, and the fast step with drive-sim's writer at zstd level -1 (what `drive-sim
+//! run` does).
 //!
-//! Before criterion, a side-by-side table on the issue's workload (300 steps): each
-//! configuration timed on the same run (best of 3, interleaved), with the real-time factor
-//! over productive robot time (steps × 6 s) and over all simulated time, and the ratios.
-//! Criterion then times 30-step runs (short samples).
+//! Before criterion, a side-by-side table on the 300-step workload: each configuration timed on
+//! the same run (best of 3, interleaved), with the real-time factor over productive robot time
+//! (steps × 6 s) and over all simulated time, and the ratios. Criterion then times 30-step runs
+//! (short samples).
 //! Target: a 300-step Warthog DRIVE with logging ≥ 2500× real time in productive time on one core.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
@@ -21,7 +20,7 @@ use drive_sim::sim::{SensorNoise, SimConfig, Simulator, Stepping};
 use drive_sim::terrain::Terrain;
 use std::time::Instant;
 
-/// Steps of the side-by-side table (the issue's workload) and of criterion's samples.
+/// Steps of the side-by-side table and of criterion's samples.
 const TABLE_STEPS: u32 = 300;
 const STEPS: u32 = 30;
 
@@ -57,13 +56,12 @@ fn drive(c: &mut Criterion) {
     let robot = Robot::resolve("warthog").unwrap().0;
     let terrain = Terrain::resolve("gravel").unwrap().0;
     let dir = tempfile::tempdir().unwrap();
-    let configs: [Config; 4] = [
+    let configs: [Config; 3] = [
         (Stepping::Reference, Container::Crate),
-        (Stepping::Newton, Container::Crate),
-        (Stepping::Newton, Container::ChunkedZstd(1)),
+        (Stepping::Fast, Container::Crate),
         (Stepping::Fast, Container::Chunked),
     ];
-    let mut best = [(); 4].map(|_| (RunSummary::default(), f64::INFINITY));
+    let mut best = [(); 3].map(|_| (RunSummary::default(), f64::INFINITY));
     for _ in 0..3 {
         for (k, c) in configs.iter().enumerate() {
             let r = logged_run(&robot, &terrain, *c, TABLE_STEPS, dir.path());
@@ -94,12 +92,11 @@ fn drive(c: &mut Criterion) {
     // runs diverge from the fast one's after the first steps) do not bias the ratios.
     let per_sim_s = |k: usize| best[k].1 / best[k].0.total_time_s;
     println!(
-        "speed per simulated second: Newton step / reference {:.2}x; our container / the crate's {:.2}x; \
-         now (fast step, level -1) / session 9 (Newton step, level 1) {:.2}x; now / reference with the crate's {:.2}x",
+        "speed per simulated second: fast step / reference step {:.2}x; drive-sim's container / the crate's {:.2}x; \
+         drive-sim run / reference with the crate's writer {:.2}x",
         per_sim_s(0) / per_sim_s(1),
         per_sim_s(1) / per_sim_s(2),
-        per_sim_s(2) / per_sim_s(3),
-        per_sim_s(0) / per_sim_s(3)
+        per_sim_s(0) / per_sim_s(2)
     );
 
     let mut group = c.benchmark_group("sim");

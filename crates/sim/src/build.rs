@@ -106,10 +106,6 @@ impl Simulator {
             .build();
         let mut bodies = RigidBodySet::new();
         let body = bodies.insert(body);
-        let params = IntegrationParameters {
-            dt: (1.0 / cfg.physics_hz) as f32,
-            ..Default::default()
-        };
         // A robot's and a terrain's own effects (their `[effects]` tables) run under the
         // configuration's, which override them.
         let effects =
@@ -120,15 +116,6 @@ impl Simulator {
         let mut sim = Self {
             bodies,
             colliders,
-            params,
-            pipeline: PhysicsPipeline::new(),
-            islands: IslandManager::new(),
-            broad_phase: DefaultBroadPhase::default(),
-            narrow_phase: NarrowPhase::new(),
-            impulse_joints: ImpulseJointSet::new(),
-            multibody_joints: MultibodyJointSet::new(),
-            ccd: CCDSolver::new(),
-            soft_bodies: SoftBodySet::new(),
             body,
             ground,
             mass_kg: b.mass_kg,
@@ -171,7 +158,8 @@ impl Simulator {
             accel_world: [0.0; 3],
             pose_history: VecDeque::new(),
             inertia_kg_m2: inertia,
-            stepping: Stepping::default(),
+            #[cfg(feature = "oracle")]
+            reference: None,
             ctx: StepContext::default(),
             step_t0_s: 0.0,
             manoeuvre: false,

@@ -1,5 +1,5 @@
-//! The simulator's settings: sensor noise, physics rate, injected effects, and how a physics
-//! step is computed.
+//! The simulator's settings: sensor noise, physics rate, injected effects (and, for tests,
+//! how a physics step is computed).
 
 use drive_sim_model::effects::Effects;
 use serde::{Deserialize, Serialize};
@@ -64,22 +64,18 @@ impl Default for SimConfig {
     }
 }
 
-/// How a physics step is computed. All give the same physics (the tests hold each to the
-/// same tolerances); `Reference` and `Newton` are the earlier, slower code paths, kept
-/// callable so that the benchmark can time them side by side in one run and a test can check
-/// that they agree.
+/// How a physics step is computed (feature `oracle`, for tests and benches): both give the same
+/// physics, and the tests hold the fast step to the reference's tolerances.
+#[cfg(feature = "oracle")]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Stepping {
     /// The tyre solve started at a prediction (the last step's change) with its Jacobian kept
     /// while it contracts; suspension rays by direct lookup on the ground's triangles; the
     /// chassis integrated directly (rapier's free-body scheme, without the pipeline around it).
+    /// What every build of the binary runs.
     #[default]
     Fast,
-    /// The fast step as it was before the prediction, the chord iterations and the ray lookup
-    /// (session 9): exact Jacobian refreshed at every Newton iterate, started at the state,
-    /// rays cast by parry.
-    Newton,
-    /// Finite-difference Jacobian, rays cast by parry, the chassis integrated by rapier's
-    /// `PhysicsPipeline::step`.
+    /// Finite-difference Jacobian of an independently written residual, rays cast by parry,
+    /// the chassis integrated by rapier's `PhysicsPipeline::step`.
     Reference,
 }

@@ -3,8 +3,8 @@
 //!
 //! Design (see also the report in the repository's history):
 //! - The chassis is one rapier rigid body (6 DoF, box inertia, gravity), integrated with
-//!   rapier's free-body scheme ([`Stepping::Fast`] and [`Stepping::Newton`], `body.rs`;
-//!   `PhysicsPipeline::step` with [`Stepping::Reference`]).
+//!   rapier's free-body scheme (`body.rs`; with the `oracle` feature, tests and benches can
+//!   choose rapier's `PhysicsPipeline::step` instead, `reference.rs`).
 //!   Wheels are not rigid bodies: each wheel is a ray cast from its suspension hard point to
 //!   the ground (flat half-space or seeded height field; read directly on parry's triangles by
 //!   the fast step, cast by parry by the others, `ground.rs`), which gives the spring-damper
@@ -26,7 +26,7 @@
 //!   the rate is bounded by the explicit suspension (Husky roll mode ~36 rad/s: ω·dt = 0.36)
 //!   and by the 20 Hz logging (5 steps per tick).
 //!
-//! Files: `config.rs` the settings ([`SimConfig`], [`SensorNoise`], [`Stepping`]); `build.rs`
+//! Files: `config.rs` the settings ([`SimConfig`], [`SensorNoise`]); `build.rs`
 //! the world from a robot and a terrain ([`Simulator::new`]); `step.rs` one physics step
 //! (controller, suspension, implicit solve, integration, body-stage effects, checks);
 //! `solve.rs` the implicit tyre solve; [`tyre`] the contact model; `body.rs` the chassis
@@ -38,11 +38,15 @@ mod build;
 mod config;
 pub mod ground;
 pub mod plant;
+#[cfg(feature = "oracle")]
+mod reference;
 mod solve;
 mod step;
 pub mod tyre;
 
-pub use config::{SensorNoise, SimConfig, Stepping};
+#[cfg(feature = "oracle")]
+pub use config::Stepping;
+pub use config::{SensorNoise, SimConfig};
 pub use drive_sim_model::effects::Effects;
 pub use plant::{IdealPlant, Plant};
 
@@ -100,15 +104,6 @@ struct Contact {
 pub struct Simulator {
     bodies: RigidBodySet,
     colliders: ColliderSet,
-    params: IntegrationParameters,
-    pipeline: PhysicsPipeline,
-    islands: IslandManager,
-    broad_phase: DefaultBroadPhase,
-    narrow_phase: NarrowPhase,
-    impulse_joints: ImpulseJointSet,
-    multibody_joints: MultibodyJointSet,
-    ccd: CCDSolver,
-    soft_bodies: SoftBodySet,
     body: RigidBodyHandle,
     ground: Ground,
 
@@ -170,7 +165,9 @@ pub struct Simulator {
     pose_history: VecDeque<(f64, rapier3d::parry::math::Pose)>,
     /// Principal moments of inertia of the chassis (body axes), kg·m².
     inertia_kg_m2: [f64; 3],
-    stepping: Stepping,
+    /// rapier's pipeline when the reference step is chosen (feature `oracle`).
+    #[cfg(feature = "oracle")]
+    reference: Option<reference::ReferencePipeline>,
     /// The step being run (for effects that read it).
     ctx: StepContext,
     /// Plant time at which it started, s.
@@ -263,8 +260,9 @@ impl Simulator {
     }
 
     /// Chooses how physics steps are computed (default [`Stepping::Fast`]).
+    #[cfg(feature = "oracle")]
     pub fn set_stepping(&mut self, stepping: Stepping) {
-        self.stepping = stepping;
+        self.reference = (stepping == Stepping::Reference).then(reference::ReferencePipeline::new);
     }
 
     /// Side wheel spins (true, without encoder effects), rad/s.

@@ -1,11 +1,11 @@
 //! The planar implicit solve of one physics step: backward Euler on the chassis velocity
 //! (vx, vy, wz) and the wheel spins, by Newton's method with a backtracking line search.
 //!
-//! Two Jacobians: the exact one ([`solve`]: the tyre model's partial derivatives, chained
-//! through the contact kinematics, in the same pass as the residual) and finite differences
-//! ([`solve_reference`], one residual per unknown), kept as the reference the exact one is
-//! checked and benchmarked against. Both stop at the same residual tolerance, so they agree
-//! to ~1e-10 of the momentum scale.
+//! The Jacobian is the exact one: the tyre model's partial derivatives, chained through the
+//! contact kinematics, in the same pass as the residual. The `oracle` feature adds a solve by
+//! finite differences of the residual (`reference.rs`), which tests and
+//! benches hold this one to; both stop at the same residual tolerance, so they agree to ~1e-10
+//! of the momentum scale.
 
 use super::tyre::{contact_force, contact_force_and_jacobian, ContactForce, TyreParams};
 use super::{Contact, WheelGeom, MAX_WHEELS, TORSION_DAMPING_S};
@@ -38,19 +38,19 @@ pub(super) struct SolveCtx {
     pub torsion_m: f64,
 }
 
-type V5 = SVector<f64, 5>;
+pub(super) type V5 = SVector<f64, 5>;
 
 /// Every solve stops when the residual, each row over its inertia (a velocity), is below this.
-const TOLERANCE: f64 = 1e-10;
+pub(super) const TOLERANCE: f64 = 1e-10;
 /// Newton iterations at most.
-const MAX_ITERATIONS: usize = 12;
+pub(super) const MAX_ITERATIONS: usize = 12;
 /// Halvings of a Newton step in the line search at most.
-const MAX_HALVINGS: usize = 6;
+pub(super) const MAX_HALVINGS: usize = 6;
 
 impl SolveCtx {
     /// The first iterate: `from`, with an unsaturated side's wheel spin at the controller's
     /// target (its residual row is linear in it and zero there).
-    fn start(&self, from: &[f64; 5], saturated: SideTorques) -> V5 {
+    pub(super) fn start(&self, from: &[f64; 5], saturated: SideTorques) -> V5 {
         let mut u = V5::from_row_slice(from);
         for s in 0..2 {
             if saturated[s].is_none() {
@@ -61,7 +61,7 @@ impl SolveCtx {
     }
 
     /// The size of a residual: each row over its inertia (a velocity change), largest.
-    fn residual_norm(&self, r: &V5) -> f64 {
+    pub(super) fn residual_norm(&self, r: &V5) -> f64 {
         let scale = V5::new(
             self.mass,
             self.mass,
@@ -75,7 +75,7 @@ impl SolveCtx {
 
 /// Backward-Euler residual of the planar chassis and the wheel spins; writes contact forces.
 #[allow(clippy::too_many_arguments)]
-fn residual(
+pub(super) fn residual(
     ctx: &SolveCtx,
     tyre: &TyreParams,
     wheels: &[WheelGeom],
@@ -119,68 +119,6 @@ fn residual(
         };
     }
     r
-}
-
-/// Newton iterations with a finite-difference Jacobian and a backtracking line search: the
-/// reference solve, kept for [`super::Stepping::Reference`].
-pub(super) fn solve_reference(
-    ctx: &SolveCtx,
-    tyre: &TyreParams,
-    wheels: &[WheelGeom],
-    contacts: &[Contact],
-    deflection: &[f64],
-    saturated: SideTorques,
-    forces: &mut [ContactForce],
-) -> [f64; 5] {
-    let f = |u: &V5, forces: &mut [ContactForce]| {
-        residual(ctx, tyre, wheels, contacts, deflection, saturated, u, forces)
-    };
-    let mut u = ctx.start(&ctx.u0, saturated);
-    let mut r = f(&u, forces);
-    let norm = |r: &V5| ctx.residual_norm(r);
-    let mut scratch_buf = [ContactForce::default(); MAX_WHEELS];
-    let scratch = &mut scratch_buf[..forces.len()];
-    for _ in 0..MAX_ITERATIONS {
-        if norm(&r) < TOLERANCE {
-            break;
-        }
-        let mut jac = SMatrix::<f64, 5, 5>::zeros();
-        for k in 0..5 {
-            // The row of an unsaturated side is `I (w - target)`: its column is known.
-            if k >= 3 && saturated[k - 3].is_none() {
-                jac[(k, k)] = ctx.side_inertia;
-                continue;
-            }
-            let h = 1e-7 * (1.0 + u[k].abs());
-            let mut up = u;
-            up[k] += h;
-            let rp = f(&up, scratch);
-            jac.set_column(k, &((rp - r) / h));
-        }
-        let Some(delta) = jac.lu().solve(&(-r)) else {
-            break;
-        };
-        let mut step = 1.0;
-        let n0 = norm(&r);
-        let mut accepted = false;
-        for _ in 0..MAX_HALVINGS {
-            let trial = u + delta * step;
-            let rt = f(&trial, scratch);
-            if norm(&rt) < n0 || step < 0.05 {
-                u = trial;
-                r = rt;
-                accepted = true;
-                break;
-            }
-            step *= 0.5;
-        }
-        if !accepted || (delta * step).amax() < 1e-12 {
-            break;
-        }
-    }
-    // Forces consistent with the accepted state.
-    f(&u, forces);
-    [u[0], u[1], u[2], u[3], u[4]]
 }
 
 type M5 = SMatrix<f64, 5, 5>;
@@ -345,54 +283,3 @@ pub(super) fn solve(
 
 /// The residual contraction an iteration must reach to keep its Jacobian for the next one.
 const CHORD_CONTRACTION: f64 = 0.05;
-
-/// Newton iterations with the exact Jacobian refreshed at every iterate, started at the state
-/// at the start of the step, and a backtracking line search; writes the contact forces of the
-/// accepted state into `forces`. The fast solve before [`solve`]'s prediction and chord
-/// iterations, kept for [`super::Stepping::Newton`].
-pub(super) fn solve_newton(
-    ctx: &SolveCtx,
-    tyre: &TyreParams,
-    wheels: &[WheelGeom],
-    contacts: &[Contact],
-    deflection: &[f64],
-    saturated: SideTorques,
-    forces: &mut [ContactForce],
-) -> [f64; 5] {
-    let f = |u: &V5, forces: &mut [ContactForce]| {
-        residual_and_jacobian(ctx, tyre, wheels, contacts, deflection, saturated, u, forces)
-    };
-    let mut u = ctx.start(&ctx.u0, saturated);
-    let (mut r, mut jac) = f(&u, forces);
-    let norm = |r: &V5| ctx.residual_norm(r);
-    let mut scratch_buf = [ContactForce::default(); MAX_WHEELS];
-    let scratch = &mut scratch_buf[..forces.len()];
-    for _ in 0..MAX_ITERATIONS {
-        let n0 = norm(&r);
-        if n0 < TOLERANCE {
-            break;
-        }
-        let Some(delta) = jac.lu().solve(&(-r)) else {
-            break;
-        };
-        let mut step = 1.0;
-        let mut accepted = false;
-        for _ in 0..MAX_HALVINGS {
-            let trial = u + delta * step;
-            let (rt, jt) = f(&trial, scratch);
-            if norm(&rt) < n0 || step < 0.05 {
-                u = trial;
-                r = rt;
-                jac = jt;
-                forces.copy_from_slice(scratch);
-                accepted = true;
-                break;
-            }
-            step *= 0.5;
-        }
-        if !accepted || (delta * step).amax() < 1e-12 {
-            break;
-        }
-    }
-    [u[0], u[1], u[2], u[3], u[4]]
-}

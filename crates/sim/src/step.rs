@@ -164,15 +164,9 @@ impl Simulator {
                     wg.hard_point[2] as f32,
                 );
             let hp64 = to64(hp);
+            let hit = self.suspension_ray(hp64, down);
             let c = &mut self.contacts[i];
             *c = Contact::default();
-            let hit = match self.stepping {
-                Stepping::Fast => self.ground.cast(&self.colliders, hp64, down, self.ray_length_m),
-                Stepping::Newton | Stepping::Reference => {
-                    self.ground
-                        .cast_parry(&self.colliders, hp64, down, self.ray_length_m)
-                }
-            };
             let Some(hit) = hit else {
                 continue;
             };
@@ -250,11 +244,13 @@ impl Simulator {
             guess,
             torsion_m: torsion,
         };
-        let solve = match self.stepping {
-            Stepping::Fast => solve::solve,
-            Stepping::Newton => solve::solve_newton,
-            Stepping::Reference => solve::solve_reference,
+        #[cfg(feature = "oracle")]
+        let solve = match self.reference {
+            Some(_) => reference::solve_reference,
+            None => solve::solve,
         };
+        #[cfg(not(feature = "oracle"))]
+        let solve = solve::solve;
         let mut saturated: solve::SideTorques = [None; 2];
         let mut u = solve(
             &ctx,
@@ -338,31 +334,23 @@ impl Simulator {
 
         // Apply the forces and integrate the chassis.
         let v_before = v64;
-        match self.stepping {
-            Stepping::Fast | Stepping::Newton => {
-                let mut wrench = body::Wrench {
-                    force_n: [0.0, 0.0, -GRAVITY_M_S2 * self.mass_kg],
-                    ..Default::default()
-                };
-                for (c, f) in self.contacts.iter().zip(&self.forces) {
-                    if !c.in_contact {
-                        continue;
-                    }
-                    wrench.add_at_point(
-                        [
-                            f.fx_n * ex[0] + f.fy_n * ey[0] + c.load_n * c.normal[0],
-                            f.fx_n * ex[1] + f.fy_n * ey[1] + c.load_n * c.normal[1],
-                            c.load_n * c.normal[2],
-                        ],
-                        c.point,
-                        com64,
-                    );
-                }
-                let rb = &mut self.bodies[self.body];
-                body::integrate(rb, self.mass_kg, self.inertia_kg_m2, &wrench, dt);
-            }
-            Stepping::Reference => self.rapier_step(dt, ex, ey),
+        #[cfg(feature = "oracle")]
+        if let Some(reference) = self.reference.as_mut() {
+            reference.step(
+                &mut self.bodies,
+                &mut self.colliders,
+                self.body,
+                &self.contacts,
+                &self.forces,
+                dt,
+                ex,
+                ey,
+            );
+        } else {
+            self.integrate_chassis(dt, ex, ey, com64);
         }
+        #[cfg(not(feature = "oracle"))]
+        self.integrate_chassis(dt, ex, ey, com64);
         self.time_s += dt;
         let v_after = to64(self.bodies[self.body].linvel());
         for k in 0..3 {
@@ -386,43 +374,41 @@ impl Simulator {
         Ok(())
     }
 
-    /// The reference integration: the wheel forces handed to rapier's pipeline.
-    fn rapier_step(&mut self, dt: f64, ex: [f64; 2], ey: [f64; 2]) {
-        let rb = &mut self.bodies[self.body];
-        // User forces and torques persist in rapier until reset; both must go.
-        rb.reset_forces(false);
-        rb.reset_torques(false);
+    /// The suspension ray from a wheel's hard point: the direct lookup on the ground's
+    /// triangles, or parry's ray cast when the reference step is on.
+    fn suspension_ray(&self, origin: [f64; 3], down: [f64; 3]) -> Option<ground::Hit> {
+        #[cfg(feature = "oracle")]
+        if self.reference.is_some() {
+            return self
+                .ground
+                .cast_parry(&self.colliders, origin, down, self.ray_length_m);
+        }
+        self.ground.cast(&self.colliders, origin, down, self.ray_length_m)
+    }
+
+    /// Applies the wheel forces, the normal loads and gravity to the chassis and integrates it
+    /// over `dt` (rapier's free-body scheme, `body.rs`).
+    fn integrate_chassis(&mut self, dt: f64, ex: [f64; 2], ey: [f64; 2], com64: [f64; 3]) {
+        let mut wrench = body::Wrench {
+            force_n: [0.0, 0.0, -GRAVITY_M_S2 * self.mass_kg],
+            ..Default::default()
+        };
         for (c, f) in self.contacts.iter().zip(&self.forces) {
             if !c.in_contact {
                 continue;
             }
-            let fw = [
-                f.fx_n * ex[0] + f.fy_n * ey[0] + c.load_n * c.normal[0],
-                f.fx_n * ex[1] + f.fy_n * ey[1] + c.load_n * c.normal[1],
-                c.load_n * c.normal[2],
-            ];
-            rb.add_force_at_point(
-                Vector::new(fw[0] as f32, fw[1] as f32, fw[2] as f32),
-                Vector::new(c.point[0] as f32, c.point[1] as f32, c.point[2] as f32),
-                true,
+            wrench.add_at_point(
+                [
+                    f.fx_n * ex[0] + f.fy_n * ey[0] + c.load_n * c.normal[0],
+                    f.fx_n * ex[1] + f.fy_n * ey[1] + c.load_n * c.normal[1],
+                    c.load_n * c.normal[2],
+                ],
+                c.point,
+                com64,
             );
         }
-        self.params.dt = dt as f32;
-        self.pipeline.step(
-            Vector::new(0.0, 0.0, -GRAVITY_M_S2 as f32),
-            &self.params,
-            &mut self.islands,
-            &mut self.broad_phase,
-            &mut self.narrow_phase,
-            &mut self.bodies,
-            &mut self.colliders,
-            &mut self.impulse_joints,
-            &mut self.multibody_joints,
-            &mut self.soft_bodies,
-            &mut self.ccd,
-            &(),
-            &(),
-        );
+        let rb = &mut self.bodies[self.body];
+        body::integrate(rb, self.mass_kg, self.inertia_kg_m2, &wrench, dt);
     }
 
     fn check(&self, u: [f64; 5]) -> Result<()> {

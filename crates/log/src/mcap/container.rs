@@ -10,7 +10,7 @@
 //! statistics, chunk and metadata indexes, summary offsets and CRCs the crate writes with our
 //! options) and leaves the layout to the MCAP specification (<https://mcap.dev/spec>); the crate
 //! stays the reader, which checks every CRC, and the reference this writer is tested against
-//! ([`Container::Crate`], `tests/mcap_roundtrip.rs`).
+//! (`Container::Crate` with the `oracle` feature, `tests/mcap_roundtrip.rs`).
 
 use mcap::records::{op, ChunkIndex, MessageHeader, Metadata, MetadataIndex, Statistics};
 use mcap::{McapError, McapResult};
@@ -32,8 +32,9 @@ pub enum Container {
     Chunked,
     /// drive-sim's writer at another zstd level (the benchmarks compare levels with it).
     ChunkedZstd(i32),
-    /// The `mcap` crate's writer, kept as the reference the fast one is tested and benchmarked
-    /// against.
+    /// The `mcap` crate's writer, the reference the fast one is tested and benchmarked against
+    /// (feature `oracle`: tests and benches only).
+    #[cfg(feature = "oracle")]
     Crate,
 }
 
@@ -42,6 +43,7 @@ pub(super) enum ContainerWriter<W: Write + Seek> {
     /// See [`Container::Chunked`].
     Chunked(Box<ChunkWriter<W>>),
     /// See [`Container::Crate`].
+    #[cfg(feature = "oracle")]
     Crate(Box<mcap::Writer<W>>),
 }
 
@@ -56,6 +58,7 @@ impl<W: Write + Seek> ContainerWriter<W> {
             Container::ChunkedZstd(level) => Self::Chunked(Box::new(ChunkWriter::new(
                 sink, "ros2", library, chunk_size, level,
             )?)),
+            #[cfg(feature = "oracle")]
             Container::Crate => Self::Crate(Box::new(
                 mcap::WriteOptions::new()
                     .profile("ros2")
@@ -73,6 +76,7 @@ impl<W: Write + Seek> ContainerWriter<W> {
     pub fn add_schema(&mut self, name: &str, encoding: &str, data: &[u8]) -> McapResult<u16> {
         match self {
             Self::Chunked(w) => w.add_schema(name, encoding, data),
+            #[cfg(feature = "oracle")]
             Self::Crate(w) => w.add_schema(name, encoding, data),
         }
     }
@@ -87,6 +91,7 @@ impl<W: Write + Seek> ContainerWriter<W> {
     ) -> McapResult<u16> {
         match self {
             Self::Chunked(w) => w.add_channel(schema_id, topic, message_encoding, metadata),
+            #[cfg(feature = "oracle")]
             Self::Crate(w) => w.add_channel(schema_id, topic, message_encoding, metadata),
         }
     }
@@ -95,6 +100,7 @@ impl<W: Write + Seek> ContainerWriter<W> {
     pub fn write_metadata(&mut self, metadata: &Metadata) -> McapResult<()> {
         match self {
             Self::Chunked(w) => w.write_metadata(metadata),
+            #[cfg(feature = "oracle")]
             Self::Crate(w) => w.write_metadata(metadata),
         }
     }
@@ -103,6 +109,7 @@ impl<W: Write + Seek> ContainerWriter<W> {
     pub fn write_message(&mut self, header: &MessageHeader, data: &[u8]) -> McapResult<()> {
         match self {
             Self::Chunked(w) => w.write_message(header, data),
+            #[cfg(feature = "oracle")]
             Self::Crate(w) => w.write_to_known_channel(header, data),
         }
     }
@@ -111,6 +118,7 @@ impl<W: Write + Seek> ContainerWriter<W> {
     pub fn finish(self) -> McapResult<W> {
         match self {
             Self::Chunked(w) => w.finish(),
+            #[cfg(feature = "oracle")]
             Self::Crate(mut w) => {
                 w.finish()?;
                 Ok(w.into_inner())
