@@ -358,7 +358,7 @@ fn report() {
 
 #[test]
 fn the_localisation_faults_are_found_by_hand_and_excluded() {
-    // Found on these files (session 11): in two steady windows of the asphalt run the pose goes
+    // In these files: in two steady windows of the asphalt run the pose goes
     // backwards at 2.5-3.1 m/s right after going forwards at 3.4-3.6 m/s, while the wheels
     // drive forwards at 3.4-3.5 m/s throughout and the heading turns by 0.6-0.7 rad. Checked
     // here from the CSV text against the source's own velocity estimate (`ref_vx_m_s`,

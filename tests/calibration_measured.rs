@@ -277,9 +277,9 @@ fn husky_controller_kinematics_match_a_direct_fit() {
     common_checks(&r);
 }
 
-/// The gains calibrate fits to the Husky's controller against the direct fit above. The
-/// session-2 pipeline (Nelder–Mead, greedy selection on held-out steps) matched them within
-/// 5 % and 8 %; the least-squares pipeline pairs the controller's kinematics with the
+/// The gains calibrate fits to the Husky's controller against the direct fit above. A
+/// Nelder–Mead search with greedy selection on held-out steps matches them within 5 % and
+/// 8 %; the least-squares pipeline pairs the controller's kinematics with the
 /// yaw-rate limit and fits a compromise speed gain (1.25 against 1.81) that the missing
 /// wheel limit would not need. Open: the three-effect structure needs a search the pair step
 /// does not make.

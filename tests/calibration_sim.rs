@@ -141,10 +141,10 @@ fn simulator_with_a_saturated_motor_is_diagnosed() {
         ..cheap_options()
     };
     // 40 steps: few steps command past the limit and they carry the whole reduction, so the
-    // evidence needs validation steps. With 24 (5 validation steps) it was 289 ± 248 on the
-    // runs of the faster re-orientation, short of 2 SE; with 32, 200.8 ± 128.5 once the
-    // operator planned on the motion it saw (session 13: other steps); with 40, 889 ± 240,
-    // found at 10.003, test score 0.95, in 14 s (the 32-step run did not converge, 40 s).
+    // evidence needs validation steps. With 24 (5 validation steps) and a faster
+    // re-orientation the reduction is 289 ± 248, short of 2 SE; with 32 and the simulated
+    // operator that plans on the motion it saw, 200.8 ± 128.5 (and the fit does not converge,
+    // 40 s); with 40, 889 ± 240, found at 10.003, test score 0.95, in 14 s.
     let r = diagnose(&[("wheel_speed_saturation_rad_s", 10.0)], 40, 23, &opts);
     assert_found(&r, "wheel_speed_saturation_rad_s");
     let sat = fitted(&r, "effect.wheel_speed_saturation_rad_s");
@@ -182,8 +182,8 @@ fn calibrate_measured(name: &str) -> CalibrationReport {
     r
 }
 
-/// What the session-2 calibrations found on the measured Warthog runs, now on all training
-/// steps and reported on untouched test steps: the IMU's yaw axis is upside down, and the
+/// The known findings on the measured Warthog runs, fitted on all training steps and
+/// reported on untouched test steps: the IMU's yaw axis is upside down, and the
 /// wheels saturate near 12.4–12.9 rad/s (nominal 16.67). Both must be found with evidence, the
 /// limit's 95 % interval must lie in [12, 13.3] rad/s, and the test score must fall.
 fn assert_known_warthog_findings(r: &CalibrationReport, must_converge: bool) {
@@ -229,14 +229,14 @@ fn assert_known_warthog_findings(r: &CalibrationReport, must_converge: bool) {
 
 #[test]
 fn measured_gravel_imu_flip_and_wheel_limit() {
-    // The target dataset: every fit must stop on a convergence criterion.
+    // On gravel every fit must stop on a convergence criterion.
     assert_known_warthog_findings(&calibrate_measured("warthog_gravel"), true);
 }
 
 #[test]
 fn measured_ice_imu_flip_and_wheel_limit() {
     // On ice the first joint refit (6 parameters) uses its 30-iteration budget; the report
-    // says so in its notes (measured at the last run), the findings stand.
+    // says so in its notes, the findings stand.
     assert_known_warthog_findings(&calibrate_measured("warthog_ice"), false);
 }
 

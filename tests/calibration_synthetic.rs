@@ -333,13 +333,13 @@ fn check_cases(cases: &[(&str, f64, &str, f64, f64)], keep: impl Fn(&str, u64) -
     assert!(failures.is_empty(), "{failures:#?}");
 }
 
-/// Cases the session-2 search (Nelder–Mead, greedy on held-out steps) passed and the
-/// least-squares pipeline does not: a wheel-speed saturation of 10 rad/s is ranked first but
+/// Cases a Nelder–Mead search greedy on held-out steps passes and the least-squares
+/// pipeline does not: a wheel-speed saturation of 10 rad/s is ranked first but
 /// not kept, its validation reduction (bootstrap over the 12 validation steps) below the 2-SE
 /// rule: few steps command past the limit, and they carry the whole reduction. Seed 23:
-/// recovered 10.002 ± 0.001, reduction 704 ± 450, test score 1319. Seed 21 joined it when the
-/// simulated operator started planning on the motion it saw (session 13: fewer interruptions,
-/// other steps): reduction 485 ± 253, test score 2049. Open: run with `--ignored` to see them.
+/// recovered 10.002 ± 0.001, reduction 704 ± 450, test score 1319. Seed 21, with the
+/// simulated operator that plans on the motion it saw (few interruptions): reduction
+/// 485 ± 253, test score 2049. Open: run with `--ignored` to see them.
 #[test]
 #[ignore = "open regression of the least-squares pipeline (see the doc comment)"]
 fn open_regressions_of_the_least_squares_pipeline() {

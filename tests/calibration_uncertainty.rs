@@ -31,8 +31,8 @@ fn spec(seed: u64) -> TestRobotSpec {
 
 /// The sandwich standard errors against the refits' spread, at the bounds the method was
 /// designed to (±1.96 SE within 20 % of the refits' 95 % interval, SE within 25 % of their
-/// SD). Open since session 13: on the run the simulated operator now gives (fewer
-/// interruptions, more steps that follow each other without a break), at 200 resamples the
+/// SD). Open: on the run the simulated operator gives (few interruptions, many steps that
+/// follow each other without a break), at 200 resamples the
 /// right gain's ±1.96 SE is 1.23 of the refits' 95 % interval (the refits' 2.5-97.5 % of 200
 /// carry about 7 % of Monte Carlo error), and the effective baseline's SE 0.79 of its refits'
 /// SD (the refits have heavier tails than a normal law). `cargo test --test

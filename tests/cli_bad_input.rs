@@ -1,4 +1,4 @@
-//! The ten cases of bad input and interrupted runs of issue 15, each as a user meets it through
+//! The cases of bad input and interrupted runs, each as a user meets it through
 //! the `drive-sim` binary: the message says what and where (and the allowed range), bad input
 //! exits with code 2 before any long work, nothing outside `--out` changes and no earlier
 //! output is lost.

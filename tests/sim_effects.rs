@@ -431,7 +431,7 @@ fn a_command_change_term_is_neutral_in_a_manoeuvre() {
 fn a_stopped_robot_stands_still_whatever_its_terms() {
     // A discovered constant on the right wheel and a body yaw growing with time in the step:
     // both act while the robot drives; told to stop it brakes and stands, as a DRIVE twin's
-    // operator needs (a twin with such terms could not end its stops: session 11).
+    // operator needs (otherwise a twin with such terms cannot end its stops).
     let terms = [("term_wheel_right__1", -0.5), ("term_body_wz__t", -0.01)];
     let (_, mut s) = setup("warthog", "asphalt", &terms);
     let driving = hold(&mut s, WheelSpeeds::new(4.0, 4.0), 4.0);

@@ -1,12 +1,13 @@
-//! The issue's item 5: the simulated DRIVE spends its time like the robot's. The paper's Table
-//! "lessons" gives the Warthog's "time data gathering" as 60.4-72.3 %, on sites of 740-1900 m²;
-//! the simulated operator once left it at 39-47 % on ice (it planned re-orientations on the
-//! ideal drive, shrank the area by the stopping distance on every side and interrupted robots
-//! heading back in; README, "Time efficiency").
+//! The simulated DRIVE spends its time like the robot's. The paper's Table "lessons" gives the
+//! Warthog's "time data gathering" as 60.4-72.3 %, on sites of 740-1900 m²; an operator that
+//! plans re-orientations on the ideal drive, shrinks the area by the stopping distance on every
+//! side and interrupts robots heading back in leaves it at 39-47 % on ice (README, "Time
+//! efficiency").
 //!
 //! The declared Warthog, 150 steps, seeds 0-2, on the paper's site areas (shapes our choice):
-//! every run must gather data at least 60 % of the time. Measured at session 13: ice on 47 x 20
-//! m 70.1 / 68.9 / 68.3 % (paper 62.8 %), asphalt on 50 x 25 m 80.7 / 79.5 / 76.5 % (paper 71.3 %).
+//! every run must gather data at least 60 % of the time. Measured with `cargo test --test
+//! time_efficiency -- --nocapture`: ice on 47 x 20 m 70.1 / 68.9 / 68.3 % (paper 62.8 %),
+//! asphalt on 50 x 25 m 80.7 / 79.5 / 76.5 % (paper 71.3 %).
 
 use drive_sim::harness::simulate::simulate;
 use drive_sim::robot::{Robot, SafeArea};

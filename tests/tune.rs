@@ -10,9 +10,9 @@
 //! --robot warthog --terrain asphalt --steps 200 --seed 0 --inject
 //! wheel_speed_saturation_rad_s=10`, `drive-sim analyze`, `scripts/lateral_slip_regression.py`:
 //! −0.202 [−0.215, −0.187] s), so that its runs and the simulator's are alike but for the limit.
-//! With +0.05 s (until session 15) the lateral-slip map differed by 5–8× its yardstick whatever
-//! the limit, and a lower limit, slowing the turns, shrank that difference: the search traded the
-//! limit for the lateral map (8.55 rad/s chosen once the yardstick averaged 64 halvings).
+//! With +0.05 s instead the lateral-slip map differs by 5–8× its yardstick whatever the limit,
+//! and a lower limit, slowing the turns, shrinks that difference: the search trades the limit
+//! for the lateral map (8.55 rad/s chosen with the yardstick averaged over 64 halvings).
 
 mod common;
 use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};

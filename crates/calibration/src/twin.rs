@@ -367,7 +367,7 @@ pub fn twin_of_report(report: &CalibrationReport) -> Result<TwinFiles> {
 }
 
 /// Steps of the closed-loop check of a twin ([`check_twin`]): enough for a few interruptions and
-/// re-orientations (the failure it was written for came at step 3), a fraction of a second.
+/// re-orientations (a failing twin can fail as early as step 3), a fraction of a second.
 pub const TWIN_CHECK_STEPS: u32 = 30;
 
 /// What a short DRIVE run of a twin showed (`calibration.json`'s `twin_check`).

@@ -15,7 +15,7 @@
 //! 1 one side stopped, above 1 the sides counter-rotate, infinite in place): a property of the
 //! command, so a replay of the real commands puts each step in the same class in both runs and
 //! the difference is paired by step, as [`super::compare`]'s metrics are. A diagnostic, not a
-//! verdict: its differences are not in the Holm family of the target.
+//! verdict: its differences are not in the Holm family of the `reproduces` verdict.
 
 use super::{two_sample_diffs, Pairing, StepRow};
 use drive_sim_analysis::bootstrap::{two_sided_p, Bootstrap, Interval};

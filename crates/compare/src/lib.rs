@@ -13,8 +13,8 @@
 //!
 //! The p-values of the differences (two-sided, from the same resamples) are adjusted with
 //! Holm's method over the six medians of each simulated log, so "no significant difference" is
-//! a family-wise statement at the chosen level. A T/U area is judged by its tolerance (the
-//! issue's target: within 5 percentage points); its bootstrap interval is reported but is not
+//! a family-wise statement at the chosen level. A T/U area is judged by its tolerance (within
+//! 5 percentage points); its bootstrap interval is reported but is not
 //! a test (a resampled hull never exceeds the run's, see [`compare`]). The transfer-function RMS difference has no
 //! bootstrap: it is judged against a yardstick, the same RMS between two halves of the real run
 //! (its odd and even steps, and random balanced halvings: the quadratic mean over
@@ -440,8 +440,8 @@ pub fn compare_prepared_sims(prepared: &PreparedReal, sims: &[PreparedSim]) -> R
                 }
             })
             .collect();
-        // The tested metrics are the medians; a T/U area is judged by its tolerance alone, as
-        // the target states, because its bootstrap is not a test: a resample's hull is
+        // The tested metrics are the medians; a T/U area is judged by its tolerance alone
+        // (within 5 percentage points), because its bootstrap is not a test: a resample's hull is
         // the hull of a subset of the steps, so its area is never above the run's, and the
         // resampled difference is shifted by how much each run's hull shrinks (the estimate
         // can lie outside its own percentile interval). The interval is still reported.

@@ -32,7 +32,7 @@ pub struct CompareOptions {
     #[serde(default)]
     pub tf_smoother: TfSmoother,
     /// Halvings of the real run behind the yardstick (the alternate steps, then random
-    /// balanced ones); 1 is the alternate steps alone, the yardstick before session 15.
+    /// balanced ones); 1 is the alternate steps alone (the single split-half yardstick).
     #[serde(default = "default_yardstick_splits")]
     pub tf_yardstick_splits: usize,
 }

@@ -63,7 +63,7 @@ pub struct MetricDiff {
     pub p_holm: f64,
     /// The difference is significant at the family-wise level (never for a T/U area).
     pub significant: bool,
-    /// Tolerance the target sets on |difference| (T/U areas: 5 percentage points).
+    /// Tolerance of the `reproduces` verdict on |difference| (T/U areas: 5 percentage points).
     pub tolerance: Option<f64>,
     /// |difference| within the tolerance.
     pub within_tolerance: Option<bool>,
@@ -124,7 +124,7 @@ pub struct TimeDiff {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Verdict {
     /// No significant difference in the medians, T/U areas within tolerance, every transfer
-    /// function within its yardstick: the target.
+    /// function within its yardstick: the twin reproduces the real run.
     pub reproduces: bool,
     /// Medians with a significant difference (Holm).
     pub significant: Vec<String>,
@@ -134,7 +134,7 @@ pub struct Verdict {
     pub tf_beyond_yardstick: Vec<String>,
     /// Transfer functions whose difference is beyond what exchanging the steps between the
     /// runs gives (permutation test, Holm over the five, at `alpha`): a calibrated diagnostic
-    /// beside the yardstick, not part of `reproduces` (the criterion is the yardstick).
+    /// beside the yardstick, not part of `reproduces` (whose criterion is the yardstick).
     #[serde(default)]
     pub tf_significant: Vec<String>,
 }

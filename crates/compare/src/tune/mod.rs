@@ -1,7 +1,7 @@
 //! Tuning a twin in closed loop: effect parameters chosen by what `compare` says about the
 //! twin's own DRIVE runs against the real run, not by replays of the real commands.
 //!
-//! Calibration replays the measured commands and fits what it sees sample by sample; the issue
+//! Calibration replays the measured commands and fits what it sees sample by sample; `compare`
 //! judges a twin by its own DRIVE runs, in the paper's statistics (median ρ and slips, T/U
 //! areas, transfer-function maps). The two views can disagree: on `warthog_asphalt` the
 //! motor's torque-speed line is rejected by replays (its two ends are not identifiable there)

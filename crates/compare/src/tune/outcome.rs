@@ -130,7 +130,7 @@ pub struct TuneOutcome {
     /// The judgement on the other half (`None` when the choice used every step).
     pub heldout: Option<HeldOut>,
     /// When the choice used every step: the judgement on those same steps with fresh seeds
-    /// (the first target, a twin against the run it was made from; not held out).
+    /// (a twin judged against the run it was made from; not held out).
     #[serde(default)]
     pub same_steps: Option<HeldOut>,
     /// The twin is the chosen model (the check accepted it), not the start.

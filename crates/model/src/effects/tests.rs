@@ -26,10 +26,10 @@ fn registry_names_and_keys_are_unique_and_documented() {
             assert!(lo < hi && p.check(hi).is_ok(), "{}", p.key);
         }
     }
-    // 16 effects of session 3, 5 structural ones that discovery points to, the motor's
-    // torque-speed line (session 11), the turning centre's offset and the crab angle (session
-    // 14), the speed loop's droop (session 15), the wheels' step scatter (session 17), the
-    // droop's recovery (session 18), 6 generic terms.
+    // 16 original catalogue effects, 5 structural ones that discovery points to, the motor's
+    // torque-speed line, the turning centre's offset and the crab angle, the speed loop's
+    // droop, the wheels' step scatter, the droop's recovery (27 named effects), and 6 generic
+    // terms.
     assert_eq!(REGISTRY.iter().filter(|e| !e.generic()).count(), 27);
     assert_eq!(REGISTRY.len(), 33);
     assert_eq!(n, 30 + 2 * 25 + 4 * 22);
