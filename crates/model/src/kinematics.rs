@@ -17,6 +17,7 @@ pub struct WheelSpeeds {
 
 impl WheelSpeeds {
     /// Builds a pair from left and right wheel speeds (rad/s).
+    #[inline]
     pub const fn new(left_rad_s: f64, right_rad_s: f64) -> Self {
         Self {
             left_rad_s,
@@ -24,6 +25,7 @@ impl WheelSpeeds {
         }
     }
     /// Component-wise difference `self - other`.
+    #[inline]
     pub fn minus(self, other: Self) -> Self {
         Self::new(
             self.left_rad_s - other.left_rad_s,
@@ -31,6 +33,7 @@ impl WheelSpeeds {
         )
     }
     /// True if both components are finite.
+    #[inline]
     pub fn is_finite(self) -> bool {
         self.left_rad_s.is_finite() && self.right_rad_s.is_finite()
     }
@@ -49,6 +52,7 @@ pub struct BodyVelocity {
 
 impl BodyVelocity {
     /// Builds a body velocity from its three components.
+    #[inline]
     pub const fn new(vx_m_s: f64, vy_m_s: f64, wz_rad_s: f64) -> Self {
         Self {
             vx_m_s,
@@ -57,6 +61,7 @@ impl BodyVelocity {
         }
     }
     /// Component-wise difference `self - other`.
+    #[inline]
     pub fn minus(self, other: Self) -> Self {
         Self::new(
             self.vx_m_s - other.vx_m_s,
@@ -65,6 +70,7 @@ impl BodyVelocity {
         )
     }
     /// True if all components are finite.
+    #[inline]
     pub fn is_finite(self) -> bool {
         self.vx_m_s.is_finite() && self.vy_m_s.is_finite() && self.wz_rad_s.is_finite()
     }
@@ -81,6 +87,7 @@ pub struct IdealDiffDrive {
 
 impl IdealDiffDrive {
     /// Body velocity that the IDD predicts for a wheel-speed command.
+    #[inline]
     pub fn body_from_wheels(&self, w: WheelSpeeds) -> BodyVelocity {
         let r = self.wheel_radius_m;
         BodyVelocity::new(
@@ -90,6 +97,7 @@ impl IdealDiffDrive {
         )
     }
     /// Wheel speeds that realize `vx`, `wz` under the IDD (the inverse of M; `vy` is ignored).
+    #[inline]
     pub fn wheels_from_body(&self, v: BodyVelocity) -> WheelSpeeds {
         let r = self.wheel_radius_m;
         let half = v.wz_rad_s * self.baseline_m / 2.0;
@@ -116,6 +124,7 @@ impl CommandSpace {
     const EPS: f64 = 1e-9;
 
     /// True if the wheel command lies in U.
+    #[inline]
     pub fn contains_wheels(&self, w: WheelSpeeds) -> bool {
         let b = self.idd.body_from_wheels(w);
         w.left_rad_s.abs() <= self.max_wheel_rad_s + Self::EPS
@@ -124,6 +133,7 @@ impl CommandSpace {
             && b.wz_rad_s.abs() <= self.max_ang_rad_s + Self::EPS
     }
     /// True if the body command (vx, wz) lies in U.
+    #[inline]
     pub fn contains_body(&self, v: BodyVelocity) -> bool {
         self.contains_wheels(self.idd.wheels_from_body(v))
     }

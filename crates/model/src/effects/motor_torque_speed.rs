@@ -71,6 +71,7 @@ impl Effect for MotorTorqueSpeed {
 /// The torque a motor can give at wheel spin `omega_rad_s` towards `need_nm`, under the
 /// powertrain's fixed `limit_nm` and the torque-speed line (`stall_nm`, `no_load_rad_s`; either
 /// infinite: no line).
+#[inline]
 pub fn available_torque_nm(
     limit_nm: f64,
     stall_nm: f64,

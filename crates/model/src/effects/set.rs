@@ -188,6 +188,7 @@ impl Effects {
 
     /// The wheel-speed targets as [`Effects::wheel_targets`], with the effects that read the
     /// step or the model's state ([`Effect::wheel_targets_in`]) given `x`.
+    #[inline]
     pub fn wheel_targets_in(&self, cmd: WheelSpeeds, nominal: &IdealDiffDrive, x: &TermInput) -> WheelSpeeds {
         let mut w = self.controller_targets(cmd, nominal);
         for a in &self.active {
@@ -197,6 +198,7 @@ impl Effects {
     }
 
     /// The sum of the body-velocity offsets ([`Effect::body_offset`]) at `x`.
+    #[inline]
     pub fn body_offset(&self, x: &TermInput) -> BodyVelocity {
         self.active.iter().fold(BodyVelocity::default(), |acc, a| {
             let o = a.effect().body_offset(&a.values, x);
@@ -210,6 +212,7 @@ impl Effects {
 
     /// Whether any effect switched on moves the body apart from its wheels
     /// ([`Effect::moves_body`]): plants skip the body-stage bookkeeping otherwise.
+    #[inline]
     pub fn acts_on_body(&self) -> bool {
         self.active().any(|e| e.moves_body())
     }
@@ -223,6 +226,7 @@ impl Effects {
 
     /// The IMU yaw-rate reading for the true yaw rate `wz_rad_s`, with the effects that read
     /// the model's state given `x`.
+    #[inline]
     pub fn imu_yaw_rate_in(&self, wz_rad_s: f64, x: &TermInput) -> f64 {
         self.active
             .iter()
@@ -230,6 +234,7 @@ impl Effects {
     }
 
     /// The encoder readings for the true wheel spins.
+    #[inline]
     pub fn encoders(&self, wheels: WheelSpeeds) -> WheelSpeeds {
         self.active
             .iter()
@@ -238,6 +243,7 @@ impl Effects {
 
     /// The wheel spins that give the encoder readings `encoders` (inverse of
     /// [`Effects::encoders`]).
+    #[inline]
     pub fn wheels_from_encoders(&self, encoders: WheelSpeeds) -> WheelSpeeds {
         self.active
             .iter()
