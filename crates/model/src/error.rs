@@ -53,6 +53,15 @@ pub enum Error {
         /// Simulated time, s.
         time_s: f64,
     },
+    /// A value that cannot be written as JSON or a JSON file that cannot be read back.
+    #[error("{path}: JSON: {source}")]
+    Json {
+        /// The file written or read.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: serde_json::Error,
+    },
     /// An analysis that cannot be done on the data given (e.g. no complete step).
     #[error("analysis: {0}")]
     Analysis(String),
@@ -94,9 +103,18 @@ impl Error {
         match self {
             Error::Config { .. } | Error::Unknown { .. } | Error::Log { .. } => true,
             Error::Io { source, .. } => source.kind() == std::io::ErrorKind::NotFound,
-            Error::Diverged { .. } | Error::Interrupted { .. } | Error::Analysis(_) | Error::Report(_) => {
-                false
-            }
+            Error::Diverged { .. }
+            | Error::Interrupted { .. }
+            | Error::Json { .. }
+            | Error::Analysis(_)
+            | Error::Report(_) => false,
+        }
+    }
+    /// Builds an [`Error::Json`] error.
+    pub fn json(path: impl Into<PathBuf>, source: serde_json::Error) -> Self {
+        Error::Json {
+            path: path.into(),
+            source,
         }
     }
     /// Builds an [`Error::Io`] error.
