@@ -8,6 +8,23 @@
 //! below the command line, which only parses arguments, calls these and prints; tests and
 //! sweeps call them directly.
 
+//!
+//! ```no_run
+//! use drive_sim_harness::simulate;
+//! use drive_sim_model::{robot::Robot, terrain::Terrain};
+//! use drive_sim_sim::SensorNoise;
+//!
+//! let robot = Robot::resolve("warthog")?.0;
+//! let terrain = Terrain::resolve("gravel")?.0;
+//! // A 20-step DRIVE in memory with typical field sensors, analysed like a measured log.
+//! let run = simulate(&robot, &terrain, "uniform-wheel", 20, 7, SensorNoise::typical())?;
+//! let analysis = drive_sim_analysis::analyze(&run.log, &Default::default())?;
+//! println!("{} steps, time efficiency {:.2}", run.summary.steps_completed, run.summary.time_efficiency);
+//! # let _ = analysis;
+//! # Ok::<(), drive_sim_model::Error>(())
+//! ```
+#![warn(missing_docs, unreachable_pub)]
+
 pub mod analyze;
 pub mod demo;
 pub mod ground_truth;

@@ -5,6 +5,26 @@
 //! the safe area, the attempt is interrupted, the robot is stopped and turned to face the centre
 //! (its rear, for a backward command), and the same command restarts from zero elapsed time.
 
+//!
+//!
+//! ```
+//! use drive_sim_model::{robot::Robot, terrain::Terrain};
+//! use drive_sim_protocol::{run_drive, sampler::make_sampler_for, ProtocolConfig};
+//! use drive_sim_sim::{SimConfig, Simulator};
+//!
+//! let robot = Robot::resolve("husky")?.0;
+//! let terrain = Terrain::resolve("asphalt")?.0;
+//! // Three DRIVE steps on the simulator, commands drawn uniformly in the wheel frame.
+//! let protocol = ProtocolConfig::for_run(&robot, &terrain, 3);
+//! let mut sim = Simulator::new(&robot, &terrain, SimConfig::default())?;
+//! let mut sampler = make_sampler_for("uniform-wheel", 1, &protocol).expect("a registered sampler");
+//! let mut frames = Vec::new(); // any FrameSink: a Vec, an MCAP writer
+//! let summary = run_drive(&mut sim, &robot, sampler.as_mut(), &protocol, &mut frames)?;
+//! assert_eq!(summary.steps_completed, 3);
+//! # Ok::<(), drive_sim_model::Error>(())
+//! ```
+#![warn(missing_docs, unreachable_pub)]
+
 mod operator;
 pub mod sampler;
 pub mod samplers;

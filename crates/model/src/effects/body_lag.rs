@@ -5,7 +5,7 @@ use super::{Effect, ParamDef, ParamKind, PlantModifiers, SearchBox, Stage};
 /// First-order lag of the body velocity behind the velocity its wheels command through the
 /// ground (compliant tyres and suspension, a heavy body on soft ground): the encoders settle
 /// at once, the pose follows with a time constant.
-pub struct BodyLag;
+pub(crate) struct BodyLag;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "body_time_constant_s",

@@ -6,7 +6,7 @@ use crate::kinematics::BodyVelocity;
 
 /// In a turn the tyres carry the centripetal force with a slip angle, so the body slides
 /// sideways at `vy = k · vx · wz` (`k` in s: m/s per m/s² of centripetal acceleration).
-pub struct CentripetalSlip;
+pub(crate) struct CentripetalSlip;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "centripetal_slip_s",

@@ -4,7 +4,7 @@ use super::{Effect, ParamDef, ParamKind, ReachOf, SearchBox, Stage};
 use crate::kinematics::BodyVelocity;
 
 /// A clamp on the commanded forward speed, in the nominal body space.
-pub struct CommandSpeedLimit;
+pub(crate) struct CommandSpeedLimit;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "command_speed_limit_m_s",

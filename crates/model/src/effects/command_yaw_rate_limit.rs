@@ -4,7 +4,7 @@ use super::{Effect, ParamDef, ParamKind, ReachOf, SearchBox, Stage};
 use crate::kinematics::BodyVelocity;
 
 /// A clamp on the commanded yaw rate, in the nominal body space.
-pub struct CommandYawRateLimit;
+pub(crate) struct CommandYawRateLimit;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "command_yaw_rate_limit_rad_s",

@@ -8,7 +8,7 @@ use crate::kinematics::IdealDiffDrive;
 /// kinematics give the wheels. Its radius scales the common mode (speed) of the targets by its
 /// inverse; its separation (e.g. a `wheel_separation_multiplier` of a ROS diff-drive
 /// controller) scales the differential mode (turning).
-pub struct ControllerKinematics;
+pub(crate) struct ControllerKinematics;
 
 const PARAMS: &[ParamDef] = &[
     ParamDef {

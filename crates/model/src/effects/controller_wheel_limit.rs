@@ -5,7 +5,7 @@ use crate::kinematics::WheelSpeeds;
 
 /// A curvature-preserving wheel limit: both targets scaled down together so that the faster
 /// one stays at the limit (unlike the per-motor saturation, which clips each side on its own).
-pub struct ControllerWheelLimit;
+pub(crate) struct ControllerWheelLimit;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "controller_wheel_limit_rad_s",

@@ -8,7 +8,7 @@ use crate::kinematics::BodyVelocity;
 /// of square (it crabs), or the localisation frame is yawed against the body (a lidar mounted a
 /// few degrees off the robot's axis reads the same). Its origin slides sideways at
 /// `vy = tan ψ · vx`, forward and backward alike.
-pub struct CrabAngle;
+pub(crate) struct CrabAngle;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "crab_angle_rad",

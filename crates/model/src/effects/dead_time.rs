@@ -3,7 +3,7 @@
 use super::{Effect, ParamDef, ParamKind, PlantModifiers, SearchBox, Stage};
 
 /// A pure delay between a command and the controller acting on it.
-pub struct DeadTime;
+pub(crate) struct DeadTime;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "dead_time_s",

@@ -18,7 +18,7 @@ use super::{Effect, ParamDef, ParamKind, PlantModifiers, SearchBox, Stage};
 /// (README, "A speed loop that remembers"; `drive-sim analyze` → `summary.json`
 /// `turn_memory`). Without the droop it does nothing. A replayed step starts with an empty
 /// integral: a log does not record the torque the previous step left in it.
-pub struct DroopRecovery;
+pub(crate) struct DroopRecovery;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "droop_recovery_s",

@@ -4,7 +4,7 @@ use super::{Effect, ParamDef, ParamKind, SearchBox, Stage};
 use crate::kinematics::WheelSpeeds;
 
 /// Multiplies the encoder readings (wrong counts per revolution or gear ratio).
-pub struct EncoderScale;
+pub(crate) struct EncoderScale;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "encoder_scale",

@@ -11,7 +11,7 @@ use crate::kinematics::BodyVelocity;
 /// A load nearer one axle moves it there, and a localisation frame (a lidar mounted ahead of
 /// the turning centre) reads the same: the origin slides sideways at `vy = −x_ICR · wz`,
 /// whichever way it drives. `x_ICR < 0`: the robot turns about a point behind its origin.
-pub struct IcrLongitudinalOffset;
+pub(crate) struct IcrLongitudinalOffset;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "icr_x_m",

@@ -3,7 +3,7 @@
 use super::{Effect, ParamDef, ParamKind, SearchBox, Stage};
 
 /// A constant gyro bias on the yaw rate.
-pub struct ImuYawRateBias;
+pub(crate) struct ImuYawRateBias;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "imu_yaw_rate_bias_rad_s",

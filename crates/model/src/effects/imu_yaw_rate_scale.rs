@@ -3,7 +3,7 @@
 use super::{Effect, ParamDef, ParamKind, SearchBox, Stage};
 
 /// Multiplies the IMU yaw rate (gyro scale error).
-pub struct ImuYawRateScale;
+pub(crate) struct ImuYawRateScale;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "imu_yaw_rate_scale",

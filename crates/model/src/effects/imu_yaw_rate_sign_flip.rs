@@ -3,7 +3,7 @@
 use super::{Effect, ParamDef, ParamKind, SearchBox, Stage};
 
 /// The IMU's yaw rate has the wrong sign (axis mounted upside down, frame misdeclared).
-pub struct ImuYawRateSignFlip;
+pub(crate) struct ImuYawRateSignFlip;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "imu_yaw_rate_sign_flip",

@@ -6,7 +6,7 @@ use crate::kinematics::BodyVelocity;
 
 /// A constant lateral velocity in the body frame (a side slope the robot slides down, a
 /// crabbing suspension).
-pub struct LateralDrift;
+pub(crate) struct LateralDrift;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "lateral_drift_m_s",

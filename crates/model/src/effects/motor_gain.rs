@@ -5,7 +5,7 @@ use crate::kinematics::WheelSpeeds;
 
 /// Gains of the left and right wheel-speed loops: each wheel settles at `gain x target`
 /// (a weaker motor, a miscalibrated loop).
-pub struct MotorGain;
+pub(crate) struct MotorGain;
 
 const fn gain(key: &'static str) -> ParamDef {
     ParamDef {

@@ -6,7 +6,7 @@ use crate::kinematics::WheelSpeeds;
 
 /// Both wheel-speed loops settle at `(1 + d · k)` times their target at step `k` (a battery
 /// sagging over the run, motors heating up): the gain changes with the step index.
-pub struct MotorGainDrift;
+pub(crate) struct MotorGainDrift;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "motor_gain_drift_per_step",

@@ -3,7 +3,7 @@
 use super::{Effect, ParamDef, ParamKind, PlantModifiers, SearchBox, Stage};
 
 /// Age of the lidar / ICP pose when it is read (scan matching takes time).
-pub struct PoseLatency;
+pub(crate) struct PoseLatency;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "pose_latency_s",

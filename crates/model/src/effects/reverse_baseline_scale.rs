@@ -7,7 +7,7 @@ use crate::kinematics::BodyVelocity;
 /// Driving backwards, the robot turns as if its baseline were `scale` times the nominal one
 /// (the load moves to the other axle, the contact patch the skid turns about moves): the yaw
 /// rate from the wheels is divided by `scale` when the command drives backwards.
-pub struct ReverseBaselineScale;
+pub(crate) struct ReverseBaselineScale;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "reverse_baseline_scale",

@@ -8,7 +8,7 @@
 
 /// A standard normal number that depends only on `(seed, step, stream)`: SplitMix64 (Steele,
 /// Lea & Flood 2014) of the three, two uniforms, Box–Muller.
-pub fn step_normal(seed: u64, step: u32, stream: u8) -> f64 {
+pub(crate) fn step_normal(seed: u64, step: u32, stream: u8) -> f64 {
     let mix = |mut z: u64| {
         z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);

@@ -7,7 +7,7 @@ use super::{Effect, ParamDef, ParamKind, PlantModifiers, SearchBox, Stage};
 /// over this distance of lateral travel instead of responding to the slip angle at once. At low
 /// speed the tyres behave as a lateral (hence yaw-torsion) spring of stiffness
 /// `C_alpha / length`: a turn winds it up and the chassis springs back on stop.
-pub struct SuspensionTorsion;
+pub(crate) struct SuspensionTorsion;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "suspension_torsion_m",

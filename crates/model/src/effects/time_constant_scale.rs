@@ -3,7 +3,7 @@
 use super::{Effect, ParamDef, ParamKind, PlantModifiers, SearchBox, Stage};
 
 /// Multiplies the wheel-speed loop's time constant (a softer controller, a heavier load).
-pub struct TimeConstantScale;
+pub(crate) struct TimeConstantScale;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "time_constant_scale",

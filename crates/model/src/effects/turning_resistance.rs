@@ -4,7 +4,7 @@ use super::{Effect, ParamDef, ParamKind, PlantModifiers, SearchBox, Stage};
 
 /// Multiplies the lateral friction coefficients (peak and sliding): more lateral resistance
 /// makes skid-steer turning harder, i.e. a wider effective baseline.
-pub struct TurningResistance;
+pub(crate) struct TurningResistance;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "turning_resistance_scale",

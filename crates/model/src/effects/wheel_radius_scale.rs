@@ -3,7 +3,7 @@
 use super::{Effect, ParamDef, ParamKind, PlantModifiers, SearchBox, Stage};
 
 /// Effective rolling radius over the nominal one (tyre pressure, load, wear).
-pub struct WheelRadiusScale;
+pub(crate) struct WheelRadiusScale;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "wheel_radius_scale",

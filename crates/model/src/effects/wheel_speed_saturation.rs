@@ -5,7 +5,7 @@ use crate::kinematics::WheelSpeeds;
 
 /// Per-motor saturation of the wheel-speed target (a voltage limit, or a wrong nominal radius
 /// making the command unreachable).
-pub struct WheelSpeedSaturation;
+pub(crate) struct WheelSpeedSaturation;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "wheel_speed_saturation_rad_s",

@@ -25,7 +25,7 @@ use crate::kinematics::WheelSpeeds;
 /// operator's manoeuvre between steps: an operator steers by where the robot goes (with the
 /// offsets, the simulated operator's open turns missed the centre and its runs left the site).
 /// It acts before the speed limits, which clip a target pushed past them.
-pub struct WheelSpeedScatter;
+pub(crate) struct WheelSpeedScatter;
 
 const PARAMS: &[ParamDef] = &[ParamDef {
     key: "wheel_speed_scatter_rad_s",
