@@ -9,6 +9,7 @@
 
 pub mod bootstrap;
 pub mod crosscheck;
+mod pipeline;
 pub mod rho;
 pub mod risk;
 pub mod scatter;
@@ -23,16 +24,15 @@ pub mod velocity;
 use crosscheck::{CrossCheck, CrossCheckParams, YawRateSource};
 use drive_sim_log::{DriveLog, Nominal, Origin};
 use drive_sim_model::kinematics::{BodyVelocity, WheelSpeeds};
-use drive_sim_model::{Error, Result};
+use drive_sim_model::Result;
 use rho::{MassProperties, Rho};
 use risk::{MaxKineticEnergy, RiskScenario};
 use segment::Exclusion;
 use serde::{Deserialize, Serialize};
 use slip::SlipRecord;
-use smoother::{FastParams, Grid, KernelCovariance, TransferFunctions};
+use smoother::{FastParams, KernelCovariance, TransferFunctions};
 use spaces::Spaces;
 use stats::BoxStats;
-use velocity::SampleKinematics;
 
 /// Bootstrap-by-step 95 % intervals ([`bootstrap`]) of every median `analyze` prints and
 /// writes: steady slips (signed, and signed along the command as printed), ρ.
@@ -200,15 +200,6 @@ pub struct AlongCommandStats {
     pub left_rad_s: Option<BoxStats>,
     /// `sign(u_r) · g_r`, rad/s.
     pub right_rad_s: Option<BoxStats>,
-}
-
-/// `sign(u) · g`, NaN when `u` is zero.
-fn along(u: f64, g: f64) -> f64 {
-    if u == 0.0 {
-        f64::NAN
-    } else {
-        u.signum() * g
-    }
 }
 
 /// One flat row per step and window (and one per step's steady state, `window = None`), for
@@ -380,229 +371,29 @@ pub fn rms(v: &[BodyVelocity]) -> BodyVelocity {
 /// Runs the whole pipeline on a log.
 pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
     let meta = &log.meta;
-    let idd = meta.nominal.idd();
-    let space = meta.nominal.command_space();
-    let mass = MassProperties::from_nominal(&meta.nominal);
-    let rules = params.segment_rules(meta.samples_per_window);
-    let (segments, exclusions) = segment::segment(log, &rules);
-    if segments.is_empty() {
-        let why: Vec<String> = exclusions
-            .iter()
-            .take(3)
-            .map(|e| format!("step {}: {}", e.step, e.reason))
-            .collect();
-        return Err(Error::Analysis(format!(
-            "{}: no complete step to analyse ({} excluded; {})",
-            meta.name,
-            exclusions.len(),
-            why.join("; ")
-        )));
-    }
-    let kin: Vec<Vec<Vec<SampleKinematics>>> = segments
-        .iter()
-        .map(|s| {
-            s.windows
-                .iter()
-                .map(|w| velocity::window_kinematics(w, params.derivative_half_width, &idd))
-                .collect()
-        })
-        .collect();
-    let all_windows: Vec<Vec<SampleKinematics>> = kin.iter().flatten().cloned().collect();
-    let accelerations: Vec<[f64; 4]> = segments
-        .iter()
-        .filter_map(|s| {
-            s.windows
-                .first()
-                .and_then(|w| velocity::half_window_acceleration(w))
-        })
-        .collect();
-    let crosscheck = crosscheck::cross_check(&all_windows, &accelerations, meta.rate_hz, &params.crosscheck);
+    let nominal = pipeline::NominalModel::of(&meta.nominal);
+    let (segments, exclusions) = pipeline::segment_steps(log, params)?;
+    let kin = pipeline::kinematics(&segments, params.derivative_half_width, &nominal.idd);
+    let crosscheck = pipeline::cross_check(&segments, &kin, meta.rate_hz, &params.crosscheck);
     let source = params.yaw_rate_source.unwrap_or(crosscheck.yaw_rate_source);
+    let steps = pipeline::step_results(&segments, &kin, source, &nominal);
 
-    let mut steps = Vec::with_capacity(segments.len());
-    for (seg, wins) in segments.iter().zip(&kin) {
-        // The held command: the last sample's (the transient window starts with the previous
-        // step's command for a few samples).
-        let cmd = wins
-            .last()
-            .and_then(|w| w.last())
-            .map(|s| s.cmd)
-            .unwrap_or_default();
-        let mut windows = Vec::with_capacity(wins.len());
-        for (w, k) in wins.iter().enumerate() {
-            let wheels = WheelSpeeds::new(
-                mean_of(k.iter().map(|s| s.enc.left_rad_s)),
-                mean_of(k.iter().map(|s| s.enc.right_rad_s)),
-            );
-            let pose = velocity::window_mean_body_velocity(seg.windows[w]);
-            let wz = match source {
-                YawRateSource::Imu => mean_of(k.iter().map(|s| s.imu_wz_rad_s)),
-                YawRateSource::Pose => pose.wz_rad_s,
-            };
-            let body = BodyVelocity::new(pose.vx_m_s, pose.vy_m_s, wz);
-            let rec = slip::slip(&idd, cmd, wheels, body);
-            windows.push(WindowResult {
-                window: seg.windows[w].first().map_or(w as u32, |s| s.window),
-                n_samples: k.len(),
-                slip: rec,
-                rho: rho::rho(&mass, rec.cmd_body, rec.realized_body),
-            });
-        }
-        let steady: Vec<&WindowResult> = windows.iter().filter(|w| w.window >= 1).collect();
-        let wheels = WheelSpeeds::new(
-            mean_of(steady.iter().map(|w| w.slip.realized_wheels.left_rad_s)),
-            mean_of(steady.iter().map(|w| w.slip.realized_wheels.right_rad_s)),
-        );
-        let body = BodyVelocity::new(
-            mean_of(steady.iter().map(|w| w.slip.realized_body.vx_m_s)),
-            mean_of(steady.iter().map(|w| w.slip.realized_body.vy_m_s)),
-            mean_of(steady.iter().map(|w| w.slip.realized_body.wz_rad_s)),
-        );
-        let rec = slip::slip(&idd, cmd, wheels, body);
-        let start_wheels = wins
-            .first()
-            .and_then(|w| w.first())
-            .map(|s| s.enc)
-            .unwrap_or_default();
-        steps.push(StepResult {
-            step: seg.step,
-            start_wheels,
-            windows,
-            steady_rho: rho::rho(&mass, rec.cmd_body, rec.realized_body),
-            steady: rec,
-        });
-    }
-
-    let col = |f: &dyn Fn(&StepResult) -> f64| steps.iter().map(f).collect::<Vec<f64>>();
-    let g_vx = col(&|s| s.steady.slip_body.vx_m_s);
-    let g_vy = col(&|s| s.steady.slip_body.vy_m_s);
-    let g_wz = col(&|s| s.steady.slip_body.wz_rad_s);
-    let g_l = col(&|s| s.steady.slip_wheels.left_rad_s);
-    let g_r = col(&|s| s.steady.slip_wheels.right_rad_s);
-    let rhos = col(&|s| s.steady_rho.rho);
-    let stats = SlipStats {
-        vx_m_s: BoxStats::from_values(&g_vx),
-        vy_m_s: BoxStats::from_values(&g_vy),
-        wz_rad_s: BoxStats::from_values(&g_wz),
-        left_rad_s: BoxStats::from_values(&g_l),
-        right_rad_s: BoxStats::from_values(&g_r),
-        rho: BoxStats::from_values(&rhos),
-        k_x_j: BoxStats::from_values(&col(&|s| s.steady_rho.k_x_j)),
-        along_command: AlongCommandStats {
-            vx_m_s: BoxStats::from_values(&col(&|s| {
-                along(s.steady.cmd_body.vx_m_s, s.steady.slip_body.vx_m_s)
-            })),
-            vy_abs_m_s: BoxStats::from_values(&col(&|s| s.steady.slip_body.vy_m_s.abs())),
-            wz_rad_s: BoxStats::from_values(&col(&|s| {
-                along(s.steady.cmd_body.wz_rad_s, s.steady.slip_body.wz_rad_s)
-            })),
-            left_rad_s: BoxStats::from_values(&col(&|s| {
-                along(s.steady.cmd_wheels.left_rad_s, s.steady.slip_wheels.left_rad_s)
-            })),
-            right_rad_s: BoxStats::from_values(&col(&|s| {
-                along(s.steady.cmd_wheels.right_rad_s, s.steady.slip_wheels.right_rad_s)
-            })),
-        },
-    };
-    let boot = bootstrap::Bootstrap::default();
-    let along_cols: [Vec<f64>; 5] = [
-        col(&|s| along(s.steady.cmd_body.vx_m_s, s.steady.slip_body.vx_m_s)),
-        col(&|s| s.steady.slip_body.vy_m_s.abs()),
-        col(&|s| along(s.steady.cmd_body.wz_rad_s, s.steady.slip_body.wz_rad_s)),
-        col(&|s| along(s.steady.cmd_wheels.left_rad_s, s.steady.slip_wheels.left_rad_s)),
-        col(&|s| along(s.steady.cmd_wheels.right_rad_s, s.steady.slip_wheels.right_rad_s)),
-    ];
-    let median_ci95 = MedianIntervals {
-        bootstrap: boot,
-        rho: boot.median_interval(&rhos),
-        vx_m_s: boot.median_interval(&g_vx),
-        vy_m_s: boot.median_interval(&g_vy),
-        wz_rad_s: boot.median_interval(&g_wz),
-        left_rad_s: boot.median_interval(&g_l),
-        right_rad_s: boot.median_interval(&g_r),
-        along_command: along_cols.each_ref().map(|c| boot.median_interval(c)),
-        warning: (steps.len() < bootstrap::MIN_STEPS_FOR_INTERVAL).then(|| {
-            format!(
-                "too_few_steps: {} analysed steps (fewer than {}): the median intervals are unreliable",
-                steps.len(),
-                bootstrap::MIN_STEPS_FOR_INTERVAL
-            )
-        }),
-    };
+    let cols = pipeline::SteadyColumns::of(&steps);
+    let stats = pipeline::slip_stats(&steps, &cols);
+    let median_ci95 = pipeline::median_intervals(steps.len(), &cols);
     let idd_rmse = rms(&steps.iter().map(|s| s.steady.slip_body).collect::<Vec<_>>());
     let commands_outside_u = steps
         .iter()
-        .filter(|s| !space.contains_wheels(s.steady.cmd_wheels))
+        .filter(|s| !nominal.space.contains_wheels(s.steady.cmd_wheels))
         .count();
-    let pts = |f: &dyn Fn(&StepResult) -> (f64, f64)| steps.iter().map(f).collect::<Vec<(f64, f64)>>();
-    let spaces = spaces::spaces(
-        &space,
-        pts(&|s| (s.steady.cmd_body.vx_m_s, s.steady.cmd_body.wz_rad_s)),
-        pts(&|s| (s.steady.cmd_wheels.left_rad_s, s.steady.cmd_wheels.right_rad_s)),
-        pts(&|s| (s.steady.realized_body.vx_m_s, s.steady.realized_body.wz_rad_s)),
-        pts(&|s| {
-            (
-                s.steady.realized_wheels.left_rad_s,
-                s.steady.realized_wheels.right_rad_s,
-            )
-        }),
-        &col(&|s| s.steady.realized_body.vy_m_s),
-    );
-    let max_kinetic_energy = risk::max_kinetic_energy(&space, &mass);
-    let risk = risk::scenarios(
-        &meta.robot,
-        &meta.terrain,
-        &steps
-            .iter()
-            .map(|s| {
-                (
-                    s.steady_rho.rho,
-                    s.steady_rho.k_x_j,
-                    s.steady_rho.k_ut_j,
-                    s.steady_rho.k_urot_j,
-                )
-            })
-            .collect::<Vec<_>>(),
-    );
-    let transfer = if params.smoother.enabled {
-        let sp = &params.smoother;
-        let grid = Grid::over_space(&space, sp.resolution_vx_m_s, sp.resolution_wz_rad_s);
-        let cmd_pts = pts(&|s| (s.steady.cmd_body.vx_m_s, s.steady.cmd_body.wz_rad_s));
-        let (method, smoothed) = smoother::smooth(
-            &grid,
-            &sp.covariance,
-            &sp.fast,
-            &cmd_pts,
-            &[&g_vx, &g_vy, &g_wz, &g_l, &g_r, &rhos],
-        );
-        Some(TransferFunctions {
-            grid,
-            covariance: sp.covariance,
-            method,
-            names: [
-                "slip_vx_m_s",
-                "slip_vy_m_s",
-                "slip_wz_rad_s",
-                "slip_left_rad_s",
-                "slip_right_rad_s",
-                "rho",
-            ]
-            .map(String::from)
-            .to_vec(),
-            smoothed,
-        })
-    } else {
-        None
-    };
-    let mut rows = Vec::new();
-    for s in &steps {
-        for w in &s.windows {
-            rows.push(SummaryRow::from_record(s.step, Some(w.window), &w.slip, &w.rho));
-        }
-        rows.push(SummaryRow::from_record(s.step, None, &s.steady, &s.steady_rho));
-    }
-    rows.extend(exclusions.iter().map(SummaryRow::excluded));
-    rows.sort_by_key(|r| (r.step, r.window.map_or(u32::MAX, |w| w)));
+    let spaces = pipeline::command_spaces(&nominal.space, &steps);
+    let max_kinetic_energy = risk::max_kinetic_energy(&nominal.space, &nominal.mass);
+    let risk = pipeline::risk_scenarios(meta, &steps);
+    let transfer = params
+        .smoother
+        .enabled
+        .then(|| pipeline::transfer_functions(&params.smoother, &nominal.space, &steps, &cols));
+    let rows = pipeline::summary_rows(&steps, &exclusions);
     let wheels: Vec<scatter::StepWheels> = steps.iter().map(scatter::StepWheels::of).collect();
     let step_scatter = scatter::step_scatter(&wheels);
     let turn_memory = turn_memory::turn_memory(&wheels);
@@ -612,7 +403,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         terrain: meta.terrain.clone(),
         origin: meta.origin.clone(),
         nominal: meta.nominal.clone(),
-        mass,
+        mass: nominal.mass,
         params: *params,
         crosscheck,
         yaw_rate_source: source,

@@ -11,9 +11,11 @@
 //! Errors name the file and, for the CSV, the location as `row N, column `name``, where `N` is
 //! the line number in the file (the header is line 1).
 
-use super::{DriveLog, Frame, ImuReading, LogMeta, Measurement, Nominal, Origin, Phase, Pose};
-use drive_sim_model::kinematics::{BodyVelocity, WheelSpeeds};
+mod row;
+
+use super::{DriveLog, Frame, LogMeta, Nominal, Origin, Phase};
 use drive_sim_model::{Error, Result};
+use row::{Columns, Row};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -136,6 +138,50 @@ fn read_meta(csv_path: &Path) -> Result<(MeasuredJson, PathBuf)> {
     Ok((meta, json_path))
 }
 
+/// The frames of every data row of `rdr`, checked against `meta`.
+fn read_frames(
+    rdr: &mut ::csv::Reader<std::fs::File>,
+    cols: &Columns,
+    meta: &MeasuredJson,
+    csv_path: &Path,
+) -> Result<Vec<Frame>> {
+    let step_s = meta.window_s * meta.windows_per_step as f64;
+    let mut frames: Vec<Frame> = Vec::new();
+    let mut prev: Option<(u32, u32, u32)> = None;
+    let mut record = ::csv::StringRecord::new();
+    loop {
+        let more = rdr.read_record(&mut record).map_err(|e| {
+            let line = e.position().map(|p| p.line()).unwrap_or(0);
+            Error::log(csv_path, format!("row {line}"), e.to_string())
+        })?;
+        if !more {
+            break;
+        }
+        let row = Row {
+            record: &record,
+            line: record.position().map(|p| p.line()).unwrap_or(0),
+            cols,
+            csv_path,
+        };
+        let (step, window, k) = row.position(meta, prev)?;
+        prev = Some((step, window, k));
+        let t_in_step_s = row.field(3)?;
+        let m = row.measurement()?;
+        frames.push(Frame {
+            stamp_s: step as f64 * step_s + t_in_step_s,
+            phase: Phase::Step {
+                step,
+                attempt: 0,
+                window,
+                k,
+                t_in_step_s,
+            },
+            m,
+        });
+    }
+    Ok(frames)
+}
+
 /// Reads a measured DRIVE dataset: the CSV at `csv_path` and its sibling JSON.
 ///
 /// Every row becomes one [`Frame`] in [`Phase::Step`] with attempt 0 (the files hold completed
@@ -152,167 +198,8 @@ pub fn read_measured_csv(csv_path: impl AsRef<Path>) -> Result<DriveLog> {
         .headers()
         .map_err(|e| Error::log(csv_path, "row 1 (header)", e.to_string()))?
         .clone();
-    let col = |name: &str| headers.iter().position(|h| h.trim() == name);
-    let mut req_idx = [0usize; REQUIRED.len()];
-    for (i, name) in REQUIRED.iter().enumerate() {
-        req_idx[i] = col(name).ok_or_else(|| {
-            Error::log(
-                csv_path,
-                format!("row 1 (header), column `{name}`"),
-                "missing required column",
-            )
-        })?;
-    }
-    let ref_idx: Vec<Option<usize>> = REFERENCE.iter().map(|n| col(n)).collect();
-
-    let step_s = meta.window_s * meta.windows_per_step as f64;
-    let mut frames: Vec<Frame> = Vec::new();
-    let mut prev: Option<(u32, u32, u32)> = None;
-    let mut record = ::csv::StringRecord::new();
-    loop {
-        let more = rdr.read_record(&mut record).map_err(|e| {
-            let line = e.position().map(|p| p.line()).unwrap_or(0);
-            Error::log(csv_path, format!("row {line}"), e.to_string())
-        })?;
-        if !more {
-            break;
-        }
-        let line = record.position().map(|p| p.line()).unwrap_or(0);
-        let loc = |name: &str| format!("row {line}, column `{name}`");
-        let field = |i: usize| -> Result<f64> {
-            let name = REQUIRED[i];
-            let raw = record.get(req_idx[i]).unwrap_or("").trim();
-            if raw.is_empty() {
-                return Err(Error::log(
-                    csv_path,
-                    loc(name),
-                    "empty value in a required column",
-                ));
-            }
-            let v: f64 = raw
-                .parse()
-                .map_err(|_| Error::log(csv_path, loc(name), format!("cannot parse `{raw}` as a number")))?;
-            if !v.is_finite() {
-                return Err(Error::log(
-                    csv_path,
-                    loc(name),
-                    format!("non-finite value `{raw}`"),
-                ));
-            }
-            Ok(v)
-        };
-        let index = |i: usize| -> Result<u32> {
-            let v = field(i)?;
-            if v < 0.0 || v.fract() != 0.0 || v > u32::MAX as f64 {
-                return Err(Error::log(
-                    csv_path,
-                    loc(REQUIRED[i]),
-                    format!("expected a non-negative integer, got {v}"),
-                ));
-            }
-            Ok(v as u32)
-        };
-        let (step, window, k) = (index(0)?, index(1)?, index(2)?);
-        if step >= meta.steps {
-            return Err(Error::log(
-                csv_path,
-                loc("step"),
-                format!(
-                    "step {step} is beyond the {} steps declared in the JSON",
-                    meta.steps
-                ),
-            ));
-        }
-        if window >= meta.windows_per_step {
-            return Err(Error::log(
-                csv_path,
-                loc("window"),
-                format!("window {window} out of range 0..{}", meta.windows_per_step),
-            ));
-        }
-        if k >= meta.samples_per_window {
-            return Err(Error::log(
-                csv_path,
-                loc("k"),
-                format!("sample index {k} out of range 0..{}", meta.samples_per_window),
-            ));
-        }
-        if let Some(p) = prev {
-            if (step, window, k) <= p {
-                return Err(Error::log(
-                    csv_path,
-                    loc("step"),
-                    format!(
-                        "rows not in increasing (step, window, k) order: ({step}, {window}, {k}) after ({}, {}, {})",
-                        p.0, p.1, p.2
-                    ),
-                ));
-            }
-        }
-        prev = Some((step, window, k));
-        let t_in_step_s = field(3)?;
-        let cmd = WheelSpeeds::new(field(4)?, field(5)?);
-        let enc = WheelSpeeds::new(field(6)?, field(7)?);
-        let pose = Pose {
-            x_m: field(8)?,
-            y_m: field(9)?,
-            z_m: field(10)?,
-            roll_rad: field(11)?,
-            pitch_rad: field(12)?,
-            yaw_rad: field(13)?,
-        };
-        let imu = ImuReading {
-            wz_rad_s: field(14)?,
-            ax_m_s2: field(15)?,
-            ay_m_s2: field(16)?,
-            az_m_s2: field(17)?,
-        };
-        let raw_ref: Vec<&str> = ref_idx
-            .iter()
-            .map(|i| i.and_then(|i| record.get(i)).unwrap_or("").trim())
-            .collect();
-        let reference = if raw_ref.iter().all(|r| r.is_empty()) {
-            None
-        } else {
-            let mut v = [0.0; 3];
-            for (j, raw) in raw_ref.iter().enumerate() {
-                if raw.is_empty() {
-                    return Err(Error::log(
-                        csv_path,
-                        loc(REFERENCE[j]),
-                        "reference estimate partially filled (all three or none)",
-                    ));
-                }
-                v[j] = raw.parse().map_err(|_| {
-                    Error::log(
-                        csv_path,
-                        loc(REFERENCE[j]),
-                        format!("cannot parse `{raw}` as a number"),
-                    )
-                })?;
-            }
-            let b = BodyVelocity::new(v[0], v[1], v[2]);
-            b.is_finite().then_some(b)
-        };
-        frames.push(Frame {
-            stamp_s: step as f64 * step_s + t_in_step_s,
-            phase: Phase::Step {
-                step,
-                attempt: 0,
-                window,
-                k,
-                t_in_step_s,
-            },
-            m: Measurement {
-                cmd,
-                enc,
-                pose,
-                imu,
-                reference,
-                truth: None,
-            },
-        });
-    }
+    let cols = Columns::of(&headers, csv_path)?;
+    let frames = read_frames(&mut rdr, &cols, &meta, csv_path)?;
     if frames.is_empty() {
         return Err(Error::log(csv_path, "row 2", "no data rows"));
     }
@@ -341,6 +228,7 @@ pub fn read_measured_csv(csv_path: impl AsRef<Path>) -> Result<DriveLog> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use drive_sim_model::kinematics::{BodyVelocity, WheelSpeeds};
     use std::io::Write;
 
     const JSON: &str = r#"{"name":"t","robot":"warthog","terrain":"asphalt","rate_hz":20.0,

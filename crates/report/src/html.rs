@@ -58,7 +58,7 @@ struct Section {
 /// Builder of a single-file HTML report.
 ///
 /// ```no_run
-/// # use drive_sim::report::{HtmlReport, KeyFigure};
+/// # use drive_sim_report::{HtmlReport, KeyFigure};
 /// let mut r = HtmlReport::new("DRIVE on ice");
 /// r.section("Unpredictability")
 ///     .paragraph("ρ per step, steady-state windows.")

@@ -4,6 +4,40 @@
 use super::*;
 use drive_sim_model::effects::motor_torque_speed::available_torque_nm;
 
+/// The chassis state at the start of a physics step (f64, world frame) and the frozen heading
+/// frame the planar solve works in: what the stages of one step share.
+#[derive(Clone, Copy)]
+struct StepStart {
+    /// Chassis position.
+    pos: rapier3d::parry::math::Pose,
+    /// Centre of mass.
+    com: [f64; 3],
+    /// Linear velocity.
+    v: [f64; 3],
+    /// Angular velocity.
+    w: [f64; 3],
+    /// The body's -z axis: the suspension rays' direction.
+    down: [f64; 3],
+    /// Heading frame: x along the horizontal projection of the body x axis.
+    ex: [f64; 2],
+    /// Heading frame: y.
+    ey: [f64; 2],
+}
+
+/// The planar solve of one step: the state (vx, vy, wz, omega_left, omega_right) at its start
+/// and end, and the torques of the sides held at their limits.
+struct PlanarSolution {
+    u0: [f64; 5],
+    u: [f64; 5],
+    saturated: solve::SideTorques,
+}
+
+/// A rapier vector in f64.
+#[inline]
+fn to64(v: Vector) -> [f64; 3] {
+    [v.x as f64, v.y as f64, v.z as f64]
+}
+
 impl Simulator {
     fn controller_target(&mut self, dt: f64) {
         let now = self.time_s;
@@ -128,13 +162,26 @@ impl Simulator {
     /// One physics step of `dt` seconds.
     pub(super) fn step(&mut self, dt: f64) -> Result<()> {
         self.controller_target(dt);
+        let start = self.step_start();
+        let ext = self.suspension(&start, dt);
+        let sol = self.solve_planar(&start, ext, dt);
+        self.update_motors(&sol, dt);
+        self.relax_deflection(&sol.u, dt);
+        self.integrate(&start, dt);
+        if self.on_body {
+            self.body_stage(dt);
+        }
+        self.check(sol.u)?;
+        self.record_pose();
+        Ok(())
+    }
+
+    /// The chassis state at the start of the step and its frozen heading frame.
+    #[inline]
+    fn step_start(&self) -> StepStart {
         let rb = &self.bodies[self.body];
         let pos = *rb.position();
         let rot = pos.rotation;
-        let com = rb.center_of_mass();
-        let linvel = rb.linvel();
-        let angvel = rb.angvel();
-        let to64 = |v: Vector| [v.x as f64, v.y as f64, v.z as f64];
         let down = to64(rot * -Vector::Z);
         let body_x = to64(rot * Vector::X);
         // Frozen heading frame: horizontal projection of the body x axis.
@@ -147,87 +194,96 @@ impl Simulator {
         } else {
             ([1.0, 0.0], [0.0, 1.0])
         };
-        let com64 = to64(com);
-        let v64 = to64(linvel);
-        let w64 = to64(angvel);
+        StepStart {
+            pos,
+            com: to64(rb.center_of_mass()),
+            v: to64(rb.linvel()),
+            w: to64(rb.angvel()),
+            down,
+            ex,
+            ey,
+        }
+    }
 
-        // Suspension: one ray per wheel.
+    /// Suspension: one ray per wheel sets its contact (load, point, normal); returns the
+    /// horizontal part of the normal forces (slopes) in the heading frame, (fx, fy, mz), which
+    /// enters the planar solve.
+    #[inline]
+    fn suspension(&mut self, st: &StepStart, dt: f64) -> [f64; 3] {
         let mut fx_ext = 0.0;
         let mut fy_ext = 0.0;
         let mut mz_ext = 0.0;
         let mut any_contact = false;
-        for (i, wg) in self.wheels.iter().enumerate() {
-            let hp = pos
-                * Vector::new(
-                    wg.hard_point[0] as f32,
-                    wg.hard_point[1] as f32,
-                    wg.hard_point[2] as f32,
-                );
-            let hp64 = to64(hp);
-            let hit = self.suspension_ray(hp64, down);
-            let c = &mut self.contacts[i];
-            *c = Contact::default();
-            let Some(hit) = hit else {
+        for i in 0..self.wheels.len() {
+            let Some(c) = self.wheel_contact(st, self.wheels[i].hard_point) else {
+                self.contacts[i] = Contact::default();
                 continue;
             };
-            let compression = self.free_length_m - self.sinkage_m - hit.distance_m;
-            // Rate of compression: hard-point velocity along the ray.
-            let r = [hp64[0] - com64[0], hp64[1] - com64[1], hp64[2] - com64[2]];
-            let vhp = [
-                v64[0] + w64[1] * r[2] - w64[2] * r[1],
-                v64[1] + w64[2] * r[0] - w64[0] * r[2],
-                v64[2] + w64[0] * r[1] - w64[1] * r[0],
-            ];
-            let rate = vhp[0] * down[0] + vhp[1] * down[1] + vhp[2] * down[2];
-            let mut f = self.stiffness_n_m * compression + self.damping_n_s_m * rate;
-            if compression > self.travel_m {
-                f += BUMP_STOP_FACTOR * self.stiffness_n_m * (compression - self.travel_m);
-            }
-            let load = f.max(0.0);
-            let point = [
-                hp64[0] + down[0] * hit.distance_m,
-                hp64[1] + down[1] * hit.distance_m,
-                hp64[2] + down[2] * hit.distance_m,
-            ];
-            let rel = [point[0] - com64[0], point[1] - com64[1]];
-            c.x_m = rel[0] * ex[0] + rel[1] * ex[1];
-            c.y_m = rel[0] * ey[0] + rel[1] * ey[1];
-            c.load_n = load;
-            c.point = point;
-            c.normal = hit.normal;
-            c.in_contact = true;
+            self.contacts[i] = c;
             any_contact = true;
-            // Horizontal part of the normal force (slopes) enters the planar solve.
-            let fh = [load * hit.normal[0], load * hit.normal[1]];
-            let (fxe, fye) = (fh[0] * ex[0] + fh[1] * ex[1], fh[0] * ey[0] + fh[1] * ey[1]);
+            let load = c.load_n;
+            let fh = [load * c.normal[0], load * c.normal[1]];
+            let (fxe, fye) = (
+                fh[0] * st.ex[0] + fh[1] * st.ex[1],
+                fh[0] * st.ey[0] + fh[1] * st.ey[1],
+            );
             fx_ext += fxe;
             fy_ext += fye;
             mz_ext += c.x_m * fye - c.y_m * fxe;
         }
         self.airborne_s = if any_contact { 0.0 } else { self.airborne_s + dt };
+        [fx_ext, fy_ext, mz_ext]
+    }
 
-        // Planar implicit solve.
+    /// The contact of the wheel whose hard point is `hard_point` (body frame): the spring-damper
+    /// load at the ray's hit; `None` when the ray misses the ground.
+    #[inline]
+    fn wheel_contact(&self, st: &StepStart, hard_point: [f64; 3]) -> Option<Contact> {
+        let hp64 =
+            to64(st.pos * Vector::new(hard_point[0] as f32, hard_point[1] as f32, hard_point[2] as f32));
+        let (down, com64, v64, w64) = (st.down, st.com, st.v, st.w);
+        let hit = self.suspension_ray(hp64, down)?;
+        let compression = self.free_length_m - self.sinkage_m - hit.distance_m;
+        // Rate of compression: hard-point velocity along the ray.
+        let r = [hp64[0] - com64[0], hp64[1] - com64[1], hp64[2] - com64[2]];
+        let vhp = [
+            v64[0] + w64[1] * r[2] - w64[2] * r[1],
+            v64[1] + w64[2] * r[0] - w64[0] * r[2],
+            v64[2] + w64[0] * r[1] - w64[1] * r[0],
+        ];
+        let rate = vhp[0] * down[0] + vhp[1] * down[1] + vhp[2] * down[2];
+        let mut f = self.stiffness_n_m * compression + self.damping_n_s_m * rate;
+        if compression > self.travel_m {
+            f += BUMP_STOP_FACTOR * self.stiffness_n_m * (compression - self.travel_m);
+        }
+        let point = [
+            hp64[0] + down[0] * hit.distance_m,
+            hp64[1] + down[1] * hit.distance_m,
+            hp64[2] + down[2] * hit.distance_m,
+        ];
+        let rel = [point[0] - com64[0], point[1] - com64[1]];
+        Some(Contact {
+            load_n: f.max(0.0),
+            x_m: rel[0] * st.ex[0] + rel[1] * st.ex[1],
+            y_m: rel[0] * st.ey[0] + rel[1] * st.ey[1],
+            point,
+            normal: hit.normal,
+            in_contact: true,
+        })
+    }
+
+    /// The planar implicit solve (`solve.rs`) from the step's start; solved again with a
+    /// side's torque held at its limit when the controller would need more than the limit.
+    #[inline]
+    fn solve_planar(&mut self, st: &StepStart, ext: [f64; 3], dt: f64) -> PlanarSolution {
+        let (v64, w64) = (st.v, st.w);
         let u0 = [
-            v64[0] * ex[0] + v64[1] * ex[1],
-            v64[0] * ey[0] + v64[1] * ey[1],
+            v64[0] * st.ex[0] + v64[1] * st.ex[1],
+            v64[0] * st.ey[0] + v64[1] * st.ey[1],
             w64[2],
             self.omega[0],
             self.omega[1],
         ];
-        let tc = self.time_constant_s;
-        // A drooping speed loop (an effect) aims below its command by the torque it delivered
-        // at the previous step, less what its integral already supplies: explicit, like the
-        // torque-speed line.
-        let droop = self.mods.speed_droop_rad_s_per_nm;
-        let aim = [
-            self.ramp[0] - droop * (self.motor_torque_nm[0] - self.droop_integral_nm[0]),
-            self.ramp[1] - droop * (self.motor_torque_nm[1] - self.droop_integral_nm[1]),
-        ];
-        let target = [
-            (self.omega[0] + dt / tc * aim[0]) / (1.0 + dt / tc),
-            (self.omega[1] + dt / tc * aim[1]) / (1.0 + dt / tc),
-        ];
-        let torsion = self.mods.relaxation_length_m;
         let mut guess = [0.0; 5];
         for k in 0..5 {
             guess[k] = u0[k] + self.last_change[k];
@@ -238,11 +294,11 @@ impl Simulator {
             izz: self.yaw_inertia_kg_m2,
             side_inertia: self.side_inertia_kg_m2,
             radius: self.radius_m,
-            ext: [fx_ext, fy_ext, mz_ext],
+            ext,
             u0,
-            target,
+            target: self.spin_targets(dt),
             guess,
-            torsion_m: torsion,
+            torsion_m: self.mods.relaxation_length_m,
         };
         #[cfg(feature = "oracle")]
         let solve = match self.reference {
@@ -263,10 +319,7 @@ impl Simulator {
         );
         // Torque the controller needs for the first-order response; beyond the limit the side
         // saturates and its wheel spin becomes a free unknown.
-        let mut react = [0.0; 2];
-        for (wg, f) in self.wheels.iter().zip(&self.forces) {
-            react[wg.side] += f.reaction_nm;
-        }
+        let react = self.side_reactions();
         for side in 0..2 {
             let need = self.side_inertia_kg_m2 * (u[3 + side] - u0[3 + side]) / dt + react[side];
             // The torque-speed line (an effect) is read at the step's start spin: explicit,
@@ -294,14 +347,48 @@ impl Simulator {
                 &mut self.forces,
             );
         }
-        self.omega = [u[3], u[4]];
-        for k in 0..5 {
-            self.last_change[k] = u[k] - u0[k];
-        }
+        PlanarSolution { u0, u, saturated }
+    }
+
+    /// Wheel spins that the unsaturated controller reaches at the end of the step (first-order
+    /// tracking of the ramp, backward Euler).
+    #[inline]
+    fn spin_targets(&self, dt: f64) -> [f64; 2] {
+        let tc = self.time_constant_s;
+        // A drooping speed loop (an effect) aims below its command by the torque it delivered
+        // at the previous step, less what its integral already supplies: explicit, like the
+        // torque-speed line.
+        let droop = self.mods.speed_droop_rad_s_per_nm;
+        let aim = [
+            self.ramp[0] - droop * (self.motor_torque_nm[0] - self.droop_integral_nm[0]),
+            self.ramp[1] - droop * (self.motor_torque_nm[1] - self.droop_integral_nm[1]),
+        ];
+        [
+            (self.omega[0] + dt / tc * aim[0]) / (1.0 + dt / tc),
+            (self.omega[1] + dt / tc * aim[1]) / (1.0 + dt / tc),
+        ]
+    }
+
+    /// The tyres' reaction torques summed per side (left, right), from the current forces.
+    #[inline]
+    fn side_reactions(&self) -> [f64; 2] {
         let mut react = [0.0; 2];
         for (wg, f) in self.wheels.iter().zip(&self.forces) {
             react[wg.side] += f.reaction_nm;
         }
+        react
+    }
+
+    /// The motors after the solve: wheel spins, the solve's predictor, each side's torque and
+    /// saturation, and the speed loop's integral.
+    #[inline]
+    fn update_motors(&mut self, sol: &PlanarSolution, dt: f64) {
+        let (u0, u, saturated) = (sol.u0, sol.u, sol.saturated);
+        self.omega = [u[3], u[4]];
+        for k in 0..5 {
+            self.last_change[k] = u[k] - u0[k];
+        }
+        let react = self.side_reactions();
         for side in 0..2 {
             self.saturated[side] = saturated[side].is_some();
             self.motor_torque_nm[side] = saturated[side]
@@ -317,6 +404,13 @@ impl Simulator {
                     (self.droop_integral_nm[side] + a * self.motor_torque_nm[side]) / (1.0 + a);
             }
         }
+    }
+
+    /// The tyres' lateral deflection (torsion effect) relaxes towards the contact's lateral
+    /// slip over the relaxation length; zero off the ground.
+    #[inline]
+    fn relax_deflection(&mut self, u: &[f64; 5], dt: f64) {
+        let torsion = self.mods.relaxation_length_m;
         if torsion > 0.0 {
             let tan_peak = self.tyre.tan_slip_angle_peak;
             for (i, c) in self.contacts.iter().enumerate() {
@@ -331,9 +425,13 @@ impl Simulator {
                 }
             }
         }
+    }
 
-        // Apply the forces and integrate the chassis.
-        let v_before = v64;
+    /// Applies the forces, integrates the chassis over `dt` and records the accelerations over
+    /// the step.
+    #[inline]
+    fn integrate(&mut self, st: &StepStart, dt: f64) {
+        let (ex, ey) = (st.ex, st.ey);
         #[cfg(feature = "oracle")]
         if let Some(reference) = self.reference.as_mut() {
             reference.step(
@@ -347,20 +445,22 @@ impl Simulator {
                 ey,
             );
         } else {
-            self.integrate_chassis(dt, ex, ey, com64);
+            self.integrate_chassis(dt, ex, ey, st.com);
         }
         #[cfg(not(feature = "oracle"))]
-        self.integrate_chassis(dt, ex, ey, com64);
+        self.integrate_chassis(dt, ex, ey, st.com);
         self.time_s += dt;
         let v_after = to64(self.bodies[self.body].linvel());
-        for k in 0..3 {
-            self.accel_world[k] = (v_after[k] - v_before[k]) / dt;
+        for ((a, after), before) in self.accel_world.iter_mut().zip(v_after).zip(st.v) {
+            *a = (after - before) / dt;
         }
-        self.yaw_accel_rad_s2 = (self.bodies[self.body].angvel().z as f64 - w64[2]) / dt;
-        if self.on_body {
-            self.body_stage(dt);
-        }
-        self.check(u)?;
+        self.yaw_accel_rad_s2 = (self.bodies[self.body].angvel().z as f64 - st.w[2]) / dt;
+    }
+
+    /// Keeps the chassis position of the step for the delayed pose, as far back as the pose
+    /// latency reaches.
+    #[inline]
+    fn record_pose(&mut self) {
         let position = *self.bodies[self.body].position();
         self.pose_history.push_back((self.time_s, position));
         let keep = self.mods.pose_latency_s + 0.5;
@@ -371,7 +471,6 @@ impl Simulator {
         {
             self.pose_history.pop_front();
         }
-        Ok(())
     }
 
     /// The suspension ray from a wheel's hard point: the direct lookup on the ground's

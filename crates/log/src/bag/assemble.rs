@@ -13,15 +13,19 @@
 //! (angles along the shorter arc). A role topic silent for longer than its gap limit inside a
 //! step excludes the step, with a warning naming the step, the topic and the time.
 
+mod attempts;
+mod resample;
+
+use attempts::{attempts_by_step, find_attempts, interruptions_before};
+pub use attempts::{Attempt, Segmentation};
+
 use super::roles::{Assigned, Role, RoleMap};
 use crate::cdr::CdrError;
 use crate::ros_msgs::{
     Float64, Imu, Int32, JointState, Odometry, RosMessage, StringMsg, Twist, TwistStamped,
 };
-use crate::{DriveLog, ImuReading, Interruption, LogMeta, Measurement, Pose, Sample};
+use crate::{DriveLog, ImuReading, LogMeta, Pose};
 use drive_sim_model::error::{Error, Result};
-use drive_sim_model::kinematics::{BodyVelocity, WheelSpeeds};
-use std::collections::BTreeMap;
 use std::path::Path;
 
 /// Decoded role signals, each sorted by receive time (ns).
@@ -163,173 +167,6 @@ fn joint_speed(j: &JointState, role: Role, joint: Option<&str>) -> std::result::
     Ok(picked.iter().sum::<f64>() / picked.len() as f64)
 }
 
-/// One attempt of a step: a run of the step's command.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Attempt {
-    /// Step index.
-    pub step: u32,
-    /// Attempt index, from 0.
-    pub attempt: u32,
-    /// First tick, ns.
-    pub start_ns: u64,
-    /// Last tick, ns.
-    pub end_ns: u64,
-    /// Last message of the step's command, ns: the command is held no later than this.
-    pub cmd_until_ns: u64,
-}
-
-/// How steps were found.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Segmentation {
-    /// From the step index (and state) topics.
-    StepTopic,
-    /// From runs of constant command.
-    CommandConstancy,
-}
-
-/// Attempts from the step index, active while the state (if recorded) is `calib`.
-fn attempts_from_step_topic(s: &Signals) -> Vec<Attempt> {
-    let mut out: Vec<Attempt> = Vec::new();
-    let mut state_i = 0usize;
-    let mut cur: Option<(i32, u64, u64)> = None;
-    let mut attempts_of: BTreeMap<i32, u32> = BTreeMap::new();
-    let mut close = |cur: &mut Option<(i32, u64, u64)>, out: &mut Vec<Attempt>| {
-        if let Some((step, a, b)) = cur.take() {
-            if step >= 0 {
-                let n = attempts_of.entry(step).or_insert(0);
-                out.push(Attempt {
-                    step: step as u32,
-                    attempt: *n,
-                    start_ns: a,
-                    end_ns: b,
-                    cmd_until_ns: b,
-                });
-                *n += 1;
-            }
-        }
-    };
-    for &(t, step) in &s.step {
-        while state_i + 1 < s.state.len() && s.state[state_i + 1].0 <= t {
-            state_i += 1;
-        }
-        let active = s.state.is_empty() || (s.state[state_i].0 <= t && s.state[state_i].1 == "calib");
-        match (&mut cur, active) {
-            (Some((st, _, b)), true) if *st == step => *b = t,
-            (_, true) => {
-                close(&mut cur, &mut out);
-                cur = Some((step, t, t));
-            }
-            (_, false) => close(&mut cur, &mut out),
-        }
-    }
-    close(&mut cur, &mut out);
-    out
-}
-
-/// Attempts from runs of constant command, for a step of `step_ns` at ticks of `tick_ns`.
-///
-/// A run of one non-zero command lasting k step lengths is k steps (the protocol may draw the
-/// same command twice in a row); a shorter one is an attempt, interrupted, and the same command
-/// again after a stop is the next attempt of that step. A zero command is a stop, except a
-/// zero run between two steps that lasts a whole number of step lengths to the tick: the
-/// protocol drew a zero command (an operator's stop is not timed to the tick).
-fn attempts_from_command(s: &Signals, step_ns: f64, tick_ns: f64) -> Vec<Attempt> {
-    const TOL: f64 = 1e-9;
-    let same = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() <= TOL && (a[1] - b[1]).abs() <= TOL;
-    // (command, first tick, last tick)
-    let mut runs: Vec<([f64; 2], u64, u64)> = Vec::new();
-    for &(t, c) in &s.cmd {
-        match runs.last_mut() {
-            Some((rc, _, b)) if same(*rc, c) => *b = t,
-            _ => runs.push((c, t, t)),
-        }
-    }
-    let is_zero = |c: [f64; 2]| c[0].abs() <= TOL && c[1].abs() <= TOL;
-    let mut out: Vec<Attempt> = Vec::new();
-    let mut step: i64 = -1;
-    // Command of the last attempt, and whether it was interrupted (so the next equal run is its
-    // next attempt).
-    let mut last: Option<([f64; 2], bool)> = None;
-    let mut attempt = 0u32;
-    for (i, &(c, a, b)) in runs.iter().enumerate() {
-        let d = (b - a) as f64 + tick_ns;
-        // A tick short still counts: a log may carry the previous command on a step's first tick.
-        let n = ((d + 1.5 * tick_ns) / step_ns).floor() as u64;
-        if is_zero(c) {
-            let inner = i > 0 && i + 1 < runs.len();
-            let whole = n >= 1 && (d - n as f64 * step_ns).abs() <= 1.5 * tick_ns;
-            if !(inner && whole) {
-                continue;
-            }
-        }
-        let ticks = (step_ns / tick_ns).round() as u64;
-        let chunk = |k: u64| {
-            let start = a + (k as f64 * step_ns).round() as u64;
-            (start, start + ((ticks - 1) as f64 * tick_ns).round() as u64)
-        };
-        if n == 0 {
-            if last.is_some_and(|(l, interrupted)| interrupted && same(l, c)) {
-                attempt += 1;
-            } else {
-                step += 1;
-                attempt = 0;
-            }
-            out.push(Attempt {
-                step: step as u32,
-                attempt,
-                start_ns: a,
-                end_ns: b,
-                cmd_until_ns: b,
-            });
-            last = Some((c, true));
-            continue;
-        }
-        for k in 0..n {
-            let continues = k == 0 && last.is_some_and(|(l, interrupted)| interrupted && same(l, c));
-            if continues {
-                attempt += 1;
-            } else {
-                step += 1;
-                attempt = 0;
-            }
-            let (start_ns, end_ns) = chunk(k);
-            out.push(Attempt {
-                step: step as u32,
-                attempt,
-                start_ns,
-                end_ns,
-                cmd_until_ns: end_ns.min(b),
-            });
-        }
-        last = Some((c, false));
-    }
-    out
-}
-
-/// Linear interpolation of `xs` (sorted by time) at `t`; `None` outside the span.
-fn interp<T: Copy>(xs: &[(u64, T)], t: f64, lerp: impl Fn(T, T, f64) -> T) -> Option<T> {
-    let i = xs.partition_point(|x| (x.0 as f64) <= t);
-    if i == 0 {
-        return None;
-    }
-    let (t0, a) = xs[i - 1];
-    if (t0 as f64) == t || i == xs.len() {
-        return ((t0 as f64) == t).then_some(a);
-    }
-    let (t1, b) = xs[i];
-    let u = (t - t0 as f64) / (t1 as f64 - t0 as f64);
-    Some(lerp(a, b, u))
-}
-
-fn lerp(a: f64, b: f64, u: f64) -> f64 {
-    a + (b - a) * u
-}
-
-fn lerp_angle(a: f64, b: f64, u: f64) -> f64 {
-    let d = (b - a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
-    drive_sim_model::geometry::wrap_angle(a + d * u)
-}
-
 /// Median interval between messages, s.
 fn median_period(ts: &[u64]) -> f64 {
     let mut d: Vec<f64> = ts.windows(2).map(|w| (w[1] - w[0]) as f64 * 1e-9).collect();
@@ -355,211 +192,180 @@ pub fn gap_limit_s(period_s: f64) -> f64 {
     (5.0 * period_s).max(0.25)
 }
 
-/// Segments, resamples and checks; builds the log.
-pub fn build_log(
-    s: &Signals,
-    t0: u64,
-    meta: LogMeta,
-    roles: &RoleMap,
-    file: &Path,
-) -> Result<(DriveLog, BuildReport)> {
-    let mut report = BuildReport::default();
-    let rate = meta.rate_hz;
-    let spw = meta.samples_per_window as u64;
-    let n_ticks = spw * meta.windows_per_step as u64;
-    let tick_ns = 1e9 / rate;
-    let step_ns = meta.step_s() * 1e9;
-    let (attempts, seg) = if !s.step.is_empty() {
-        (attempts_from_step_topic(s), Segmentation::StepTopic)
-    } else {
-        (
-            attempts_from_command(s, step_ns, tick_ns),
-            Segmentation::CommandConstancy,
-        )
-    };
-    report.segmentation = Some(seg);
-    // An attempt of n_ticks messages spans (n_ticks - 1) ticks; allow half a tick of jitter.
-    let complete = |a: &Attempt| (a.end_ns - a.start_ns) as f64 >= step_ns - 1.5 * tick_ns;
-    let topic = |r: Role| roles.roles.get(&r).map_or("?", |a| a.topic.as_str());
-    type Times = Vec<u64>;
-    let series: [(Role, Times); 5] = [
-        (Role::Cmd, s.cmd.iter().map(|x| x.0).collect()),
-        (Role::WheelLeft, s.left.iter().map(|x| x.0).collect()),
-        (Role::WheelRight, s.right.iter().map(|x| x.0).collect()),
-        (Role::Odom, s.odom.iter().map(|x| x.0).collect()),
-        (Role::Imu, s.imu.iter().map(|x| x.0).collect()),
-    ];
-    let limits: Vec<f64> = series
-        .iter()
-        .map(|(_, ts)| gap_limit_s(median_period(ts)))
-        .collect();
+/// The analysis clock of a log: ticks per window and per step, and their lengths.
+#[derive(Debug, Clone, Copy)]
+struct StepClock {
+    /// Ticks per second.
+    rate_hz: f64,
+    /// Ticks per window.
+    samples_per_window: u64,
+    /// Ticks per step.
+    n_ticks: u64,
+    /// Tick length, ns.
+    tick_ns: f64,
+    /// Step length, ns.
+    step_ns: f64,
+}
 
-    let mut by_step: BTreeMap<u32, Vec<Attempt>> = BTreeMap::new();
-    for a in &attempts {
-        by_step.entry(a.step).or_default().push(*a);
-    }
-    let mut samples = Vec::new();
-    let mut interruptions = Vec::new();
-    for (step, atts) in &by_step {
-        let Some(done) = atts.iter().rev().find(|a| complete(a)).copied() else {
-            let longest = atts.iter().map(|a| t_s(a.end_ns, a.start_ns)).fold(0.0, f64::max);
-            report.warnings.push(format!(
-                "step {step}: excluded: not completed (longest of {} attempt(s) {longest:.2} s, a step is {:.2} s), \
-                 from t = {:.2} s",
-                atts.len(),
-                meta.step_s(),
-                t_s(atts[0].start_ns, t0)
-            ));
-            continue;
-        };
-        for a in atts.iter().filter(|a| a.attempt < done.attempt) {
-            let next = atts
-                .iter()
-                .find(|b| b.attempt == a.attempt + 1)
-                .map_or(a.end_ns, |b| b.start_ns);
-            interruptions.push(Interruption {
-                step: *step,
-                attempt: a.attempt,
-                t_in_step_s: t_s(a.end_ns, a.start_ns),
-                stamp_s: t_s(a.end_ns, t0),
-                time_lost_s: t_s(next, a.start_ns),
-            });
+impl StepClock {
+    fn of(meta: &LogMeta) -> Self {
+        let rate_hz = meta.rate_hz;
+        let samples_per_window = meta.samples_per_window as u64;
+        Self {
+            rate_hz,
+            samples_per_window,
+            n_ticks: samples_per_window * meta.windows_per_step as u64,
+            tick_ns: 1e9 / rate_hz,
+            step_ns: meta.step_s() * 1e9,
         }
-        let start = done.start_ns as f64;
-        let end = start + (n_ticks - 1) as f64 * tick_ns;
-        // Gaps: a role topic silent longer than its limit within [start, end].
-        let mut excluded = None;
-        for ((role, ts), limit) in series.iter().zip(&limits) {
-            let lo = ts.partition_point(|&t| (t as f64) < start);
-            let hi = ts.partition_point(|&t| (t as f64) <= end);
-            // Messages bracketing the step count too: interpolation uses them.
-            let from = lo.saturating_sub(1);
-            let to = (hi + 1).min(ts.len());
-            let mut prev = if from < lo { ts[from] as f64 } else { f64::NAN };
-            let mut worst: Option<(f64, f64)> = None;
-            let mut check = |a: f64, b: f64| {
-                let g = (b - a) * 1e-9;
-                if g > *limit && worst.is_none_or(|w| g > w.0) {
-                    worst = Some((g, a));
-                }
-            };
-            if prev.is_nan() {
-                let first = ts.get(lo).map_or(f64::INFINITY, |&t| t as f64);
-                check(start, first.min(end + tick_ns));
-                prev = first;
-            }
-            for &t in &ts[lo..to] {
-                if (t as f64) > prev {
-                    check(prev, t as f64);
-                }
-                prev = t as f64;
-            }
-            if prev < end {
-                check(prev, end);
-            }
-            if let Some((g, at)) = worst {
-                excluded = Some(format!(
+    }
+
+    /// Whether attempt `a` lasts a whole step.
+    fn completes(&self, a: &Attempt) -> bool {
+        // An attempt of n_ticks messages spans (n_ticks - 1) ticks; allow half a tick of jitter.
+        (a.end_ns - a.start_ns) as f64 >= self.step_ns - 1.5 * self.tick_ns
+    }
+
+    /// Time of the last tick of a step whose first tick is at `start` (ns).
+    fn step_end(&self, start: f64) -> f64 {
+        start + (self.n_ticks - 1) as f64 * self.tick_ns
+    }
+}
+
+/// The longest silence of a topic (message times `ts`, ns) over a step's ticks `start..=end`
+/// that exceeds `limit` (s): its length (s) and start (ns).
+fn worst_gap(ts: &[u64], start: f64, end: f64, limit: f64, tick_ns: f64) -> Option<(f64, f64)> {
+    let lo = ts.partition_point(|&t| (t as f64) < start);
+    let hi = ts.partition_point(|&t| (t as f64) <= end);
+    // Messages bracketing the step count too: interpolation uses them.
+    let from = lo.saturating_sub(1);
+    let to = (hi + 1).min(ts.len());
+    let mut prev = if from < lo { ts[from] as f64 } else { f64::NAN };
+    let mut worst: Option<(f64, f64)> = None;
+    let mut check = |a: f64, b: f64| {
+        let g = (b - a) * 1e-9;
+        if g > limit && worst.is_none_or(|w| g > w.0) {
+            worst = Some((g, a));
+        }
+    };
+    if prev.is_nan() {
+        let first = ts.get(lo).map_or(f64::INFINITY, |&t| t as f64);
+        check(start, first.min(end + tick_ns));
+        prev = first;
+    }
+    for &t in &ts[lo..to] {
+        if (t as f64) > prev {
+            check(prev, t as f64);
+        }
+        prev = t as f64;
+    }
+    if prev < end {
+        check(prev, end);
+    }
+    worst
+}
+
+/// Message times of the role topics every step needs, with each topic's gap limit.
+struct RoleTimes {
+    /// Receive times (ns) per role.
+    series: [(Role, Vec<u64>); 5],
+    /// [`gap_limit_s`] of each series, s.
+    limits: Vec<f64>,
+}
+
+impl RoleTimes {
+    fn of(s: &Signals) -> Self {
+        let series: [(Role, Vec<u64>); 5] = [
+            (Role::Cmd, s.cmd.iter().map(|x| x.0).collect()),
+            (Role::WheelLeft, s.left.iter().map(|x| x.0).collect()),
+            (Role::WheelRight, s.right.iter().map(|x| x.0).collect()),
+            (Role::Odom, s.odom.iter().map(|x| x.0).collect()),
+            (Role::Imu, s.imu.iter().map(|x| x.0).collect()),
+        ];
+        let limits = series
+            .iter()
+            .map(|(_, ts)| gap_limit_s(median_period(ts)))
+            .collect();
+        Self { series, limits }
+    }
+}
+
+/// What every step of [`build_log`] shares: the signals, the log's clock and where it came
+/// from (for messages).
+struct Assembly<'a> {
+    /// Decoded role signals.
+    s: &'a Signals,
+    /// First receive time, ns: t = 0 of the log.
+    t0: u64,
+    /// The log's metadata (step length, nominal model).
+    meta: &'a LogMeta,
+    /// Role topics, to name them in messages.
+    roles: &'a RoleMap,
+    /// The bag, for errors.
+    file: &'a Path,
+    /// The analysis clock.
+    clock: StepClock,
+    /// Message times and gap limits of the role topics.
+    times: RoleTimes,
+}
+
+impl Assembly<'_> {
+    /// The topic of role `r`, `?` when unassigned.
+    fn topic(&self, r: Role) -> &str {
+        self.roles.roles.get(&r).map_or("?", |a| a.topic.as_str())
+    }
+
+    /// Why `step` is excluded when none of its attempts `atts` lasts a whole step.
+    fn not_completed(&self, step: u32, atts: &[Attempt]) -> String {
+        let longest = atts.iter().map(|a| t_s(a.end_ns, a.start_ns)).fold(0.0, f64::max);
+        format!(
+            "step {step}: excluded: not completed (longest of {} attempt(s) {longest:.2} s, a step is {:.2} s), \
+             from t = {:.2} s",
+            atts.len(),
+            self.meta.step_s(),
+            t_s(atts[0].start_ns, self.t0)
+        )
+    }
+
+    /// Why `step` (first tick at `start`, ns) is excluded when a role topic is silent longer
+    /// than its limit within the step: the first such topic, at its longest silence.
+    fn gap_exclusion(&self, step: u32, start: f64) -> Option<String> {
+        let end = self.clock.step_end(start);
+        self.times
+            .series
+            .iter()
+            .zip(&self.times.limits)
+            .find_map(|((role, ts), limit)| {
+                let (g, at) = worst_gap(ts, start, end, *limit, self.clock.tick_ns)?;
+                Some(format!(
                     "step {step}: excluded: topic {} has no message for {g:.2} s from t = {:.2} s \
                      (expected one every {:.3} s; a gap of more than {limit:.2} s breaks a step)",
-                    topic(*role),
-                    (at - t0 as f64) * 1e-9,
+                    self.topic(*role),
+                    (at - self.t0 as f64) * 1e-9,
                     median_period(ts)
-                ));
-                break;
-            }
-        }
-        if let Some(w) = excluded {
-            report.warnings.push(w);
-            continue;
-        }
-        let idd = meta.nominal.idd();
-        let mut step_samples = Vec::with_capacity(n_ticks as usize);
-        for k in 0..n_ticks {
-            let t = start + k as f64 * tick_ns;
-            // Command: zero-order hold, looking half a tick ahead (it is published with the tick),
-            // never past the attempt (a run one tick short must not take the next command).
-            let tq = (t + 0.5 * tick_ns).min(done.cmd_until_ns as f64);
-            let ci = s.cmd.partition_point(|x| (x.0 as f64) <= tq);
-            let c = s.cmd[ci.saturating_sub(1)].1;
-            let cmd = idd.wheels_from_body(BodyVelocity::new(c[0], 0.0, c[1]));
-            let miss = |what: &str| {
-                Error::log(
-                    file,
-                    format!("step {step} tick {k} (t = {:.3} s)", (t - t0 as f64) * 1e-9),
-                    format!("no {what} to interpolate from"),
-                )
-            };
-            let l = interp(&s.left, t, lerp).ok_or_else(|| miss(topic(Role::WheelLeft)))?;
-            let r = interp(&s.right, t, lerp).ok_or_else(|| miss(topic(Role::WheelRight)))?;
-            let oi = s.odom.partition_point(|x| (x.0 as f64) <= t);
-            let (pose, tw) = if oi > 0 && (s.odom[oi - 1].0 as f64 == t || oi == s.odom.len()) {
-                let (_, p, w) = s.odom[oi - 1];
-                if s.odom[oi - 1].0 as f64 != t {
-                    return Err(miss(topic(Role::Odom)));
-                }
-                (p, w)
-            } else if oi > 0 {
-                let (ta, pa, wa) = s.odom[oi - 1];
-                let (tb, pb, wb) = s.odom[oi];
-                let u = (t - ta as f64) / (tb as f64 - ta as f64);
-                (
-                    Pose {
-                        x_m: lerp(pa.x_m, pb.x_m, u),
-                        y_m: lerp(pa.y_m, pb.y_m, u),
-                        z_m: lerp(pa.z_m, pb.z_m, u),
-                        roll_rad: lerp_angle(pa.roll_rad, pb.roll_rad, u),
-                        pitch_rad: lerp_angle(pa.pitch_rad, pb.pitch_rad, u),
-                        yaw_rad: lerp_angle(pa.yaw_rad, pb.yaw_rad, u),
-                    },
-                    [
-                        lerp(wa[0], wb[0], u),
-                        lerp(wa[1], wb[1], u),
-                        lerp(wa[2], wb[2], u),
-                    ],
-                )
-            } else {
-                return Err(miss(topic(Role::Odom)));
-            };
-            let imu = interp(&s.imu, t, |a: ImuReading, b: ImuReading, u| ImuReading {
-                wz_rad_s: lerp(a.wz_rad_s, b.wz_rad_s, u),
-                ax_m_s2: lerp(a.ax_m_s2, b.ax_m_s2, u),
-                ay_m_s2: lerp(a.ay_m_s2, b.ay_m_s2, u),
-                az_m_s2: lerp(a.az_m_s2, b.az_m_s2, u),
+                ))
             })
-            .ok_or_else(|| miss(topic(Role::Imu)))?;
-            let reference = BodyVelocity::new(tw[0], tw[1], tw[2]);
-            let m = Measurement {
-                cmd,
-                enc: WheelSpeeds::new(l, r),
-                pose,
-                imu,
-                reference: reference.is_finite().then_some(reference),
-                truth: None,
-            };
-            step_samples.push(Sample {
-                step: *step,
-                window: (k / spw) as u32,
-                k: (k % spw) as u32,
-                t_in_step_s: k as f64 / rate,
-                stamp_s: (t - t0 as f64) * 1e-9,
-                m,
-            });
-        }
-        samples.extend(step_samples);
     }
-    if samples.is_empty() {
-        let why = if report.warnings.is_empty() {
+
+    /// The error when no step is left: why none was found, or why each was excluded.
+    fn no_complete_step(&self, seg: Segmentation, warnings: &[String]) -> Error {
+        let why = if warnings.is_empty() {
             match seg {
-                Segmentation::StepTopic => format!("no attempt found on {}", topic(Role::Step)),
+                Segmentation::StepTopic => format!("no attempt found on {}", self.topic(Role::Step)),
                 Segmentation::CommandConstancy => {
-                    format!("no run of constant non-zero command on {}", topic(Role::Cmd))
+                    format!("no run of constant non-zero command on {}", self.topic(Role::Cmd))
                 }
             }
         } else {
-            format!("every step was excluded: {}", report.warnings.join("; "))
+            format!("every step was excluded: {}", warnings.join("; "))
         };
-        return Err(Error::log(file, "steps", format!("no complete step ({why})")));
+        Error::log(self.file, "steps", format!("no complete step ({why})"))
     }
+}
+
+/// Length of the log, s: from the first attempt to the last command, step or pose message,
+/// plus one tick.
+fn duration_s(s: &Signals, attempts: &[Attempt], t0: u64, rate_hz: f64) -> f64 {
     let last = [
         s.cmd.last().map(|x| x.0),
         s.step.last().map(|x| x.0),
@@ -570,7 +376,50 @@ pub fn build_log(
     .max()
     .unwrap_or(t0);
     let first = attempts.first().map_or(t0, |a| a.start_ns);
-    let duration_s = t_s(last, first) + 1.0 / rate;
+    t_s(last, first) + 1.0 / rate_hz
+}
+
+/// Segments, resamples and checks; builds the log.
+pub fn build_log(
+    s: &Signals,
+    t0: u64,
+    meta: LogMeta,
+    roles: &RoleMap,
+    file: &Path,
+) -> Result<(DriveLog, BuildReport)> {
+    let clock = StepClock::of(&meta);
+    let (attempts, seg) = find_attempts(s, &clock);
+    let mut report = BuildReport {
+        segmentation: Some(seg),
+        ..BuildReport::default()
+    };
+    let asm = Assembly {
+        s,
+        t0,
+        meta: &meta,
+        roles,
+        file,
+        clock,
+        times: RoleTimes::of(s),
+    };
+    let mut samples = Vec::new();
+    let mut interruptions = Vec::new();
+    for (step, atts) in &attempts_by_step(&attempts) {
+        let Some(done) = atts.iter().rev().find(|a| clock.completes(a)).copied() else {
+            report.warnings.push(asm.not_completed(*step, atts));
+            continue;
+        };
+        interruptions.extend(interruptions_before(*step, atts, done.attempt, t0));
+        if let Some(w) = asm.gap_exclusion(*step, done.start_ns as f64) {
+            report.warnings.push(w);
+            continue;
+        }
+        samples.extend(asm.resample_step(*step, &done)?);
+    }
+    if samples.is_empty() {
+        return Err(asm.no_complete_step(seg, &report.warnings));
+    }
+    let duration_s = duration_s(s, &attempts, t0, clock.rate_hz);
     Ok((
         DriveLog {
             meta,
