@@ -6,6 +6,20 @@
 //! in both frames ([`slip`]), ρ ([`rho`]), the spaces U/S/T ([`spaces`]), the kernel-smoothed
 //! transfer functions ([`smoother`]), the risk scenarios ([`risk`]) and the box-plot statistics
 //! ([`stats`]). Every result type is serde-serializable; NaN values serialize as `null`.
+//!
+//! ```no_run
+//! use drive_sim_analysis::{analyze, AnalysisParams};
+//!
+//! // The same pipeline on a measured log and on a simulated one.
+//! let log = drive_sim_log::read_log(std::path::Path::new("warthog_gravel.csv"))?;
+//! let analysis = analyze(&log, &AnalysisParams::default())?;
+//! if let Some(rho) = &analysis.stats.rho {
+//!     println!("median ρ {:.3} over {} steps", rho.median, rho.n);
+//! }
+//! # Ok::<(), drive_sim_model::Error>(())
+//! ```
+
+#![warn(missing_docs, unreachable_pub)]
 
 pub mod bootstrap;
 pub mod crosscheck;

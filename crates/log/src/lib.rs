@@ -4,6 +4,20 @@
 //! The data model itself ([`DriveLog`], [`Frame`], [`Measurement`], ...) lives in
 //! [`drive_sim_model::measurement`], below the simulator and the protocol that produce it; it is
 //! re-exported here so that `crate::Pose` and friends keep working.
+//!
+//! ```no_run
+//! use std::path::Path;
+//!
+//! // Any supported input: a measured CSV, a drive-sim MCAP, or a rosbag2 bag of the DRIVE node.
+//! let opened = drive_sim_log::open(Path::new("bags/warthog_gravel"), &Default::default())?;
+//! for note in &opened.notes {
+//!     println!("{note}"); // how the bag was read: roles, nominal values, segmentation
+//! }
+//! println!("{} samples of {} on {}", opened.log.samples.len(), opened.log.meta.robot, opened.log.meta.terrain);
+//! # Ok::<(), drive_sim_model::Error>(())
+//! ```
+
+#![warn(missing_docs, unreachable_pub)]
 
 pub mod bag;
 pub mod cdr;

@@ -23,6 +23,26 @@
 //!
 //! [`HtmlReport`] assembles sections, key-figure tables and inline SVG figures into one
 //! self-contained `report.html`.
+//!
+//! ```
+//! use drive_sim_report::{bar_chart, AxisLabel, BarChart, BarSeries};
+//!
+//! let dir = std::env::temp_dir().join("drive_sim_report_example");
+//! std::fs::create_dir_all(&dir).unwrap();
+//! let chart = BarChart {
+//!     categories: vec!["asphalt".into(), "gravel".into()],
+//!     series: vec![BarSeries { label: "median ρ".into(), values: vec![Some(0.33), Some(0.41)] }],
+//!     value: AxisLabel::new("ρ", ""),
+//!     log: false,
+//!     references: vec![],
+//! };
+//! // Writes rho.svg and rho.png of the same pixel size.
+//! let files = bar_chart(&dir, "rho", "Median ρ by terrain", &chart)?;
+//! assert!(files.svg.exists() && files.png.exists());
+//! # Ok::<(), drive_sim_model::Error>(())
+//! ```
+
+#![warn(missing_docs, unreachable_pub)]
 
 pub mod analysis_report;
 mod bars;

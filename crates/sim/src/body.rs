@@ -10,11 +10,11 @@ use rapier3d::prelude::*;
 
 /// Substeps of one physics step: rapier's default `num_solver_iterations`, which it uses as
 /// substeps.
-pub const SUBSTEPS: usize = 4;
+pub(crate) const SUBSTEPS: usize = 4;
 
 /// The net load on the chassis over one physics step (world frame, about the centre of mass).
 #[derive(Debug, Clone, Copy, Default)]
-pub struct Wrench {
+pub(crate) struct Wrench {
     /// Force, N (gravity included).
     pub force_n: [f64; 3],
     /// Torque about the centre of mass, N·m.
@@ -23,7 +23,7 @@ pub struct Wrench {
 
 impl Wrench {
     /// Adds the force `f` applied at `point`, with the centre of mass at `com`.
-    pub fn add_at_point(&mut self, f: [f64; 3], point: [f64; 3], com: [f64; 3]) {
+    pub(crate) fn add_at_point(&mut self, f: [f64; 3], point: [f64; 3], com: [f64; 3]) {
         let r = [point[0] - com[0], point[1] - com[1], point[2] - com[2]];
         for (sum, fk) in self.force_n.iter_mut().zip(f) {
             *sum += fk;
@@ -44,7 +44,7 @@ fn v32(v: &Vector3<f64>) -> Vector {
 
 /// Advances `rb` (centre of mass at its origin, principal inertia `inertia_kg_m2` along its
 /// axes) by `dt` under the constant wrench `w`.
-pub fn integrate(rb: &mut RigidBody, mass_kg: f64, inertia_kg_m2: [f64; 3], w: &Wrench, dt: f64) {
+pub(crate) fn integrate(rb: &mut RigidBody, mass_kg: f64, inertia_kg_m2: [f64; 3], w: &Wrench, dt: f64) {
     let pose = *rb.position();
     let r = pose.rotation;
     let mut q =

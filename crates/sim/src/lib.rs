@@ -32,6 +32,24 @@
 //! `solve.rs` the implicit tyre solve; [`tyre`] the contact model; `body.rs` the chassis
 //! integration; [`ground`] the ground and its ray casts; [`plant`] the [`Plant`] trait and
 //! the ideal plant; this file the simulator's state, the sensors and its [`Plant`] interface.
+//!
+//! ```
+//! use drive_sim_model::kinematics::WheelSpeeds;
+//! use drive_sim_model::{robot::Robot, terrain::Terrain};
+//! use drive_sim_sim::{Plant, SimConfig, Simulator};
+//!
+//! let robot = Robot::resolve("warthog")?.0;
+//! let terrain = Terrain::resolve("asphalt")?.0;
+//! let mut sim = Simulator::new(&robot, &terrain, SimConfig::default())?;
+//! // Both sides at 5 rad/s for 3 s: the robot drives straight ahead at about r·ω = 1.5 m/s.
+//! sim.command(WheelSpeeds::new(5.0, 5.0));
+//! sim.advance(3.0)?;
+//! let v = sim.true_velocity();
+//! assert!((v.vx_m_s - 1.5).abs() < 0.1 && v.wz_rad_s.abs() < 0.05);
+//! # Ok::<(), drive_sim_model::Error>(())
+//! ```
+
+#![warn(missing_docs, unreachable_pub)]
 
 mod body;
 mod build;

@@ -50,7 +50,7 @@ pub(super) enum ContainerWriter<W: Write + Seek> {
 impl<W: Write + Seek> ContainerWriter<W> {
     /// Starts a file: profile `ros2`, zstd chunks of `chunk_size` uncompressed bytes (level
     /// [`ZSTD_LEVEL`] for ours, 1 for the crate's).
-    pub fn new(container: Container, sink: W, library: &str, chunk_size: u64) -> McapResult<Self> {
+    pub(crate) fn new(container: Container, sink: W, library: &str, chunk_size: u64) -> McapResult<Self> {
         Ok(match container {
             Container::Chunked => Self::Chunked(Box::new(ChunkWriter::new(
                 sink, "ros2", library, chunk_size, ZSTD_LEVEL,
@@ -73,7 +73,7 @@ impl<W: Write + Seek> ContainerWriter<W> {
     }
 
     /// Adds a schema (deduplicated by content); returns its id.
-    pub fn add_schema(&mut self, name: &str, encoding: &str, data: &[u8]) -> McapResult<u16> {
+    pub(crate) fn add_schema(&mut self, name: &str, encoding: &str, data: &[u8]) -> McapResult<u16> {
         match self {
             Self::Chunked(w) => w.add_schema(name, encoding, data),
             #[cfg(feature = "oracle")]
@@ -82,7 +82,7 @@ impl<W: Write + Seek> ContainerWriter<W> {
     }
 
     /// Adds a channel; returns its id.
-    pub fn add_channel(
+    pub(crate) fn add_channel(
         &mut self,
         schema_id: u16,
         topic: &str,
@@ -97,7 +97,7 @@ impl<W: Write + Seek> ContainerWriter<W> {
     }
 
     /// Writes a metadata record (outside any chunk).
-    pub fn write_metadata(&mut self, metadata: &Metadata) -> McapResult<()> {
+    pub(crate) fn write_metadata(&mut self, metadata: &Metadata) -> McapResult<()> {
         match self {
             Self::Chunked(w) => w.write_metadata(metadata),
             #[cfg(feature = "oracle")]
@@ -106,7 +106,7 @@ impl<W: Write + Seek> ContainerWriter<W> {
     }
 
     /// Writes one message on a channel added before.
-    pub fn write_message(&mut self, header: &MessageHeader, data: &[u8]) -> McapResult<()> {
+    pub(crate) fn write_message(&mut self, header: &MessageHeader, data: &[u8]) -> McapResult<()> {
         match self {
             Self::Chunked(w) => w.write_message(header, data),
             #[cfg(feature = "oracle")]
@@ -115,7 +115,7 @@ impl<W: Write + Seek> ContainerWriter<W> {
     }
 
     /// Writes the data end, the summary and the footer; returns the sink.
-    pub fn finish(self) -> McapResult<W> {
+    pub(crate) fn finish(self) -> McapResult<W> {
         match self {
             Self::Chunked(w) => w.finish(),
             #[cfg(feature = "oracle")]
@@ -175,7 +175,13 @@ pub(super) struct ChunkWriter<W: Write + Seek> {
 
 impl<W: Write + Seek> ChunkWriter<W> {
     /// Starts a file on `out` (which must be empty): magic and header record.
-    pub fn new(out: W, profile: &str, library: &str, chunk_size: u64, zstd_level: i32) -> McapResult<Self> {
+    pub(crate) fn new(
+        out: W,
+        profile: &str,
+        library: &str,
+        chunk_size: u64,
+        zstd_level: i32,
+    ) -> McapResult<Self> {
         let mut w = Self {
             out,
             pos: 0,
@@ -358,7 +364,7 @@ impl<W: Write + Seek> ChunkWriter<W> {
 
 impl<W: Write + Seek> ChunkWriter<W> {
     /// Adds a schema (deduplicated by content); returns its id.
-    pub fn add_schema(&mut self, name: &str, encoding: &str, data: &[u8]) -> McapResult<u16> {
+    pub(crate) fn add_schema(&mut self, name: &str, encoding: &str, data: &[u8]) -> McapResult<u16> {
         if let Some(s) = self
             .schemas
             .iter()
@@ -380,7 +386,7 @@ impl<W: Write + Seek> ChunkWriter<W> {
     }
 
     /// Adds a channel; returns its id.
-    pub fn add_channel(
+    pub(crate) fn add_channel(
         &mut self,
         schema_id: u16,
         topic: &str,
@@ -405,7 +411,7 @@ impl<W: Write + Seek> ChunkWriter<W> {
     }
 
     /// Writes a metadata record (outside any chunk).
-    pub fn write_metadata(&mut self, metadata: &Metadata) -> McapResult<()> {
+    pub(crate) fn write_metadata(&mut self, metadata: &Metadata) -> McapResult<()> {
         // Metadata records live outside chunks: close the open one first.
         self.close_chunk()?;
         let offset = self.pos;
@@ -426,7 +432,7 @@ impl<W: Write + Seek> ChunkWriter<W> {
     }
 
     /// Writes one message on a channel added before.
-    pub fn write_message(&mut self, header: &MessageHeader, data: &[u8]) -> McapResult<()> {
+    pub(crate) fn write_message(&mut self, header: &MessageHeader, data: &[u8]) -> McapResult<()> {
         if header.channel_id == 0 || usize::from(header.channel_id) > self.channels.len() {
             return Err(McapError::UnknownChannel(header.sequence, header.channel_id));
         }
@@ -466,7 +472,7 @@ impl<W: Write + Seek> ChunkWriter<W> {
     }
 
     /// Writes the data end, the summary and the footer; returns the sink.
-    pub fn finish(mut self) -> McapResult<W> {
+    pub(crate) fn finish(mut self) -> McapResult<W> {
         self.close_chunk()?;
         let data_section_crc = std::mem::replace(&mut self.data_crc, crc32fast::Hasher::new()).finalize();
         let mut rec = std::mem::take(&mut self.rec);
