@@ -1,10 +1,14 @@
 //! `drive-sim replay` and `drive-sim calibrate`: the simulator against measured data (or any
 //! DRIVE log, e.g. a simulated one carrying an undeclared `--inject`ed effect).
 
-use drive_sim::calibration::{self, CalibrationOptions, CalibrationReport, ModelKind};
+use drive_sim::calibration::{
+    self, Calibrated, CalibrationEvent, CalibrationOptions, CalibrationReport, ModelKind,
+};
 use drive_sim::error::Result;
 use std::io::Write;
 use std::path::PathBuf;
+use std::sync::OnceLock;
+use std::time::Instant;
 
 /// Options of `drive-sim replay`.
 #[derive(Debug, Clone, clap::Args)]
@@ -70,36 +74,21 @@ pub struct CalibrateArgs {
 }
 
 impl CalibrateArgs {
-    /// The command line that reproduces this calibration (`calibration.json` → `reproduce`).
-    fn reproduce(&self) -> String {
-        format!(
-            "drive-sim calibrate {} --model {} --seed {} --max-effects {} --optimizer {} --use-steps {} --out {}",
-            self.logs
-                .iter()
-                .map(|p| p.display().to_string())
-                .collect::<Vec<_>>()
-                .join(" "),
-            self.model,
-            self.seed,
-            self.max_effects,
-            self.optimizer,
-            self.use_steps.as_str(),
-            self.out.display()
-        )
-    }
-
-    /// The calibration's options from the command line, with the parsed local solver.
-    fn options(&self, optimizer: calibration::Optimizer) -> CalibrationOptions {
-        let mut opts = CalibrationOptions {
+    /// The calibration these arguments ask for.
+    fn request(&self) -> calibration::CalibrateRequest {
+        calibration::CalibrateRequest {
+            logs: self.logs.clone(),
+            out: self.out.clone(),
+            input: self.input.options(),
+            model: self.model.clone(),
+            optimizer: self.optimizer.clone(),
             seed: self.seed,
             max_effects: self.max_effects,
             max_fit_steps: self.max_fit_steps,
             candidates: self.candidates.clone(),
+            use_steps: self.use_steps,
             discover: !self.no_discovery,
-            ..CalibrationOptions::default()
-        };
-        opts.fit.optimizer = optimizer;
-        opts
+        }
     }
 }
 
@@ -192,60 +181,35 @@ fn error_rows() -> Vec<Row> {
 
 /// Runs the whole loop and writes its report, its timings and its figures.
 pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
-    if args.logs.len() > 1 {
-        return calibrate_joint(args);
+    let clock = OnceLock::new();
+    let done = calibration::calibrate_logs(&args.request(), &|event| print_progress(&clock, event))?;
+    match done {
+        Calibrated::Single(outcome) => print_single(args, &outcome),
+        Calibrated::Joint(outcome) => print_joint(args, &outcome),
     }
-    let log_path = &args.logs[0];
-    // Bad input is refused before any long work.
-    let kind = ModelKind::parse(&args.model)?;
-    let optimizer = calibration::Optimizer::parse(&args.optimizer)?;
-    // The output folder is checked (and staged) before the long work; it appears whole.
-    let staged = drive_sim::output::StagedDir::begin(&args.out, "--out")?;
-    eprintln!("drive-sim: reading {}", log_path.display());
-    let log = args
-        .use_steps
-        .select(&super::input::open_log(log_path, &args.input)?);
-    let models = calibration::StartingModels::resolve(
-        &log,
-        args.input.robot.as_deref(),
-        args.input.terrain.as_deref(),
-    )?;
-    let opts = args.options(optimizer);
-    eprintln!(
-        "drive-sim: calibrating the {} model of {} on {} ({} steps: fit on {:.0} %, choose on {:.0} %, report on the rest), {}",
-        args.model,
-        models.robot.name,
-        models.terrain.name,
-        log.steps().len(),
-        100.0 * opts.train_fraction,
-        100.0 * opts.validation_fraction,
-        args.optimizer
-    );
-    let request = calibration::CalibrateRequest {
-        log: &log,
-        log_file: log_path,
-        models: &models,
-        kind,
-        opts: &opts,
-        reproduce: args.reproduce(),
-        provenance_options: serde_json::json!({
-            "model": args.model,
-            "seed": args.seed,
-            "max_effects": args.max_effects,
-            "max_fit_steps": args.max_fit_steps,
-            "optimizer": args.optimizer,
-            "candidates": args.candidates,
-            "use_steps": args.use_steps.as_str(),
-            "robot": args.input.robot,
-            "terrain": args.input.terrain,
-            "roles": args.input.roles,
-        }),
-    };
-    let t0 = std::time::Instant::now();
-    let outcome = calibration::calibrate_into(&request, staged.path(), &|line| {
-        eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64())
-    })?;
-    staged.commit()?;
+}
+
+/// Progress of a calibration on stderr: what was read as it is, each stage's findings with the
+/// time since the calibration started.
+fn print_progress(clock: &OnceLock<Instant>, event: &CalibrationEvent) {
+    use CalibrationEvent as E;
+    match event {
+        E::Reading { .. } | E::Note { .. } | E::Warning { .. } | E::LogNote { .. } => {
+            eprintln!("drive-sim: {event}")
+        }
+        E::Calibrating { .. } | E::CalibratingJointly { .. } => {
+            eprintln!("drive-sim: {event}");
+            clock.get_or_init(Instant::now);
+        }
+        _ => eprintln!(
+            "drive-sim: [{:>6.1} s] {event}",
+            clock.get_or_init(Instant::now).elapsed().as_secs_f64()
+        ),
+    }
+}
+
+/// `calibrate LOG`: the twin check, the report, the time per stage and the files written.
+fn print_single(args: &CalibrateArgs, outcome: &calibration::CalibrateOutcome) -> anyhow::Result<()> {
     let (report, timings, files) = (&outcome.report, &outcome.timings, &outcome.files);
     if let Some(check) = &report.twin_check {
         match check.failure_note() {
@@ -256,7 +220,7 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
                 check.interruptions.unwrap_or_default()
             ),
         }
-        super::input::twin_hints(log_path, &args.out, args.use_steps);
+        super::input::twin_hints(&args.logs[0], &args.out, args.use_steps);
     }
     print_report(report)?;
     eprintln!("drive-sim: time per stage:");
@@ -271,69 +235,16 @@ pub fn calibrate(args: &CalibrateArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `calibrate LOG1 LOG2 ...`: one robot fitted on every log, a terrain per log
-/// ([`calibration::joint`]).
-fn calibrate_joint(args: &CalibrateArgs) -> anyhow::Result<()> {
-    let kind = ModelKind::parse(&args.model)?;
-    let optimizer = calibration::Optimizer::parse(&args.optimizer)?;
-    if args.input.terrain.is_some() {
-        return Err(drive_sim::Error::config(
-            "--terrain",
-            "terrain",
-            "with several logs each starts from its own terrain; `--terrain` names one for all",
-        )
-        .into());
+/// `calibrate LOG1 LOG2 ...` ([`calibration::joint`]): the robot's parameters beside each
+/// log's own fit, each log's scores and terrain, the files written.
+fn print_joint(args: &CalibrateArgs, outcome: &calibration::JointOutcome) -> anyhow::Result<()> {
+    let report = &outcome.report;
+    if !outcome.failed_twins.is_empty() {
+        eprintln!(
+            "drive-sim: warning: the twin does not run its own DRIVE with the terrain of {} (calibration.json, notes)",
+            outcome.failed_twins.join(", ")
+        );
     }
-    let staged = drive_sim::output::StagedDir::begin(&args.out, "--out")?;
-    let mut logs = Vec::new();
-    for p in &args.logs {
-        eprintln!("drive-sim: reading {}", p.display());
-        logs.push(args.use_steps.select(&super::input::open_log(p, &args.input)?));
-    }
-    // Logs of different robots are refused before any work.
-    calibration::joint::check_one_robot(&logs.iter().collect::<Vec<_>>())?;
-    let (robot, _, notes) = calibration::models_for(&logs[0], args.input.robot.as_deref(), None)?;
-    for n in &notes {
-        eprintln!("drive-sim: {n}");
-    }
-    let mut joint_logs = Vec::new();
-    for l in &logs {
-        let (_, terrain, notes) = calibration::models_for(l, None, None)?;
-        for n in notes {
-            eprintln!("drive-sim: {}: {n}", l.meta.name);
-        }
-        joint_logs.push(calibration::joint::JointLog { log: l, terrain });
-    }
-    let opts = args.options(optimizer);
-    eprintln!(
-        "drive-sim: calibrating the {} model of {} jointly on {} logs",
-        args.model,
-        robot.name,
-        logs.len()
-    );
-    let t0 = std::time::Instant::now();
-    let factory = kind.factory();
-    let input = calibration::joint::JointInput {
-        logs: joint_logs,
-        robot: &robot,
-        factory: factory.as_ref(),
-        opts: &opts,
-    };
-    let mut report = calibration::joint::calibrate_joint(&input, &|line| {
-        eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64())
-    })?;
-    report.reproduce = args.reproduce();
-    if report.model_kind == "simulator" {
-        let failed = calibration::joint::check_joint_twin(&mut report, args.seed)?;
-        if !failed.is_empty() {
-            eprintln!(
-                "drive-sim: warning: the twin does not run its own DRIVE with the terrain of {} (calibration.json, notes)",
-                failed.join(", ")
-            );
-        }
-    }
-    let files = calibration::joint::write_joint(&report, staged.path())?;
-    staged.commit()?;
     let mut out = std::io::stdout().lock();
     writeln!(
         out,
@@ -386,7 +297,7 @@ fn calibrate_joint(args: &CalibrateArgs) -> anyhow::Result<()> {
     }
     eprintln!(
         "drive-sim: wrote {} files into {}",
-        files.len(),
+        outcome.files.len(),
         args.out.display()
     );
     Ok(())
@@ -419,8 +330,17 @@ fn with_interval(p: &calibration::FittedParam) -> String {
     }
 }
 
+/// A single-log calibration on stdout: what the model lacks, the test scores, the choices and
+/// the model they led to.
 fn print_report(r: &CalibrationReport) -> Result<(), std::io::Error> {
     let mut out = std::io::stdout().lock();
+    print_scores(&mut out, r)?;
+    print_choices(&mut out, r)?;
+    print_model(&mut out, r)
+}
+
+/// What the model lacks, then every error on the test steps beside the IDD and the floor.
+fn print_scores(out: &mut impl Write, r: &CalibrationReport) -> Result<(), std::io::Error> {
     let lacks = calibration::diagnosis::lacks_summary(r);
     if !lacks.is_empty() {
         writeln!(out, "what the model lacks:")?;
@@ -453,6 +373,11 @@ fn print_report(r: &CalibrationReport) -> Result<(), std::io::Error> {
             row.floor
         )?;
     }
+    Ok(())
+}
+
+/// The first round's ranking of the candidates, the best pair and the backward pass.
+fn print_choices(out: &mut impl Write, r: &CalibrationReport) -> Result<(), std::io::Error> {
     if let Some(round) = r.rounds.first() {
         writeln!(
             out,
@@ -506,6 +431,12 @@ fn print_report(r: &CalibrationReport) -> Result<(), std::io::Error> {
             if b.dropped { ", dropped" } else { ", kept" }
         )?;
     }
+    Ok(())
+}
+
+/// The calibrated model's parameters and effects, the verdicts on the declared ones and the
+/// test score.
+fn print_model(out: &mut impl Write, r: &CalibrationReport) -> Result<(), std::io::Error> {
     // The values the final model holds (and the twin writes): the final joint fit's when it
     // refitted them beside the effects, else the base fit's.
     for p in calibration::twin::fitted_params(r)

@@ -1,6 +1,7 @@
 //! Figures and the HTML page of a calibration report (built with [`drive_sim_report`]).
 
 use super::residual::{ResidualAnalysis, ResidualMap};
+use super::stages::selection::SelectionRound;
 use super::CalibrationReport;
 use drive_sim_model::error::Result;
 use drive_sim_report::{
@@ -193,16 +194,14 @@ pub fn write_html(
     dir: &Path,
 ) -> Result<PathBuf> {
     let mut h = HtmlReport::new(format!("drive-sim calibrate: {}", report.dataset));
-    let effects = if report.effects.is_empty() {
-        "none".to_string()
-    } else {
-        report
-            .effects
-            .iter()
-            .map(|e| format!("{} = {:.4}", e.name.trim_start_matches("effect."), e.value))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
+    let lacks = super::diagnosis::lacks_summary(report);
+    if !lacks.is_empty() {
+        let section = h.section("What the model lacks");
+        for line in lacks {
+            section.paragraph(line);
+        }
+    }
+    summary_section(&mut h, report);
     let declared: Vec<String> = report
         .declared_effects
         .iter()
@@ -213,13 +212,53 @@ pub fn write_html(
             )
         })
         .collect();
-    let lacks = super::diagnosis::lacks_summary(report);
-    if !lacks.is_empty() {
-        let section = h.section("What the model lacks");
-        for line in lacks {
+    if !declared.is_empty() {
+        let section = h.section("Declared effects");
+        for line in declared {
             section.paragraph(line);
         }
     }
+    let rows: Vec<KeyFigure> = report
+        .table
+        .iter()
+        .map(|r| {
+            KeyFigure::new(
+                r.metric.clone(),
+                format!(
+                    "IDD {:.4} | before {:.4} | after {:.4} | floor {:.4}",
+                    r.idd, r.sim_before, r.sim_after, r.floor
+                ),
+                r.unit.clone(),
+            )
+        })
+        .collect();
+    h.section("Before / after, held-out steps")
+        .table("Errors against the recording", &rows);
+    h.section("Fitted parameters")
+        .table("Terrain / robot parameters and effects", &fitted_rows(report));
+    for round in &report.rounds {
+        round_section(&mut h, round);
+    }
+    h.section("Figures");
+    for (caption, files) in figures {
+        h.figure(caption.clone(), files)?;
+    }
+    h.section("Reproduce").paragraph(report.reproduce.clone());
+    h.write(dir)
+}
+
+/// The summary: status, notes and the held-out scores.
+fn summary_section(h: &mut HtmlReport, report: &CalibrationReport) {
+    let effects = if report.effects.is_empty() {
+        "none".to_string()
+    } else {
+        report
+            .effects
+            .iter()
+            .map(|e| format!("{} = {:.4}", e.name.trim_start_matches("effect."), e.value))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     h.section("Summary")
         .paragraph(format!(
             "Model `{}` calibrated on {} training steps, every figure below on {} held-out steps \
@@ -257,28 +296,10 @@ pub fn write_html(
                 KeyFigure::new("effects in the model", effects, ""),
             ],
         );
-    if !declared.is_empty() {
-        let section = h.section("Declared effects");
-        for line in declared {
-            section.paragraph(line);
-        }
-    }
-    let rows: Vec<KeyFigure> = report
-        .table
-        .iter()
-        .map(|r| {
-            KeyFigure::new(
-                r.metric.clone(),
-                format!(
-                    "IDD {:.4} | before {:.4} | after {:.4} | floor {:.4}",
-                    r.idd, r.sim_before, r.sim_after, r.floor
-                ),
-                r.unit.clone(),
-            )
-        })
-        .collect();
-    h.section("Before / after, held-out steps")
-        .table("Errors against the recording", &rows);
+}
+
+/// The base fit's parameters, then the effects'.
+fn fitted_rows(report: &CalibrationReport) -> Vec<KeyFigure> {
     let mut fitted: Vec<KeyFigure> = report
         .terrain_fit
         .iter()
@@ -307,45 +328,40 @@ pub fn write_html(
             "",
         )
     }));
-    h.section("Fitted parameters")
-        .table("Terrain / robot parameters and effects", &fitted);
-    for round in &report.rounds {
-        let rows: Vec<KeyFigure> = round
-            .ranking
-            .iter()
-            .map(|e| {
-                KeyFigure::new(
-                    e.effect.clone(),
-                    format!(
-                        "held-out reduction {:.3} ± {:.3}, share {:.2}{}; fitted {}",
-                        e.reduction,
-                        e.reduction_se,
-                        e.share,
-                        if e.significant { ", significant" } else { "" },
-                        e.params
-                            .iter()
-                            .map(|p| format!("{}={:.4}", p.name.trim_start_matches("effect."), p.value))
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ),
-                    "",
-                )
-            })
-            .collect();
-        h.section(format!(
-            "Candidate effects, round {} (added: {})",
-            round.round + 1,
-            round.added.as_deref().unwrap_or("none")
-        ))
-        .table(
-            "Each fitted alone on the training steps, judged on the held-out steps",
-            &rows,
-        );
-    }
-    h.section("Figures");
-    for (caption, files) in figures {
-        h.figure(caption.clone(), files)?;
-    }
-    h.section("Reproduce").paragraph(report.reproduce.clone());
-    h.write(dir)
+    fitted
+}
+
+/// One forward round's ranking of the candidates.
+fn round_section(h: &mut HtmlReport, round: &SelectionRound) {
+    let rows: Vec<KeyFigure> = round
+        .ranking
+        .iter()
+        .map(|e| {
+            KeyFigure::new(
+                e.effect.clone(),
+                format!(
+                    "held-out reduction {:.3} ± {:.3}, share {:.2}{}; fitted {}",
+                    e.reduction,
+                    e.reduction_se,
+                    e.share,
+                    if e.significant { ", significant" } else { "" },
+                    e.params
+                        .iter()
+                        .map(|p| format!("{}={:.4}", p.name.trim_start_matches("effect."), p.value))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+                "",
+            )
+        })
+        .collect();
+    h.section(format!(
+        "Candidate effects, round {} (added: {})",
+        round.round + 1,
+        round.added.as_deref().unwrap_or("none")
+    ))
+    .table(
+        "Each fitted alone on the training steps, judged on the held-out steps",
+        &rows,
+    );
 }

@@ -18,6 +18,10 @@
 //!
 //! Nothing reads what a log says was injected: the effects are found from the data alone.
 //!
+//! [`calibrate_logs`] is what `drive-sim calibrate LOG...` runs, from the files named in a
+//! [`CalibrateRequest`] to the files written (one log alone, several jointly: [`joint`]); every
+//! stage tells its caller what it found as a [`CalibrationEvent`].
+//!
 //! Which steps each field of [`CalibrationReport`] is computed on: `floor`, `terrain_fit`,
 //! every fitted value and interval: training; `rounds`, `pairs`, `backward`, `screening`
 //! (their `heldout_*` fields) and whether a fit was kept: validation; `idd`, `before`,
@@ -28,6 +32,7 @@
 pub mod data;
 pub mod diagnosis;
 pub mod discovery;
+pub mod events;
 pub mod figures;
 pub mod fit;
 pub mod joint;
@@ -35,7 +40,9 @@ pub mod metrics;
 pub mod model;
 mod output;
 pub mod params;
+mod pipeline;
 pub mod replay;
+mod request;
 pub mod residual;
 pub mod solver;
 pub mod stages;
@@ -45,6 +52,7 @@ pub mod to_dir;
 pub mod twin;
 
 pub use data::{split_steps, Split, StepSet};
+pub use events::{CalibrationEvent, RoundOutcome};
 pub use fit::{FitOptions, FitResult, FittedParam, Optimizer};
 pub use metrics::{ErrorSummary, NoiseFloor};
 pub use model::{IddFactory, KinematicFactory, ModelParams, PlantFactory, SimFactory};
@@ -53,7 +61,9 @@ pub use output::{
     DeclaredEffectCheck, StepScores, TableRow,
 };
 pub use params::{Param, ParamSpec};
+pub use pipeline::{calibrate, calibrate_timed};
 pub use replay::{replay_log, ReplayOptions};
+pub use request::{calibrate_logs, CalibrateRequest, Calibrated, JointOutcome};
 pub use residual::ResidualAnalysis;
 pub use solver::lm::LmOptions;
 pub use solver::nelder_mead::NmOptions;
@@ -62,17 +72,15 @@ pub use stages::screening::ScreeningReport;
 pub use stages::selection::{BackwardStep, SelectionRound};
 pub use stages::{StageTiming, Timings};
 pub use to_dir::{
-    calibrate_into, replay_into, CalibrateOutcome, CalibrateRequest, ReplayOutcome, ReplayRequest,
+    calibrate_into, replay_into, CalibrateLogRequest, CalibrateOutcome, ReplayOutcome, ReplayRequest,
     StartingModels,
 };
 
 use drive_sim_log::DriveLog;
-use drive_sim_model::effects::CommandReach;
 use drive_sim_model::error::{Error, Result};
 use drive_sim_model::robot::Robot;
 use drive_sim_model::terrain::Terrain;
 use serde::{Deserialize, Serialize};
-use stages::{baseline, candidates, final_fit, report, screening, selection, Context};
 use std::path::{Path, PathBuf};
 
 /// Options of [`calibrate`].
@@ -208,249 +216,6 @@ pub fn models_for(
         t = given;
     }
     Ok((r, t, notes))
-}
-
-/// Runs the calibration loop (see the module doc) of the plant `factory` builds, starting
-/// from `robot` and `terrain`, on `log`.
-pub fn calibrate(
-    log: &DriveLog,
-    robot: &Robot,
-    terrain: &Terrain,
-    factory: &dyn PlantFactory,
-    opts: &CalibrationOptions,
-) -> Result<CalibrationReport> {
-    calibrate_timed(log, robot, terrain, factory, opts, &|_| {}).map(|(r, _)| r)
-}
-
-/// [`calibrate`], telling `progress` in a line what each stage found as it ends, and
-/// returning the per-stage timings.
-pub fn calibrate_timed(
-    log: &DriveLog,
-    robot: &Robot,
-    terrain: &Terrain,
-    factory: &dyn PlantFactory,
-    opts: &CalibrationOptions,
-    progress: &(dyn Fn(&str) + Sync),
-) -> Result<(CalibrationReport, Timings)> {
-    let mut timings = Timings::default();
-    let name = &log.meta.name;
-    // Everything that can be checked is checked before any replay.
-    let (slices, excluded) = steps::usable_step_slices(log);
-    for e in &excluded {
-        progress(&format!("step {} excluded: {}", e.step, e.reason));
-    }
-    let commands: Vec<(u32, drive_sim_model::kinematics::WheelSpeeds)> = slices
-        .iter()
-        .map(|s| {
-            let n = s.samples.len().max(1) as f64;
-            let (l, r) = s.samples.iter().fold((0.0, 0.0), |a, x| {
-                (a.0 + x.m.cmd.left_rad_s, a.1 + x.m.cmd.right_rad_s)
-            });
-            (
-                s.step,
-                drive_sim_model::kinematics::WheelSpeeds::new(l / n, r / n),
-            )
-        })
-        .collect();
-    let split = split_steps(
-        name,
-        &commands,
-        opts.train_fraction,
-        opts.validation_fraction,
-        opts.seed,
-    )?;
-    let rate = log.meta.rate_hz;
-    let train_all = StepSet::new(&slices, &split.train, rate)?;
-    let floor = NoiseFloor::estimate(&train_all.features)
-        .map_err(|e| Error::Analysis(format!("`{name}`: no noise floor from its training steps: {e}")))?;
-    if floor.steps_used == 0 {
-        return Err(Error::Analysis(format!(
-            "`{name}`: no training step has two steady windows, so the steady channels have no              noise floor estimate (the floor compares the two steady windows of each step)"
-        )));
-    }
-    let reach = CommandReach::of_commands(
-        train_all.steps.iter().flat_map(|s| s.samples).map(|s| s.m.cmd),
-        &robot.idd(),
-    );
-    let mut notes = Vec::new();
-    let train = match opts.max_fit_steps {
-        Some(k) if k < split.train.len() => {
-            let mut sub = split.train.clone();
-            use rand::seq::SliceRandom;
-            use rand::SeedableRng;
-            sub.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed));
-            sub.truncate(k.max(1));
-            sub.sort_unstable();
-            notes.push(format!(
-                "fits on {} of {} training steps",
-                sub.len(),
-                split.train.len()
-            ));
-            StepSet::new(&slices, &sub, rate)?
-        }
-        _ => train_all,
-    };
-    // A robot or terrain file's own effects (a twin's) are the starting model's effects.
-    let declared = twin::lift_effects(robot, terrain)?;
-    let (mut pool, not_evaluated) = candidates::candidates_for(factory, &reach, opts.candidates.as_deref());
-    // A declared effect is refit as a base parameter and judged, not proposed again.
-    let declared_on = candidates::declared_effects(&declared);
-    pool.retain(|c| !c.effects.iter().any(|e| declared_on.contains(e)));
-    if let Some(only) = &opts.candidates {
-        for n in only {
-            if drive_sim_model::effects::effect(n).is_none() {
-                return Err(Error::Unknown {
-                    kind: "candidate effect",
-                    name: n.clone(),
-                    available: drive_sim_model::effects::REGISTRY
-                        .iter()
-                        .map(|e| e.name())
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                });
-            }
-        }
-    }
-    let ctx = Context {
-        log,
-        factory,
-        opts,
-        validation: StepSet::new(&slices, &split.validation, rate)?,
-        test: StepSet::new(&slices, &split.test, rate)?,
-        train,
-        split,
-        floor,
-        reach,
-        declared: declared.clone(),
-        excluded,
-        progress,
-    };
-    progress(&format!(
-        "split of {} steps: {} train, {} validation, {} test (seed {})",
-        slices.len(),
-        ctx.split.train.len(),
-        ctx.split.validation.len(),
-        ctx.split.test.len(),
-        opts.seed
-    ));
-    let mut base_specs = factory.base_params(&declared);
-    base_specs.extend(candidates::declared_specs(&declared, &reach));
-    let baseline = timings.time("baseline", || {
-        baseline::run(
-            &ctx,
-            baseline::BaselineInput {
-                declared: &declared,
-                specs: &base_specs,
-            },
-        )
-    })?;
-    // The kinematic model is cheap enough to refit the base parameters beside every
-    // candidate; the simulator screens with it and fits effects with the time constant only,
-    // then refits jointly.
-    let screened = factory.name() == "simulator" && opts.screen_keep > 0;
-    let (screening, pool, refit) = if screened {
-        let out = timings.time("screening", || {
-            screening::run(
-                &ctx,
-                screening::ScreeningInput {
-                    candidates: &pool,
-                    declared: &declared,
-                },
-            )
-        })?;
-        // Beside each effect the simulator refits the wheel loop's time constant only: the
-        // base parameter that stands in for powertrain effects (a slower loop for a dead time);
-        // the terrain's are refit jointly once an effect is added.
-        let refit: Vec<ParamSpec> = base_specs
-            .iter()
-            .filter(|p| p.param == Param::TimeConstant)
-            .copied()
-            .collect();
-        (Some(out.report), (out.shortlist, Some(out.pairs)), refit)
-    } else {
-        (None, (pool, None), base_specs.clone())
-    };
-    let (pool, screened_pairs) = pool;
-    let refit_for_discovery = refit.clone();
-    let selection = timings.time("selection", || {
-        selection::run(
-            &ctx,
-            selection::SelectionInput {
-                current: baseline.current.clone(),
-                current_validation: baseline.current_validation.clone(),
-                pool,
-                refit,
-                pairs: screened_pairs,
-                base: if baseline.base_fit_kept {
-                    base_specs.clone()
-                } else {
-                    Vec::new()
-                },
-            },
-        )
-    })?;
-    let mut selection = selection;
-    let discovery = if opts.discover {
-        let out = timings.time("discovery", || {
-            stages::discovery::run(
-                &ctx,
-                stages::discovery::DiscoveryInput {
-                    current: selection.current.clone(),
-                    current_validation: selection.current_validation.clone(),
-                    selected: selection.selected.clone(),
-                    refit: refit_for_discovery.clone(),
-                },
-            )
-        })?;
-        if out.added {
-            selection.current = out.current;
-            selection.current_validation = out.current_validation;
-            selection.selected = out.selected;
-            selection.refit_current = false;
-        }
-        Some(out.report)
-    } else {
-        None
-    };
-    let final_fit = timings.time("final fit", || {
-        final_fit::run(
-            &ctx,
-            final_fit::FinalFitInput {
-                current: &selection.current,
-                current_validation: &selection.current_validation,
-                selected: &selection.selected,
-                base: &base_specs,
-                base_fit_kept: baseline.base_fit_kept,
-                already_fitted: selection.refit_current,
-            },
-        )
-    })?;
-    let mut report = timings.time("report", || {
-        report::run(
-            &ctx,
-            report::ReportInput {
-                baseline,
-                screening,
-                selection,
-                final_fit,
-                not_evaluated,
-                notes,
-            },
-        )
-    })?;
-    timings.time("diagnosis", || -> Result<()> {
-        let idd = robot.idd();
-        for (model, slot) in [
-            (&report.model_before, &mut report.diagnosis_before),
-            (&report.model_after, &mut report.diagnosis_after),
-        ] {
-            let r = ctx.test.residuals(factory, model)?;
-            *slot = Some(diagnosis::diagnose(&r, &ctx.test.features, &ctx.floor, &idd));
-        }
-        Ok(())
-    })?;
-    report.discovery = discovery;
-    Ok((report, timings))
 }
 
 /// Which plant to calibrate.

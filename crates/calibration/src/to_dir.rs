@@ -142,9 +142,10 @@ pub fn replay_into(req: &ReplayRequest, dir: &Path) -> Result<ReplayOutcome> {
     })
 }
 
-/// A calibration of one log to write.
+/// A calibration of one log to write: a log already read ([`crate::CalibrateRequest`] reads it
+/// from its file).
 #[derive(Debug)]
-pub struct CalibrateRequest<'a> {
+pub struct CalibrateLogRequest<'a> {
     /// The log (its steps already selected, `--use-steps`).
     pub log: &'a DriveLog,
     /// Its file.
@@ -174,12 +175,12 @@ pub struct CalibrateOutcome {
 
 /// Calibrates and writes `calibration.json` (with its provenance), `timings.json`, the fitted
 /// terrain, the figures, `report.html` and, with the simulator model, the twin (run in closed
-/// loop first, so that the report says whether it runs) into `dir`. `progress` gets one line
-/// per stage.
+/// loop first, so that the report says whether it runs) into `dir`. `progress` hears what
+/// each stage found.
 pub fn calibrate_into(
-    req: &CalibrateRequest,
+    req: &CalibrateLogRequest,
     dir: &Path,
-    progress: &(dyn Fn(&str) + Sync),
+    progress: &(dyn Fn(&CalibrationEvent) + Sync),
 ) -> Result<CalibrateOutcome> {
     let m = req.models;
     let (mut report, timings) = calibrate_timed(

@@ -92,7 +92,7 @@ pub struct Provenance {
     /// The model the fit started from, for the declared value beside each fitted one.
     pub before: Option<ModelParams>,
     /// Values set by another method than a fit (a closed-loop search,
-    /// [`drive_sim_compare::tune`]), by report name, with their whole comment.
+    /// `drive_sim_compare::tune`), by report name, with their whole comment.
     pub chosen: Vec<(String, String)>,
 }
 

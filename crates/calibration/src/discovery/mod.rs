@@ -176,109 +176,199 @@ pub fn discover(
     validation: &Rows,
     opts: &DiscoveryOptions,
 ) -> Result<Equation, Skipped> {
-    let skip = |reason: String| Skipped {
+    check_rows(library, train, validation)?;
+    let columns = Columns::screen(library, train);
+    if columns.cols.is_empty() {
+        return Err(regression_skipped("no usable library column".into()));
+    }
+    let design = Design {
+        train: columns.design(train),
+        validation: columns.design(validation),
+    };
+    let threshold = choose_threshold(&design, validation, opts)?;
+    let stable = Stability::resample(&design, train, threshold, opts);
+    let freq = &stable.freq;
+    let kept: Vec<usize> = (0..columns.cols.len())
+        .filter(|&k| freq[k] >= STABILITY_THRESHOLD)
+        .collect();
+    let unstable = (0..columns.cols.len())
+        .filter(|&k| freq[k] > 0.0 && freq[k] < STABILITY_THRESHOLD)
+        .map(|k| (library.names[columns.cols[k]].clone(), freq[k]))
+        .collect();
+    let bv = &design.validation.1;
+    let mut eq = Equation {
+        terms: Vec::new(),
+        threshold,
+        validation_r2: 0.0,
+        validation_rms: [rms(bv), rms(bv)],
+        unstable,
+        skipped: columns.skipped.clone(),
+        rows: [train.len(), validation.len()],
+    };
+    if kept.is_empty() {
+        return Ok(eq);
+    }
+    fit_terms(
+        &mut eq,
+        &Kept {
+            library,
+            design: &design,
+            columns: &columns,
+            stable: &stable,
+            kept: &kept,
+        },
+    );
+    Ok(eq)
+}
+
+/// A whole regression that could not be run, and why.
+fn regression_skipped(reason: String) -> Skipped {
+    Skipped {
         what: "regression".into(),
         reason,
-    };
+    }
+}
+
+/// Rows that fit no regression: a row without the library's columns, too few groups, a
+/// non-finite response.
+fn check_rows(library: &Library, train: &Rows, validation: &Rows) -> Result<(), Skipped> {
     let p = library.names.len();
     if train.x.iter().chain(&validation.x).any(|r| r.len() != p) {
-        return Err(skip(format!("a row does not have the library's {p} columns")));
+        return Err(regression_skipped(format!(
+            "a row does not have the library's {p} columns"
+        )));
     }
     let (g_train, g_val) = (train.groups().len(), validation.groups().len());
     if g_train < MIN_GROUPS || g_val < MIN_GROUPS {
-        return Err(skip(format!(
+        return Err(regression_skipped(format!(
             "too few steps to fit a library: {g_train} training and {g_val} validation (at least {MIN_GROUPS} each)"
         )));
     }
     if train.y.iter().chain(&validation.y).any(|v| !v.is_finite()) {
-        return Err(skip("the response has non-finite values".into()));
+        return Err(regression_skipped("the response has non-finite values".into()));
     }
-    // Column screening and scales, on the training rows.
-    let mut skipped = Vec::new();
-    let mut cols: Vec<usize> = Vec::new();
-    let mut scales: Vec<f64> = Vec::new();
-    for j in 0..p {
+    Ok(())
+}
+
+/// Weighted root mean square of a residual.
+fn rms(r: &DVector<f64>) -> f64 {
+    (r.norm_squared() / r.len().max(1) as f64).sqrt()
+}
+
+/// The library columns kept for the fit, with their scales, and those left out.
+struct Columns {
+    /// Library indices of the kept columns.
+    cols: Vec<usize>,
+    /// Weighted RMS of each kept column on the training rows.
+    scales: Vec<f64>,
+    /// Columns left out, with why.
+    skipped: Vec<Skipped>,
+}
+
+impl Columns {
+    /// Screens every column on the training rows, in library order (a column is compared
+    /// with the kept ones before it).
+    fn screen(library: &Library, train: &Rows) -> Self {
+        let mut out = Self {
+            cols: Vec::new(),
+            scales: Vec::new(),
+            skipped: Vec::new(),
+        };
+        for j in 0..library.names.len() {
+            match out.verdict(library, train, j) {
+                Ok(rms) => {
+                    out.cols.push(j);
+                    out.scales.push(rms);
+                }
+                Err(reason) => out.skipped.push(Skipped {
+                    what: library.names[j].clone(),
+                    reason,
+                }),
+            }
+        }
+        out
+    }
+
+    /// Column `j`'s weighted RMS when it is usable beside the columns kept so far, else why
+    /// not.
+    fn verdict(&self, library: &Library, train: &Rows, j: usize) -> Result<f64, String> {
         let v: Vec<f64> = train.x.iter().zip(&train.w).map(|(r, w)| r[j] * w).collect();
-        let name = &library.names[j];
         if v.iter().any(|x| !x.is_finite()) {
-            skipped.push(Skipped {
-                what: name.clone(),
-                reason: "non-finite values".into(),
-            });
-            continue;
+            return Err("non-finite values".into());
         }
         let raw: Vec<f64> = train.x.iter().map(|r| r[j]).collect();
         let mean = raw.iter().sum::<f64>() / raw.len() as f64;
         let spread = raw.iter().map(|x| (x - mean).abs()).fold(0.0, f64::max);
         let rms = (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
         if Some(j) != library.intercept && spread <= 1e-12 * mean.abs().max(1.0) {
-            skipped.push(Skipped {
-                what: name.clone(),
-                reason: if rms == 0.0 {
-                    "zero on every row".into()
-                } else {
-                    "constant on every row (the intercept stands for it)".into()
-                },
+            return Err(if rms == 0.0 {
+                "zero on every row".into()
+            } else {
+                "constant on every row (the intercept stands for it)".into()
             });
-            continue;
         }
         if rms == 0.0 {
-            skipped.push(Skipped {
-                what: name.clone(),
-                reason: "zero on every row".into(),
-            });
-            continue;
+            return Err("zero on every row".into());
         }
-        if let Some(&k) = cols.iter().find(|&&k| {
+        if let Some(&k) = self.cols.iter().find(|&&k| {
             let u: Vec<f64> = train.x.iter().zip(&train.w).map(|(r, w)| r[k] * w).collect();
             correlation(&u, &v).abs() > MAX_COLUMN_CORRELATION
         }) {
-            skipped.push(Skipped {
-                what: name.clone(),
-                reason: format!(
-                    "collinear with `{}` (|r| > {MAX_COLUMN_CORRELATION})",
-                    library.names[k]
-                ),
-            });
-            continue;
+            return Err(format!(
+                "collinear with `{}` (|r| > {MAX_COLUMN_CORRELATION})",
+                library.names[k]
+            ));
         }
         // A combination of several earlier columns (Δcmd = cmd − previous cmd) is as
         // unusable as a copy of one.
-        if !cols.is_empty() {
-            let kept = DMatrix::from_fn(train.len(), cols.len(), |i, k| {
-                train.x[i][cols[k]] * train.w[i] / scales[k]
-            });
-            let vv = DVector::from_vec(v.clone());
-            if let Some(c) = minimum_norm_least_squares(&kept, &vv) {
-                let fit = &kept * c;
-                let explained = 1.0 - (&vv - fit).norm_squared() / vv.norm_squared();
-                if explained > MAX_COLUMN_CORRELATION * MAX_COLUMN_CORRELATION {
-                    skipped.push(Skipped {
-                        what: name.clone(),
-                        reason: format!(
-                            "a combination of earlier columns (R² {explained:.4} > {:.4})",
-                            MAX_COLUMN_CORRELATION * MAX_COLUMN_CORRELATION
-                        ),
-                    });
-                    continue;
-                }
+        if let Some(explained) = self.explained_by_kept(train, v) {
+            if explained > MAX_COLUMN_CORRELATION * MAX_COLUMN_CORRELATION {
+                return Err(format!(
+                    "a combination of earlier columns (R² {explained:.4} > {:.4})",
+                    MAX_COLUMN_CORRELATION * MAX_COLUMN_CORRELATION
+                ));
             }
         }
-        cols.push(j);
-        scales.push(rms);
+        Ok(rms)
     }
-    if cols.is_empty() {
-        return Err(skip("no usable library column".into()));
+
+    /// The share of `v` (a weighted column) the kept columns explain by least squares;
+    /// `None` before any column is kept or when the fit fails.
+    fn explained_by_kept(&self, train: &Rows, v: Vec<f64>) -> Option<f64> {
+        if self.cols.is_empty() {
+            return None;
+        }
+        let kept = DMatrix::from_fn(train.len(), self.cols.len(), |i, k| {
+            train.x[i][self.cols[k]] * train.w[i] / self.scales[k]
+        });
+        let vv = DVector::from_vec(v);
+        let c = minimum_norm_least_squares(&kept, &vv)?;
+        let fit = &kept * c;
+        Some(1.0 - (&vv - fit).norm_squared() / vv.norm_squared())
     }
-    let design = |rows: &Rows| -> (DMatrix<f64>, DVector<f64>) {
+
+    /// The weighted, scaled design matrix of `rows` on the kept columns, and the weighted
+    /// response.
+    fn design(&self, rows: &Rows) -> (DMatrix<f64>, DVector<f64>) {
         let n = rows.len();
-        let a = DMatrix::from_fn(n, cols.len(), |i, k| rows.x[i][cols[k]] * rows.w[i] / scales[k]);
+        let a = DMatrix::from_fn(n, self.cols.len(), |i, k| {
+            rows.x[i][self.cols[k]] * rows.w[i] / self.scales[k]
+        });
         let b = DVector::from_fn(n, |i, _| rows.y[i] * rows.w[i]);
         (a, b)
-    };
-    let (a, b) = design(train);
-    let (av, bv) = design(validation);
-    // Threshold by validation loss, one-standard-error rule over validation groups.
+    }
+}
+
+/// The training and validation designs.
+struct Design {
+    train: (DMatrix<f64>, DVector<f64>),
+    validation: (DMatrix<f64>, DVector<f64>),
+}
+
+/// The STLSQ threshold by validation loss, with the one-standard-error rule over validation
+/// groups (see the module doc).
+fn choose_threshold(design: &Design, validation: &Rows, opts: &DiscoveryOptions) -> Result<f64, Skipped> {
+    let ((a, b), (av, bv)) = (&design.train, &design.validation);
     let val_groups = validation.groups();
     let group_index: Vec<usize> = validation
         .group
@@ -287,8 +377,8 @@ pub fn discover(
         .collect();
     let mut losses = Vec::new();
     for &lambda in &THRESHOLDS {
-        let xi = stlsq(&a, &b, lambda, opts.max_iter);
-        let r = &bv - &av * &xi;
+        let xi = stlsq(a, b, lambda, opts.max_iter);
+        let r = bv - av * &xi;
         let mut per_group = vec![0.0; val_groups.len()];
         for (i, v) in r.iter().enumerate() {
             per_group[group_index[i]] += v * v;
@@ -303,80 +393,91 @@ pub fn discover(
         .iter()
         .copied()
         .min_by(|x, y| x.1.total_cmp(&y.1))
-        .ok_or_else(|| skip("no threshold".into()))?;
+        .ok_or_else(|| regression_skipped("no threshold".into()))?;
     // An equation that already brings the response to `good_enough_rms` is as good as any:
     // terms below the noise floor only fit it.
     let enough = opts.good_enough_rms.powi(2) * validation.len() as f64;
-    let threshold = losses
+    Ok(losses
         .iter()
         .filter(|l| l.1 <= (best.1 + best.2).max(enough))
         .map(|l| l.0)
-        .fold(best.0, f64::max);
-    // Stability selection and intervals over bootstrap resamples of the training groups.
-    let groups = train.groups();
-    let rows_of: Vec<Vec<usize>> = groups
-        .iter()
-        .map(|g| (0..train.len()).filter(|&i| train.group[i] == *g).collect())
-        .collect();
-    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
-    let mut chosen = vec![0usize; cols.len()];
-    let mut resamples: Vec<Vec<usize>> = Vec::with_capacity(opts.bootstrap);
-    for _ in 0..opts.bootstrap {
-        let idx: Vec<usize> = (0..groups.len())
-            .flat_map(|_| rows_of[rng.random_range(0..groups.len())].iter().copied())
+        .fold(best.0, f64::max))
+}
+
+/// Stability selection over bootstrap resamples of the training groups.
+struct Stability {
+    /// Share of resamples in which each kept column was chosen.
+    freq: Vec<f64>,
+    /// The resamples' training rows (for the intervals).
+    resamples: Vec<Vec<usize>>,
+}
+
+impl Stability {
+    /// STLSQ at half `threshold` on `opts.bootstrap` resamples of the training groups.
+    fn resample(design: &Design, train: &Rows, threshold: f64, opts: &DiscoveryOptions) -> Self {
+        let (a, b) = &design.train;
+        let groups = train.groups();
+        let rows_of: Vec<Vec<usize>> = groups
+            .iter()
+            .map(|g| (0..train.len()).filter(|&i| train.group[i] == *g).collect())
             .collect();
-        let ab = a.select_rows(idx.iter());
-        let bb = b.select_rows(idx.iter());
-        let xi = stlsq(&ab, &bb, 0.5 * threshold, opts.max_iter);
-        for (k, c) in chosen.iter_mut().enumerate() {
-            if xi[k] != 0.0 {
-                *c += 1;
+        let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
+        let mut chosen = vec![0usize; a.ncols()];
+        let mut resamples: Vec<Vec<usize>> = Vec::with_capacity(opts.bootstrap);
+        for _ in 0..opts.bootstrap {
+            let idx: Vec<usize> = (0..groups.len())
+                .flat_map(|_| rows_of[rng.random_range(0..groups.len())].iter().copied())
+                .collect();
+            let ab = a.select_rows(idx.iter());
+            let bb = b.select_rows(idx.iter());
+            let xi = stlsq(&ab, &bb, 0.5 * threshold, opts.max_iter);
+            for (k, c) in chosen.iter_mut().enumerate() {
+                if xi[k] != 0.0 {
+                    *c += 1;
+                }
             }
+            resamples.push(idx);
         }
-        resamples.push(idx);
+        let freq = chosen
+            .iter()
+            .map(|&c| c as f64 / opts.bootstrap.max(1) as f64)
+            .collect();
+        Self { freq, resamples }
     }
-    let freq: Vec<f64> = chosen
-        .iter()
-        .map(|&c| c as f64 / opts.bootstrap.max(1) as f64)
-        .collect();
-    let kept: Vec<usize> = (0..cols.len())
-        .filter(|&k| freq[k] >= STABILITY_THRESHOLD)
-        .collect();
-    let unstable = (0..cols.len())
-        .filter(|&k| freq[k] > 0.0 && freq[k] < STABILITY_THRESHOLD)
-        .map(|k| (library.names[cols[k]].clone(), freq[k]))
-        .collect();
-    let rms = |r: &DVector<f64>| (r.norm_squared() / r.len().max(1) as f64).sqrt();
-    let mut eq = Equation {
-        terms: Vec::new(),
-        threshold,
-        validation_r2: 0.0,
-        validation_rms: [rms(&bv), rms(&bv)],
-        unstable,
-        skipped,
-        rows: [train.len(), validation.len()],
-    };
-    if kept.is_empty() {
-        return Ok(eq);
-    }
+}
+
+/// What the final fit on the stable terms reads.
+struct Kept<'a> {
+    library: &'a Library,
+    design: &'a Design,
+    columns: &'a Columns,
+    stable: &'a Stability,
+    /// Indices (among the kept columns) of the stable terms.
+    kept: &'a [usize],
+}
+
+/// Least squares on the stable terms over all training rows, their percentile intervals over
+/// the resamples, and the validation R² and RMS, into `eq`.
+fn fit_terms(eq: &mut Equation, k: &Kept<'_>) {
+    let ((a, b), (av, bv)) = (&k.design.train, &k.design.validation);
+    let (kept, scales) = (k.kept, &k.columns.scales);
     let ak = a.select_columns(kept.iter());
-    let Some(xi) = least_squares(&ak, &b) else {
-        eq.skipped.push(Skipped {
-            what: "regression".into(),
-            reason: "the kept terms' design matrix is singular".into(),
-        });
-        return Ok(eq);
+    let Some(xi) = least_squares(&ak, b) else {
+        eq.skipped.push(regression_skipped(
+            "the kept terms' design matrix is singular".into(),
+        ));
+        return;
     };
     let mut boot: Vec<Vec<f64>> = vec![Vec::new(); kept.len()];
-    for idx in &resamples {
+    for idx in &k.stable.resamples {
         if let Some(x) = least_squares(&ak.select_rows(idx.iter()), &b.select_rows(idx.iter())) {
-            for (k, v) in x.iter().enumerate() {
-                boot[k].push(*v / scales[kept[k]]);
+            for (j, v) in x.iter().enumerate() {
+                boot[j].push(*v / scales[kept[j]]);
             }
         }
     }
     let avk = av.select_columns(kept.iter());
-    let r = &bv - &avk * &xi;
+    let r = bv - &avk * &xi;
     let energy = bv.norm_squared();
     eq.validation_r2 = if energy > 0.0 {
         1.0 - r.norm_squared() / energy
@@ -384,17 +485,16 @@ pub fn discover(
         0.0
     };
     eq.validation_rms[1] = rms(&r);
-    for (k, &c) in kept.iter().enumerate() {
-        let coefficient = xi[k] / scales[c];
-        let ci95 = percentile_interval(&mut boot[k]).unwrap_or([coefficient, coefficient]);
+    for (j, &c) in kept.iter().enumerate() {
+        let coefficient = xi[j] / scales[c];
+        let ci95 = percentile_interval(&mut boot[j]).unwrap_or([coefficient, coefficient]);
         eq.terms.push(Term {
-            feature: library.names[cols[c]].clone(),
+            feature: k.library.names[k.columns.cols[c]].clone(),
             coefficient,
             ci95,
-            stability: freq[c],
+            stability: k.stable.freq[c],
         });
     }
-    Ok(eq)
 }
 
 /// Sequentially thresholded least squares: least squares, zero every coefficient below

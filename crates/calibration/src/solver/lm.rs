@@ -11,7 +11,7 @@
 //! one, with Nielsen's update of `λ`. Parameters are scaled to the unit box, so one tolerance
 //! fits all.
 
-use super::{Iteration, LeastSquares, Solution, Stop};
+use super::{Iteration, Layout, LeastSquares, Solution, Stop};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -188,26 +188,24 @@ pub fn minimize(
         lo: bounds.iter().map(|b| b.0).collect(),
         width: bounds.iter().map(|b| (b.1 - b.0).max(1e-300)).collect(),
     };
-    let layout = problem.layout();
-    let mut z: Vec<f64> = x0
+    let z: Vec<f64> = x0
         .iter()
         .zip(&bounds)
         .map(|(x, (l, u))| ((x - l) / (u - l)).clamp(0.0, 1.0))
         .collect();
-    let mut evaluations = 1;
-    let Some(mut r) = s.eval(&z) else {
+    let Some(r) = s.eval(&z) else {
         return Solution {
             x: s.x(&z),
             score: f64::NAN,
             initial_score: f64::NAN,
             iterations: 0,
-            evaluations,
+            evaluations: 1,
             stop: Stop::Failed,
             residuals: Vec::new(),
             jacobian: None,
         };
     };
-    let mut f = layout.log_score(&r);
+    let f = problem.layout().log_score(&r);
     let initial_score = f.exp();
     if z.is_empty() {
         return Solution {
@@ -215,243 +213,300 @@ pub fn minimize(
             score: initial_score,
             initial_score,
             iterations: 0,
-            evaluations,
+            evaluations: 1,
             stop: Stop::NoParameters,
             residuals: r,
             jacobian: None,
         };
     }
-    let p = z.len();
-    let mut lambda = 1e-3;
-    let mut nu = 2.0;
-    let mut iterations = 0;
-    // Forward differences while far from the optimum; central ones once a step has been
-    // rejected (the forward difference's truncation error then matters).
-    let mut central = false;
-    // Accepted steps in a row that lowered the log score by less than `rtol`.
-    let mut creeping = 0;
-    let (mut jac, e) = jacobian(&s, &z, &r, opts, central);
-    evaluations += e;
-    let edge = 1e-12;
-    let stop = 'outer: loop {
-        // Reweight.
-        let w = layout.weights(&r);
-        let mut phi = frozen_cost(layout, &w, &r);
-        let f_outer = f;
-        let mut moved = false;
-        loop {
-            let (g, h) = super::weighted_normal_equations(layout, &w, &r, &jac);
-            let free: Vec<usize> = (0..p)
-                .filter(|&i| !((z[i] <= edge && g[i] > 0.0) || (z[i] >= 1.0 - edge && g[i] < 0.0)))
-                .collect();
-            let pg = free.iter().map(|&i| g[i].abs()).fold(0.0, f64::max);
-            // Converged for these weights: the projected gradient is small, or the full
-            // Gauss–Newton step is tiny against the standard errors (or predicts nothing).
-            let mut done = free.is_empty() || pg < opts.gtol;
-            if !done {
-                if let Some(d) = damped_step(&g, &h, &free, 0.0) {
-                    let gain = -(g.dot(&d) + 0.5 * d.dot(&(&h * &d)));
-                    let cov =
-                        super::covariance::sandwich(layout, &r, &jac, &free, vec![String::new(); free.len()]);
-                    let within = free
-                        .iter()
-                        .zip(&cov.se)
-                        .all(|(&i, &se)| se > 0.0 && d[i].abs() < opts.se_fraction * se);
-                    done = within || (gain.is_finite() && gain < opts.ftol * phi.max(1e-300));
-                }
-            }
-            if done {
-                if !moved || f_outer - f < opts.ftol {
-                    // The weights no longer move the solution: the fixed point.
-                    break 'outer if free.is_empty() || pg < opts.gtol {
-                        Stop::Gradient
-                    } else {
-                        Stop::StepSize
-                    };
-                }
-                continue 'outer;
-            }
-            if iterations >= opts.max_iters {
-                break 'outer Stop::Budget;
-            }
-            iterations += 1;
-            let mut accepted = false;
-            let mut tiny = false;
-            let mut rejected = 0;
-            for _ in 0..12 {
-                let Some(d) = damped_step(&g, &h, &free, lambda) else {
-                    lambda *= nu;
-                    nu *= 2.0;
-                    continue;
-                };
-                let z_new: Vec<f64> = z
-                    .iter()
-                    .zip(d.iter())
-                    .map(|(a, b)| (a + b).clamp(0.0, 1.0))
-                    .collect();
-                let delta = DVector::from_iterator(p, z_new.iter().zip(&z).map(|(a, b)| a - b));
-                if delta.amax() < opts.xtol {
-                    tiny = true;
-                    break;
-                }
-                let predicted = -(g.dot(&delta) + 0.5 * delta.dot(&(&h * &delta)));
-                evaluations += 1;
-                if let Some(rn) = s.eval(&z_new) {
-                    let phi_new = frozen_cost(layout, &w, &rn);
-                    let rho = if predicted > 0.0 {
-                        (phi - phi_new) / predicted
-                    } else {
-                        -1.0
-                    };
-                    if phi_new < phi && rho > 1e-4 {
-                        lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
-                        nu = 2.0;
-                        z = z_new;
-                        let f_new = layout.log_score(&rn);
-                        creeping = if f - f_new < opts.rtol { creeping + 1 } else { 0 };
-                        f = f_new;
-                        r = rn;
-                        phi = phi_new;
-                        accepted = true;
-                        moved = true;
-                        break;
-                    }
-                }
-                lambda *= nu;
-                nu *= 2.0;
-                rejected += 1;
-            }
-            observe(&Iteration {
-                iteration: iterations,
-                score: f.exp(),
-                evaluations,
-                damping: lambda,
-            });
-            if opts.rtol_steps > 0 && creeping >= opts.rtol_steps {
-                break 'outer Stop::Reduction;
-            }
-            if tiny || (!accepted && central) {
-                // No step lowers the weighted cost: as converged as these weights allow.
-                if !moved || f_outer - f < opts.ftol {
-                    break 'outer if tiny { Stop::StepSize } else { Stop::NoProgress };
-                }
-                continue 'outer;
-            }
-            if rejected > 0 && !central {
-                central = true;
-            }
-            if accepted || central {
-                let (j2, e) = jacobian(&s, &z, &r, opts, central);
-                jac = j2;
-                evaluations += e;
-            }
+    let mut st = State::start(&s, z, r, f, opts);
+    let stop = loop {
+        if let Some(stop) = st.reweighting(&s, opts, observe) {
+            break stop;
         }
     };
+    let p = st.z.len();
     Solution {
-        x: s.x(&z),
-        score: f.exp(),
+        x: s.x(&st.z),
+        score: st.f.exp(),
         initial_score,
-        iterations,
-        evaluations,
+        iterations: st.iterations,
+        evaluations: st.evaluations,
         stop,
-        residuals: r,
         // In unit coordinates; scaled to the parameters' units.
-        jacobian: Some(DMatrix::from_fn(jac.nrows(), p, |i, j| jac[(i, j)] / s.width[j])),
+        jacobian: Some(DMatrix::from_fn(st.jac.nrows(), p, |i, j| {
+            st.jac[(i, j)] / s.width[j]
+        })),
+        residuals: st.r,
+    }
+}
+
+/// A unit coordinate this close to a bound is on it.
+const EDGE: f64 = 1e-12;
+
+/// The solver between iterations, in unit-box coordinates.
+struct State {
+    /// The current point.
+    z: Vec<f64>,
+    /// Its residuals.
+    r: Vec<f64>,
+    /// Its log score.
+    f: f64,
+    /// The Jacobian of the residuals, at `z` or at an earlier point.
+    jac: DMatrix<f64>,
+    evaluations: usize,
+    iterations: usize,
+    /// Levenberg–Marquardt damping, and Nielsen's factor for raising it.
+    lambda: f64,
+    nu: f64,
+    /// Forward differences while far from the optimum; central ones once a step has been
+    /// rejected (the forward difference's truncation error then matters).
+    central: bool,
+    /// Accepted steps in a row that lowered the log score by less than `rtol`.
+    creeping: usize,
+}
+
+/// The weights of one reweighting, frozen at the residuals it started from.
+struct Frozen<'l> {
+    layout: &'l Layout,
+    /// Channel weights.
+    w: Vec<f64>,
+    /// Weighted cost at the current point.
+    phi: f64,
+    /// Log score when the weights were frozen.
+    f_outer: f64,
+    /// A step was accepted with these weights.
+    moved: bool,
+}
+
+impl Frozen<'_> {
+    /// After the weighted problem converged with `stop`: the fixed point when these weights no
+    /// longer moved the solution, else a reweighting.
+    fn settled(&self, f: f64, opts: &LmOptions, stop: Stop) -> Next {
+        if !self.moved || self.f_outer - f < opts.ftol {
+            Next::Stop(stop)
+        } else {
+            Next::Reweight
+        }
+    }
+}
+
+/// The weighted Gauss–Newton model at the current point.
+struct Normal {
+    /// Gradient.
+    g: DVector<f64>,
+    /// Gauss–Newton Hessian.
+    h: DMatrix<f64>,
+    /// Parameters not held at a bound by the gradient.
+    free: Vec<usize>,
+    /// Largest component of the projected gradient.
+    pg: f64,
+}
+
+/// What comes after an iteration.
+enum Next {
+    Iterate,
+    Reweight,
+    Stop(Stop),
+}
+
+/// What the damped trial steps of one iteration did.
+struct Trial {
+    accepted: bool,
+    /// The step fell below `xtol`.
+    tiny: bool,
+    rejected: usize,
+}
+
+impl State {
+    fn start(s: &Scaled<'_>, z: Vec<f64>, r: Vec<f64>, f: f64, opts: &LmOptions) -> Self {
+        let (jac, e) = jacobian(s, &z, &r, opts, false);
+        Self {
+            z,
+            r,
+            f,
+            jac,
+            evaluations: 1 + e,
+            iterations: 0,
+            lambda: 1e-3,
+            nu: 2.0,
+            central: false,
+            creeping: 0,
+        }
+    }
+
+    /// Levenberg–Marquardt iterations with the weights frozen at the current residuals;
+    /// `Some` when the solve ends, `None` to reweight.
+    fn reweighting(
+        &mut self,
+        s: &Scaled<'_>,
+        opts: &LmOptions,
+        observe: &mut dyn FnMut(&Iteration),
+    ) -> Option<Stop> {
+        let layout = s.problem.layout();
+        let w = layout.weights(&self.r);
+        let mut frozen = Frozen {
+            layout,
+            phi: frozen_cost(layout, &w, &self.r),
+            w,
+            f_outer: self.f,
+            moved: false,
+        };
+        loop {
+            match self.iteration(s, opts, &mut frozen, observe) {
+                Next::Iterate => {}
+                Next::Reweight => return None,
+                Next::Stop(stop) => return Some(stop),
+            }
+        }
+    }
+
+    /// One iteration: the convergence tests for these weights, then damped trial steps.
+    fn iteration(
+        &mut self,
+        s: &Scaled<'_>,
+        opts: &LmOptions,
+        frozen: &mut Frozen<'_>,
+        observe: &mut dyn FnMut(&Iteration),
+    ) -> Next {
+        let normal = self.normal(frozen);
+        if self.converged_for_weights(frozen, &normal, opts) {
+            let stop = if normal.free.is_empty() || normal.pg < opts.gtol {
+                Stop::Gradient
+            } else {
+                Stop::StepSize
+            };
+            return frozen.settled(self.f, opts, stop);
+        }
+        if self.iterations >= opts.max_iters {
+            return Next::Stop(Stop::Budget);
+        }
+        self.iterations += 1;
+        let trial = self.try_steps(s, opts, frozen, &normal);
+        observe(&Iteration {
+            iteration: self.iterations,
+            score: self.f.exp(),
+            evaluations: self.evaluations,
+            damping: self.lambda,
+        });
+        if opts.rtol_steps > 0 && self.creeping >= opts.rtol_steps {
+            return Next::Stop(Stop::Reduction);
+        }
+        if trial.tiny || (!trial.accepted && self.central) {
+            // No step lowers the weighted cost: as converged as these weights allow.
+            let stop = if trial.tiny {
+                Stop::StepSize
+            } else {
+                Stop::NoProgress
+            };
+            return frozen.settled(self.f, opts, stop);
+        }
+        if trial.rejected > 0 && !self.central {
+            self.central = true;
+        }
+        if trial.accepted || self.central {
+            let (j2, e) = jacobian(s, &self.z, &self.r, opts, self.central);
+            self.jac = j2;
+            self.evaluations += e;
+        }
+        Next::Iterate
+    }
+
+    fn normal(&self, frozen: &Frozen<'_>) -> Normal {
+        let (g, h) = super::weighted_normal_equations(frozen.layout, &frozen.w, &self.r, &self.jac);
+        let z = &self.z;
+        let free: Vec<usize> = (0..z.len())
+            .filter(|&i| !((z[i] <= EDGE && g[i] > 0.0) || (z[i] >= 1.0 - EDGE && g[i] < 0.0)))
+            .collect();
+        let pg = free.iter().map(|&i| g[i].abs()).fold(0.0, f64::max);
+        Normal { g, h, free, pg }
+    }
+
+    /// Converged for these weights: the projected gradient is small, or the full Gauss–Newton
+    /// step is tiny against the standard errors (or predicts nothing).
+    fn converged_for_weights(&self, frozen: &Frozen<'_>, n: &Normal, opts: &LmOptions) -> bool {
+        if n.free.is_empty() || n.pg < opts.gtol {
+            return true;
+        }
+        let Some(d) = damped_step(&n.g, &n.h, &n.free, 0.0) else {
+            return false;
+        };
+        let gain = -(n.g.dot(&d) + 0.5 * d.dot(&(&n.h * &d)));
+        let cov = super::covariance::sandwich(
+            frozen.layout,
+            &self.r,
+            &self.jac,
+            &n.free,
+            vec![String::new(); n.free.len()],
+        );
+        let within = n
+            .free
+            .iter()
+            .zip(&cov.se)
+            .all(|(&i, &se)| se > 0.0 && d[i].abs() < opts.se_fraction * se);
+        within || (gain.is_finite() && gain < opts.ftol * frozen.phi.max(1e-300))
+    }
+
+    /// Up to 12 damped steps, the damping raised after each rejected one, until one lowers the
+    /// weighted cost by a fair share of what it predicts (it is then taken).
+    fn try_steps(&mut self, s: &Scaled<'_>, opts: &LmOptions, frozen: &mut Frozen<'_>, n: &Normal) -> Trial {
+        let p = self.z.len();
+        let mut trial = Trial {
+            accepted: false,
+            tiny: false,
+            rejected: 0,
+        };
+        for _ in 0..12 {
+            let Some(d) = damped_step(&n.g, &n.h, &n.free, self.lambda) else {
+                self.lambda *= self.nu;
+                self.nu *= 2.0;
+                continue;
+            };
+            let z_new: Vec<f64> = self
+                .z
+                .iter()
+                .zip(d.iter())
+                .map(|(a, b)| (a + b).clamp(0.0, 1.0))
+                .collect();
+            let delta = DVector::from_iterator(p, z_new.iter().zip(&self.z).map(|(a, b)| a - b));
+            if delta.amax() < opts.xtol {
+                trial.tiny = true;
+                break;
+            }
+            let predicted = -(n.g.dot(&delta) + 0.5 * delta.dot(&(&n.h * &delta)));
+            self.evaluations += 1;
+            if let Some(rn) = s.eval(&z_new) {
+                let phi_new = frozen_cost(frozen.layout, &frozen.w, &rn);
+                let rho = if predicted > 0.0 {
+                    (frozen.phi - phi_new) / predicted
+                } else {
+                    -1.0
+                };
+                if phi_new < frozen.phi && rho > 1e-4 {
+                    self.lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+                    self.nu = 2.0;
+                    self.z = z_new;
+                    let f_new = frozen.layout.log_score(&rn);
+                    self.creeping = if self.f - f_new < opts.rtol {
+                        self.creeping + 1
+                    } else {
+                        0
+                    };
+                    self.f = f_new;
+                    self.r = rn;
+                    frozen.phi = phi_new;
+                    trial.accepted = true;
+                    frozen.moved = true;
+                    break;
+                }
+            }
+            self.lambda *= self.nu;
+            self.nu *= 2.0;
+            trial.rejected += 1;
+        }
+        trial
     }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::super::{Layout, LeastSquares};
-    use super::*;
-
-    /// y = a·exp(−b t) sampled on two channels with different noise, clusters of 5 samples.
-    struct Decay {
-        t: Vec<f64>,
-        y: Vec<f64>,
-        layout: Layout,
-    }
-
-    impl LeastSquares for Decay {
-        fn dim(&self) -> usize {
-            2
-        }
-        fn bounds(&self) -> Vec<(f64, f64)> {
-            vec![(0.1, 10.0), (0.01, 5.0)]
-        }
-        fn residuals(&self, x: &[f64]) -> Option<Vec<f64>> {
-            Some(
-                self.t
-                    .iter()
-                    .zip(&self.y)
-                    .map(|(t, y)| x[0] * (-x[1] * t).exp() - y)
-                    .collect(),
-            )
-        }
-        fn layout(&self) -> &Layout {
-            &self.layout
-        }
-    }
-
-    #[test]
-    fn recovers_an_exact_model_and_stops_on_a_criterion() {
-        let t: Vec<f64> = (0..40).map(|i| i as f64 * 0.1).collect();
-        let y: Vec<f64> = t.iter().map(|t| 2.5 * (-0.7 * t).exp()).collect();
-        let layout = Layout {
-            channel: (0..40).map(|i| (i % 2) as u8).collect(),
-            cluster: (0..40).map(|i| i / 5).collect(),
-            floor: vec![1.0, 1.0],
-            min_ratio: 0.0,
-        };
-        let p = Decay { t, y, layout };
-        let sol = minimize(&p, &[1.0, 2.0], &LmOptions::default(), &mut |_| {});
-        assert!(sol.stop.converged(), "{:?}", sol.stop);
-        assert!(
-            (sol.x[0] - 2.5).abs() < 1e-4 && (sol.x[1] - 0.7).abs() < 1e-4,
-            "{:?}",
-            sol.x
-        );
-    }
-
-    /// Two channels each see one parameter `x`: channel 0 wants x = 0 (2 entries), channel 1
-    /// wants x = 1 (1 entry), floors 1. The geometric-mean score
-    /// exp(½ [ln x² + ln (x − 1)²]) = x (1 − x) is smallest on the box [0.2, 0.7] at its lower
-    /// bound (0.16, against 0.21 at 0.7), while the arithmetic mean of the channel MSEs,
-    /// (x² + (x − 1)²) / 2, is smallest at x = 0.5. The solver must find the geometric one.
-    struct TwoChannels {
-        layout: Layout,
-    }
-
-    impl LeastSquares for TwoChannels {
-        fn dim(&self) -> usize {
-            1
-        }
-        fn bounds(&self) -> Vec<(f64, f64)> {
-            vec![(0.2, 0.7)]
-        }
-        fn residuals(&self, x: &[f64]) -> Option<Vec<f64>> {
-            Some(vec![x[0], x[0], x[0] - 1.0])
-        }
-        fn layout(&self) -> &Layout {
-            &self.layout
-        }
-    }
-
-    #[test]
-    fn minimises_the_geometric_not_the_arithmetic_mean() {
-        let p = TwoChannels {
-            layout: Layout {
-                channel: vec![0, 0, 1],
-                cluster: vec![0, 1, 2],
-                floor: vec![1.0, 1.0],
-                min_ratio: 0.0,
-            },
-        };
-        // By hand: score(x) = |x| |x − 1| on [0.2, 0.7]; score(0.2) = 0.16, score(0.5) = 0.25,
-        // score(0.7) = 0.21. The minimum is the lower bound.
-        let sol = minimize(&p, &[0.45], &LmOptions::default(), &mut |_| {});
-        assert!((sol.x[0] - 0.2).abs() < 1e-9, "{:?}", sol);
-        assert!((sol.score - 0.16).abs() < 1e-9, "{}", sol.score);
-        assert!(sol.stop.converged(), "{:?}", sol.stop);
-    }
-}
+mod tests;

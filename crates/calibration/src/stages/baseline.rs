@@ -1,6 +1,7 @@
 //! Stage 1: where the declared model stands, and the base (terrain / robot) fit.
 
 use super::Context;
+use crate::events::CalibrationEvent;
 use crate::fit::{fit, FitResult};
 use crate::metrics::{score, StepErrors};
 use crate::model::{IddFactory, ModelParams};
@@ -45,10 +46,10 @@ pub fn run(ctx: &Context<'_>, input: BaselineInput<'_>) -> Result<BaselineOutput
     let before_test = ctx.test.errors(f, declared)?;
     let before_validation = ctx.validation.errors(f, declared)?;
     let before_val = score(&before_validation, &ctx.floor);
-    (ctx.progress)(&format!(
-        "baseline: validation score of the declared model {before_val:.2} on {} steps (1 = noise floor)",
-        ctx.validation.len()
-    ));
+    (ctx.progress)(&CalibrationEvent::Baseline {
+        validation_score: before_val,
+        steps: ctx.validation.len(),
+    });
     let mut notes = Vec::new();
     let specs = input.specs;
     if specs.is_empty() {
@@ -87,15 +88,16 @@ pub fn run(ctx: &Context<'_>, input: BaselineInput<'_>) -> Result<BaselineOutput
             r.initial_score, r.score
         ));
     }
-    (ctx.progress)(&format!(
-        "base fit ({} parameters, {} evaluations, {}): training {:.2} -> {:.2}, validation {before_val:.2} -> {val:.2}, {}",
-        specs.len(),
-        r.evaluations,
-        r.status,
-        r.initial_score,
-        r.score,
-        if kept { "kept" } else { "not kept" }
-    ));
+    (ctx.progress)(&CalibrationEvent::BaseFit {
+        params: specs.len(),
+        evaluations: r.evaluations,
+        status: r.status.clone(),
+        training_before: r.initial_score,
+        training_after: r.score,
+        validation_before: before_val,
+        validation_after: val,
+        kept,
+    });
     Ok(if kept {
         BaselineOutput {
             idd_test,

@@ -2,6 +2,7 @@
 
 use super::candidates::Candidate;
 use super::Context;
+use crate::events::CalibrationEvent;
 use crate::fit::{fit, FitResult};
 use crate::metrics::{score, StepErrors};
 use crate::model::ModelParams;
@@ -133,13 +134,14 @@ pub fn run(ctx: &Context<'_>, input: FinalFitInput<'_>) -> Result<FinalFitOutput
             "{s} ended on a bound of its box: likely a stand-in for an effect the model lacks"
         ));
     }
-    (ctx.progress)(&format!(
-        "final fit ({} parameters, {} evaluations, {}): validation {old:.2} -> {new:.2}{}",
-        specs.len(),
-        r.evaluations,
-        r.status,
-        if kept { "" } else { ", not kept" }
-    ));
+    (ctx.progress)(&CalibrationEvent::FinalFit {
+        params: specs.len(),
+        evaluations: r.evaluations,
+        status: r.status.clone(),
+        validation_before: old,
+        validation_after: new,
+        kept,
+    });
     Ok(FinalFitOutput {
         model: if kept { m } else { input.current.clone() },
         fit: Some(r),

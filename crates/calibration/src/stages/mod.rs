@@ -31,6 +31,7 @@ use super::metrics::NoiseFloor;
 use super::model::{ModelParams, PlantFactory};
 use super::replay::ReplayCounters;
 use super::CalibrationOptions;
+use crate::events::CalibrationEvent;
 use drive_sim_log::DriveLog;
 use drive_sim_model::effects::CommandReach;
 use serde::{Deserialize, Serialize};
@@ -61,7 +62,7 @@ pub struct Context<'a> {
     /// The declared model (robot and terrain files, no effect).
     pub declared: ModelParams,
     /// Tells the user what a stage found as it ends.
-    pub progress: &'a (dyn Fn(&str) + Sync),
+    pub progress: &'a (dyn Fn(&CalibrationEvent) + Sync),
 }
 
 /// Wall time and replays of one stage.

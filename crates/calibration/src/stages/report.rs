@@ -6,6 +6,7 @@ use super::final_fit::FinalFitOutput;
 use super::screening::ScreeningReport;
 use super::selection::SelectionOutput;
 use super::Context;
+use crate::events::CalibrationEvent;
 use crate::fit::FittedParam;
 use crate::metrics::{step_features, ErrorSummary, StepFeatures};
 use crate::model::ModelParams;
@@ -217,7 +218,10 @@ pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
         &[final_fit.fit.as_ref(), baseline.base_fit.as_ref()],
     )?;
     for d in &declared_effects {
-        (ctx.progress)(&format!("declared {}: {}", d.effect, d.verdict));
+        (ctx.progress)(&CalibrationEvent::Declared {
+            effect: d.effect.clone(),
+            verdict: d.verdict.clone(),
+        });
         if d.contradicted {
             notes.push(format!("declared {}: {}", d.effect, d.verdict));
         }
@@ -228,25 +232,8 @@ pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
     let before = ErrorSummary::pool(&baseline.before_test, floor);
     let after_terrain = ErrorSummary::pool(&after_base_test, floor);
     let after = ErrorSummary::pool(&after_test, floor);
-    let kernel_var =
-        ctx.opts
-            .kernel_var
-            .unwrap_or(drive_sim_analysis::smoother::KernelCovariance::paper_variance(
-                &ctx.declared.robot.name,
-            ));
-    let space = ctx.declared.robot.command_space();
-    let residual_of = |m: &ModelParams| -> Result<ResidualAnalysis> {
-        Ok(residual::analyse(
-            &replayed_features(ctx, m)?,
-            &ctx.test.features,
-            ctx.declared.robot.idd(),
-            &space,
-            ctx.opts.grid_step,
-            kernel_var,
-        ))
-    };
-    let residual_before = residual_of(&baseline.current)?;
-    let residual_after = residual_of(&model_after)?;
+    let residual_before = residual_of(ctx, &baseline.current)?;
+    let residual_after = residual_of(ctx, &model_after)?;
     let total_reduction = before.score - after.score;
     let total_reduction_se = bootstrap_reduction_se(
         &baseline.before_test,
@@ -255,86 +242,10 @@ pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
         ctx.opts.rule.bootstrap_samples,
         ctx.opts.seed,
     );
-    // Every effect parameter of the final model, with its interval from the final fit.
-    let fitted = final_fit.fit.as_ref();
-    let effects: Vec<FittedParam> = model_after
-        .effects
-        .values()
-        .into_iter()
-        // A discovered term carries a coefficient for every library feature; those its
-        // equation does not use stay at 0 and are not part of the model.
-        .filter(|(k, v)| {
-            let generic = drive_sim_model::effects::param_owner(k)
-                .is_some_and(|(i, _)| drive_sim_model::effects::REGISTRY[i].generic());
-            !(generic && *v == 0.0)
-        })
-        .map(|(k, v)| {
-            let name = format!("effect.{k}");
-            let spec = selection
-                .selected
-                .iter()
-                .flat_map(|c| &c.params)
-                .find(|p| p.param.name() == name);
-            let from_fit = fitted.and_then(|f| f.param(&name)).cloned();
-            match (from_fit, spec) {
-                (Some(mut p), _) => {
-                    p.value = v;
-                    p
-                }
-                (None, Some(spec)) => FittedParam::of(spec, None, v),
-                (None, None) => FittedParam {
-                    name,
-                    initial: None,
-                    value: v,
-                    lower: f64::NAN,
-                    upper: f64::NAN,
-                    at_bound: false,
-                    unit: String::new(),
-                    se: None,
-                    ci95: None,
-                    identifiable: None,
-                    identifiability_note: None,
-                    neutral_in_interval: None,
-                    confounded: false,
-                },
-            }
-        })
-        .collect();
-    let mut converged = selection.converged
-        && baseline.base_fit.as_ref().is_none_or(|f| f.converged)
-        && final_fit.fit.as_ref().is_none_or(|f| f.converged);
-    if selection
-        .rounds
-        .iter()
-        .flat_map(|r| &r.ranking)
-        .any(|e| !e.converged)
-    {
-        converged = false;
-    }
-    if !ctx.excluded.is_empty() {
-        notes.push(format!(
-            "{} step(s) of the log excluded from every set, as the analysis excludes them (excluded_steps): {}",
-            ctx.excluded.len(),
-            ctx.excluded
-                .iter()
-                .map(|e| e.step.to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
-        ));
-    }
-    notes.extend(baseline.notes);
-    notes.extend(selection.notes);
-    notes.extend(final_fit.notes);
-    let source_file = match &ctx.log.meta.origin {
-        Origin::Measured { file } => Some(file.clone()),
-        _ => None,
-    };
-    let reproduce = format!(
-        "drive-sim calibrate {} --model {} --seed {} --out <DIR>",
-        source_file.as_deref().unwrap_or(&ctx.log.meta.name),
-        ctx.factory.name(),
-        ctx.opts.seed
-    );
+    let effects = effect_params(&model_after, &selection, final_fit.fit.as_ref());
+    let converged = all_converged(&baseline, &selection, &final_fit);
+    add_stage_notes(ctx, &mut notes, &baseline, &selection, &final_fit);
+    let (source_file, reproduce) = source_and_reproduce(ctx);
     let score_of =
         |e: &[crate::metrics::StepErrors]| -> Vec<f64> { e.iter().map(|s| s.score(floor)).collect() };
     Ok(CalibrationReport {
@@ -382,4 +293,130 @@ pub fn run(ctx: &Context<'_>, input: ReportInput) -> Result<CalibrationReport> {
         reproduce,
         twin_check: None,
     })
+}
+
+/// The residual of model `m` over the command space and over the step, on the test steps.
+fn residual_of(ctx: &Context<'_>, m: &ModelParams) -> Result<ResidualAnalysis> {
+    let kernel_var =
+        ctx.opts
+            .kernel_var
+            .unwrap_or(drive_sim_analysis::smoother::KernelCovariance::paper_variance(
+                &ctx.declared.robot.name,
+            ));
+    let space = ctx.declared.robot.command_space();
+    Ok(residual::analyse(
+        &replayed_features(ctx, m)?,
+        &ctx.test.features,
+        ctx.declared.robot.idd(),
+        &space,
+        ctx.opts.grid_step,
+        kernel_var,
+    ))
+}
+
+/// Every effect parameter of the final model, with its interval from the final fit.
+fn effect_params(
+    model_after: &ModelParams,
+    selection: &SelectionOutput,
+    fitted: Option<&crate::FitResult>,
+) -> Vec<FittedParam> {
+    model_after
+        .effects
+        .values()
+        .into_iter()
+        // A discovered term carries a coefficient for every library feature; those its
+        // equation does not use stay at 0 and are not part of the model.
+        .filter(|(k, v)| {
+            let generic = drive_sim_model::effects::param_owner(k)
+                .is_some_and(|(i, _)| drive_sim_model::effects::REGISTRY[i].generic());
+            !(generic && *v == 0.0)
+        })
+        .map(|(k, v)| {
+            let name = format!("effect.{k}");
+            let spec = selection
+                .selected
+                .iter()
+                .flat_map(|c| &c.params)
+                .find(|p| p.param.name() == name);
+            let from_fit = fitted.and_then(|f| f.param(&name)).cloned();
+            match (from_fit, spec) {
+                (Some(mut p), _) => {
+                    p.value = v;
+                    p
+                }
+                (None, Some(spec)) => FittedParam::of(spec, None, v),
+                (None, None) => FittedParam {
+                    name,
+                    initial: None,
+                    value: v,
+                    lower: f64::NAN,
+                    upper: f64::NAN,
+                    at_bound: false,
+                    unit: String::new(),
+                    se: None,
+                    ci95: None,
+                    identifiable: None,
+                    identifiability_note: None,
+                    neutral_in_interval: None,
+                    confounded: false,
+                },
+            }
+        })
+        .collect()
+}
+
+/// Every fit of every stage converged.
+fn all_converged(baseline: &BaselineOutput, selection: &SelectionOutput, final_fit: &FinalFitOutput) -> bool {
+    let mut converged = selection.converged
+        && baseline.base_fit.as_ref().is_none_or(|f| f.converged)
+        && final_fit.fit.as_ref().is_none_or(|f| f.converged);
+    if selection
+        .rounds
+        .iter()
+        .flat_map(|r| &r.ranking)
+        .any(|e| !e.converged)
+    {
+        converged = false;
+    }
+    converged
+}
+
+/// The excluded steps and the stages' own notes, after the set-up's.
+fn add_stage_notes(
+    ctx: &Context<'_>,
+    notes: &mut Vec<String>,
+    baseline: &BaselineOutput,
+    selection: &SelectionOutput,
+    final_fit: &FinalFitOutput,
+) {
+    if !ctx.excluded.is_empty() {
+        notes.push(format!(
+            "{} step(s) of the log excluded from every set, as the analysis excludes them (excluded_steps): {}",
+            ctx.excluded.len(),
+            ctx.excluded
+                .iter()
+                .map(|e| e.step.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    notes.extend(baseline.notes.iter().cloned());
+    notes.extend(selection.notes.iter().cloned());
+    notes.extend(final_fit.notes.iter().cloned());
+}
+
+/// The file the log was read from, when measured, and a command line that reproduces the
+/// calibration from it.
+fn source_and_reproduce(ctx: &Context<'_>) -> (Option<String>, String) {
+    let source_file = match &ctx.log.meta.origin {
+        Origin::Measured { file } => Some(file.clone()),
+        _ => None,
+    };
+    let reproduce = format!(
+        "drive-sim calibrate {} --model {} --seed {} --out <DIR>",
+        source_file.as_deref().unwrap_or(&ctx.log.meta.name),
+        ctx.factory.name(),
+        ctx.opts.seed
+    );
+    (source_file, reproduce)
 }

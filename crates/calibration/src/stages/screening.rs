@@ -3,6 +3,7 @@
 
 use super::candidates::{evaluate, pairs_of, Candidate, CandidateEvidence, EvaluateInput};
 use super::Context;
+use crate::events::CalibrationEvent;
 use crate::fit::fit;
 use crate::model::{KinematicFactory, ModelParams, PlantFactory};
 use drive_sim_model::error::Result;
@@ -142,18 +143,13 @@ pub fn run(ctx: &Context<'_>, input: ScreeningInput<'_>) -> Result<ScreeningOutp
         pair_ranking: pairs_out.into_iter().map(|(e, _)| e).collect(),
         pair_shortlist: pairs.iter().map(|c| c.name.clone()).collect(),
     };
-    (ctx.progress)(&format!(
-        "screening with the kinematic model ({} candidates, {} pairs, its validation score {:.2}): passing on {}; pairs {}",
-        screened.len(),
-        report.pair_ranking.len(),
-        kinematic_validation_score,
-        report.shortlist.join(", "),
-        if report.pair_shortlist.is_empty() {
-            "none".to_string()
-        } else {
-            report.pair_shortlist.join(", ")
-        }
-    ));
+    (ctx.progress)(&CalibrationEvent::Screening {
+        candidates: screened.len(),
+        pairs: report.pair_ranking.len(),
+        validation_score: kinematic_validation_score,
+        shortlist: report.shortlist.clone(),
+        pair_shortlist: report.pair_shortlist.clone(),
+    });
     Ok(ScreeningOutput {
         report,
         shortlist,

@@ -8,6 +8,7 @@ use super::candidates::{
     bootstrap_reduction_se, evaluate, pairs_of, Candidate, CandidateEvidence, EvaluateInput,
 };
 use super::Context;
+use crate::events::{CalibrationEvent, RoundOutcome};
 use crate::fit::fit;
 use crate::metrics::{score, StepErrors};
 use crate::model::ModelParams;
@@ -134,8 +135,9 @@ fn joint_refit(ctx: &Context<'_>, st: &mut State, base: &[ParamSpec], label: &st
     Ok(())
 }
 
-/// Every pair of `top`, each once.
 /// Runs forward selection, pairs and the backward pass.
+// One long stage on purpose: selection and discovery are being redesigned as one competition;
+// split when that lands.
 pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> {
     let opts = ctx.opts;
     let mut st = State {
@@ -252,16 +254,15 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
                     let better = pev.significant
                         && (!single.significant
                             || opts.rule.passes(gain, se, score(&single_val, &ctx.floor)));
-                    (ctx.progress)(&format!(
-                        "round 0 pairs: {} tried, best {} (validation {:.2} -> {:.2}; {:.2} ± {:.2} below the best single){}",
-                        tried.len(),
-                        pev.effect,
-                        pev.heldout_before,
-                        pev.heldout_after,
+                    (ctx.progress)(&CalibrationEvent::FirstRoundPairs {
+                        tried: tried.len(),
+                        best: pev.effect.clone(),
+                        validation_before: pev.heldout_before,
+                        validation_after: pev.heldout_after,
                         gain,
                         se,
-                        if better { ", preferred" } else { "" }
-                    ));
+                        preferred: better,
+                    });
                     if better {
                         pair_added = tried.iter().find(|c| c.name == pev.effect).cloned();
                         best = Some((pev.clone(), pmodel.clone()));
@@ -271,21 +272,21 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
             }
         }
         if let Some((ev, _)) = &best {
-            (ctx.progress)(&format!(
-                "round {round}: {} candidates, best {} (validation {:.2} -> {:.2}, ± {:.2}){}",
-                out.ranked.len(),
-                ev.effect,
-                ev.heldout_before,
-                ev.heldout_after,
-                ev.reduction_se,
-                if ev.significant {
-                    ", added".to_string()
+            (ctx.progress)(&CalibrationEvent::Round {
+                round,
+                candidates: out.ranked.len(),
+                best: ev.effect.clone(),
+                validation_before: ev.heldout_before,
+                validation_after: ev.heldout_after,
+                se: ev.reduction_se,
+                outcome: if ev.significant {
+                    RoundOutcome::Added
                 } else if ev.identifiable == Some(false) {
-                    ", not identifiable: stop".to_string()
+                    RoundOutcome::NotIdentifiable
                 } else {
-                    ", not significant: stop".to_string()
-                }
-            ));
+                    RoundOutcome::NotSignificant
+                },
+            });
         }
         let added = match best {
             Some((ev, model)) if ev.significant => {
@@ -337,19 +338,14 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
                 },
             )?;
             if let Some((ev, model)) = out.ranked.first() {
-                (ctx.progress)(&format!(
-                    "pairs: {} tried, best {} (validation {:.2} -> {:.2}, ± {:.2}){}",
-                    tried.len(),
-                    ev.effect,
-                    ev.heldout_before,
-                    ev.heldout_after,
-                    ev.reduction_se,
-                    if ev.significant {
-                        ", added"
-                    } else {
-                        ", not significant"
-                    }
-                ));
+                (ctx.progress)(&CalibrationEvent::Pairs {
+                    tried: tried.len(),
+                    best: ev.effect.clone(),
+                    validation_before: ev.heldout_before,
+                    validation_after: ev.heldout_after,
+                    se: ev.reduction_se,
+                    added: ev.significant,
+                });
                 if ev.significant {
                     if let Some(c) = tried.iter().find(|c| c.name == ev.effect) {
                         add_pair(&mut st.selected, &mut pool, c, model);
@@ -445,11 +441,13 @@ pub fn backward_pass(
             se,
             dropped,
         });
-        (ctx.progress)(&format!(
-            "backward: without {} validation {with_s:.2} -> {without_s:.2} (± {se:.2}){}",
-            c.name,
-            if dropped { ", dropped" } else { ", kept" }
-        ));
+        (ctx.progress)(&CalibrationEvent::Backward {
+            effect: c.name.clone(),
+            with: with_s,
+            without: without_s,
+            se,
+            dropped,
+        });
         if dropped {
             selected.remove(k);
             *current = m;
