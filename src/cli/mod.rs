@@ -9,6 +9,7 @@ pub mod judge;
 pub mod run;
 pub mod samplers;
 pub mod sweep;
+pub mod sweep_args;
 pub mod tune;
 
 use clap::{Parser, Subcommand};
@@ -76,9 +77,9 @@ pub enum Command {
     /// error against the open-loop truth, coverage, interruptions, energy.
     Samplers(samplers::SamplersArgs),
     /// Runs a sweep matrix (robots × terrains × samplers × seeds), sharded and resumable.
-    Sweep(drive_sim::harness::sweep::SweepArgs),
+    Sweep(sweep_args::SweepArgs),
     /// Merges sweep output directories (e.g. one per shard) into merged.json and merged.csv.
-    SweepMerge(drive_sim::harness::sweep::MergeArgs),
+    SweepMerge(sweep_args::MergeArgs),
 }
 
 /// An error and its causes, `outer: inner`, each said once: a cause whose text the message

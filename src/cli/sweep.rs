@@ -2,9 +2,8 @@
 //! sharded and resumable (see [`drive_sim::harness::sweep`]; what each run does is
 //! [`drive_sim::harness::sweep_run`]), and the merge of the shards' tables.
 
-use drive_sim::harness::sweep::{
-    merge, run_sweep_with_progress, MergeArgs, RunOutcome, SweepArgs, SweepMatrix,
-};
+use super::sweep_args::{MergeArgs, SweepArgs};
+use drive_sim::harness::sweep::{merge, run_sweep_with_progress, RunOutcome, SweepMatrix};
 use drive_sim::harness::sweep_run::sweep_run_with;
 
 /// `drive-sim sweep`.

@@ -1,4 +1,8 @@
-//! The crate's error type: every failure on user input says what and where.
+//! The errors every stage can meet: a bad configuration value or name, a log that cannot be
+//! read, an I/O or JSON failure on a path, a diverged plant, an interrupt. Each stage above the
+//! model has its own error enum for its own failures, wrapping this one
+//! ([`shared_error_constructors`](crate::shared_error_constructors) gives it the same
+//! constructors); every failure on user input says what and where.
 
 use std::path::PathBuf;
 
@@ -128,3 +132,39 @@ impl Error {
 
 /// Result alias used across the crate.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Gives a crate's own error enum, which wraps this crate's [`Error`] in a variant
+/// `Model(#[from] drive_sim_model::Error)`, the constructors of the shared errors (`config`,
+/// `log`, `io`, `json`), so that every stage names a bad file, log location or path the same way.
+#[macro_export]
+macro_rules! shared_error_constructors {
+    ($t:ty) => {
+        impl $t {
+            /// A bad value in a configuration file or option ([`drive_sim_model::Error::Config`]).
+            pub fn config(
+                file: impl Into<std::path::PathBuf>,
+                field: impl Into<String>,
+                message: impl Into<String>,
+            ) -> Self {
+                Self::Model($crate::Error::config(file, field, message))
+            }
+            /// A log that cannot be read or used, and where ([`drive_sim_model::Error::Log`]).
+            pub fn log(
+                file: impl Into<std::path::PathBuf>,
+                location: impl Into<String>,
+                message: impl Into<String>,
+            ) -> Self {
+                Self::Model($crate::Error::log(file, location, message))
+            }
+            /// An I/O failure on a path ([`drive_sim_model::Error::Io`]).
+            pub fn io(path: impl Into<std::path::PathBuf>, source: std::io::Error) -> Self {
+                Self::Model($crate::Error::io(path, source))
+            }
+            /// A value that cannot be written as JSON, or a JSON file that cannot be read
+            /// ([`drive_sim_model::Error::Json`]).
+            pub fn json(path: impl Into<std::path::PathBuf>, source: serde_json::Error) -> Self {
+                Self::Model($crate::Error::json(path, source))
+            }
+        }
+    };
+}

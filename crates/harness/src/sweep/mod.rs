@@ -14,13 +14,11 @@
 //! What a run does is the caller's: a callback `Fn(&RunSpec, &Path) -> Result<Value>` that
 //! writes its files in the given directory and returns the figures to tabulate.
 
-mod args;
 mod batch;
 mod matrix;
 mod merge;
 mod run;
 
-pub use args::{MergeArgs, SweepArgs};
 pub use batch::{select_shard, select_shard_from_env, ShardChoice, ShardSource};
 pub use matrix::{ProtocolOverrides, RunSpec, Shard, SweepMatrix};
 pub use merge::{merge, Duplicate, MergedReport};
