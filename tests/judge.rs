@@ -50,7 +50,7 @@ fn judged(real: &DriveLog, model: &drive_sim::calibration::ModelParams) -> Judge
             model,
             opts: &o,
         },
-        &|line| eprintln!("{line}"),
+        &|event| eprintln!("{event}"),
     )
     .unwrap();
     eprintln!("{}", drive_sim::compare::judge::write::table(&j));
@@ -206,7 +206,7 @@ fn the_inverted_judge_gives_a_set_that_holds_the_true_limit() {
             specs: &specs,
             opts: &walk,
         },
-        &|line| eprintln!("{line}"),
+        &|event| eprintln!("{event}"),
     )
     .unwrap();
     let set = &sets[0];

@@ -17,7 +17,7 @@
 mod common;
 use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};
 use drive_sim::calibration::twin;
-use drive_sim::compare::tune::{search::SearchOptions, tune, TuneOptions, TuneRequest};
+use drive_sim::compare::tune::{search::SearchOptions, tune, TuneEvent, TuneOptions, TuneRequest};
 use drive_sim::log::UseSteps;
 use drive_sim::terrain::Terrain;
 
@@ -52,7 +52,9 @@ fn tuned(limit_rad_s: f64) -> drive_sim::compare::tune::TuneOutcome {
         ..TuneOptions::default()
     };
     let names = vec!["wheel_speed_saturation_rad_s".to_string()];
-    tune(
+    // The search's points as it reports them: numbered from 1, one per evaluation.
+    let last_point = std::sync::Mutex::new(0);
+    let o = tune(
         &TuneRequest {
             real: &log,
             start: &start,
@@ -60,9 +62,17 @@ fn tuned(limit_rad_s: f64) -> drive_sim::compare::tune::TuneOutcome {
             boxes: &[],
             opts: &opts,
         },
-        &|line| eprintln!("{line}"),
+        &|event| {
+            if let TuneEvent::Point { index, keys, .. } = event {
+                assert_eq!(*keys, &names[..]);
+                *last_point.lock().unwrap() = *index;
+            }
+            eprintln!("{event}")
+        },
     )
-    .unwrap()
+    .unwrap();
+    assert_eq!(*last_point.lock().unwrap(), o.evaluations.len());
+    o
 }
 
 #[test]

@@ -49,34 +49,6 @@ pub struct CompareArgs {
 
 /// Reads the logs, compares them, writes the report and prints the verdict table.
 pub fn compare(args: &CompareArgs) -> anyhow::Result<()> {
-    if args.resamples < 100 {
-        return Err(drive_sim::Error::config(
-            "--resamples",
-            "resamples",
-            format!("must be at least 100, got {}", args.resamples),
-        )
-        .into());
-    }
-    if args.yardstick_splits == 0 {
-        return Err(drive_sim::Error::config(
-            "--yardstick-splits",
-            "yardstick_splits",
-            "must be at least 1 (1: the odd and even steps alone), got 0",
-        )
-        .into());
-    }
-    if args.out.is_file() {
-        anyhow::bail!("--out {}: is a file, not a directory", args.out.display());
-    }
-    eprintln!("drive-sim: reading {}", args.real.display());
-    let real = args
-        .real_steps
-        .select(&super::input::open_log(&args.real, &args.input)?);
-    let mut sims = Vec::new();
-    for p in &args.sims {
-        eprintln!("drive-sim: reading {}", p.display());
-        sims.push(super::input::open_log(p, &args.input)?);
-    }
     let opts = CompareOptions {
         bootstrap: Bootstrap {
             resamples: args.resamples,
@@ -89,6 +61,19 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<()> {
         tf_yardstick_splits: args.yardstick_splits,
         ..CompareOptions::default()
     };
+    opts.validate()?;
+    if args.out.is_file() {
+        anyhow::bail!("--out {}: is a file, not a directory", args.out.display());
+    }
+    eprintln!("drive-sim: reading {}", args.real.display());
+    let real = args
+        .real_steps
+        .select(&super::input::open_log(&args.real, &args.input)?);
+    let mut sims = Vec::new();
+    for p in &args.sims {
+        eprintln!("drive-sim: reading {}", p.display());
+        sims.push(super::input::open_log(p, &args.input)?);
+    }
     let inputs: Vec<Input> = sims
         .iter()
         .zip(&args.sims)

@@ -2,9 +2,9 @@
 //! run from a run of the twin? ([`drive_sim::compare::judge`]).
 
 use drive_sim::calibration::twin;
-use drive_sim::compare::judge::interval::{self, IntervalOptions, IntervalRequest, ParamInterval};
+use drive_sim::compare::judge::interval::{self, IntervalOptions, IntervalRequest};
 use drive_sim::compare::judge::{self, JudgeOptions, JudgeRequest};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Options of `drive-sim judge`.
 #[derive(Debug, Clone, clap::Args)]
@@ -106,21 +106,23 @@ pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
     } else {
         interval::interval_specs(&args.interval, &boxes, &model, &log)?
     };
-    let twin_files = twin_file_texts(args)?;
+    let twin_files = if args.interval.is_empty() {
+        None
+    } else {
+        judge::write::read_twin_files(args.input.robot.as_deref(), args.input.terrain.as_deref())?
+    };
     let staged = drive_sim::output::StagedDir::begin(&args.out, "--out")?;
     let t0 = std::time::Instant::now();
-    let progress = |line: &str| eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64());
+    let print = |event: &dyn std::fmt::Display| {
+        eprintln!("drive-sim: [{:>6.1} s] {event}", t0.elapsed().as_secs_f64())
+    };
     let request = JudgeRequest {
         real: &log,
         model: &model,
         opts: &opts,
     };
-    let mut outcome = judge::judge(&request, &progress)?;
+    let mut outcome = judge::judge(&request, &|e| print(e))?;
     if !specs.is_empty() {
-        progress(&format!(
-            "interval: walking {} parameter(s), each value judged as above",
-            specs.len()
-        ));
         outcome.intervals = interval::intervals(
             &IntervalRequest {
                 judge: request,
@@ -128,7 +130,7 @@ pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
                 specs: &specs,
                 opts: &iopts,
             },
-            &progress,
+            &|e| print(e),
         )?;
     }
     let provenance = models.provenance(
@@ -146,13 +148,23 @@ pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
             Some(_) if !args.inject.is_empty() => eprintln!(
                 "drive-sim: --inject changed the twin its files describe: the sets are in judge.json and judge.md only"
             ),
-            Some(files) => written.extend(write_annotated_twin(
-                files,
-                &outcome.intervals,
-                &outcome.dataset,
-                opts.real_steps.as_str(),
-                &staged.path().join("twin"),
-            )?),
+            Some(files) => {
+                let twin = judge::write::write_annotated_twin(
+                    [&files[0].1, &files[1].1],
+                    &outcome.intervals,
+                    &outcome.dataset,
+                    opts.real_steps.as_str(),
+                    &staged.path().join("twin"),
+                )?;
+                for key in &twin.unplaced {
+                    eprintln!(
+                        "drive-sim: `{key}` is set in neither {} nor {}: its set is in judge.json only",
+                        files[0].0.display(),
+                        files[1].0.display()
+                    );
+                }
+                written.extend(twin.files);
+            }
             None => eprintln!(
                 "drive-sim: the twin is not given as two files (--robot FILE --terrain FILE): the sets are in judge.json and judge.md only"
             ),
@@ -167,54 +179,4 @@ pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
         t0.elapsed().as_secs_f64()
     );
     Ok(())
-}
-
-/// The twin's two files as text, when `--robot` and `--terrain` name files (read before any
-/// run, so that a file that vanished is an error before the long work).
-fn twin_file_texts(args: &JudgeArgs) -> anyhow::Result<Option<[(PathBuf, String); 2]>> {
-    if args.interval.is_empty() {
-        return Ok(None);
-    }
-    let file = |arg: &Option<String>| {
-        arg.as_deref()
-            .map(Path::new)
-            .filter(|p| p.is_file())
-            .map(Path::to_path_buf)
-    };
-    let (Some(robot), Some(terrain)) = (file(&args.input.robot), file(&args.input.terrain)) else {
-        return Ok(None);
-    };
-    let read = |p: &Path| std::fs::read_to_string(p).map_err(|e| drive_sim::Error::io(p, e));
-    Ok(Some([
-        (robot.clone(), read(&robot)?),
-        (terrain.clone(), read(&terrain)?),
-    ]))
-}
-
-/// Writes `dir/robot.toml` and `dir/terrain.toml`: the twin's files with each set in its
-/// value's comment ([`judge::write::annotated_twin`]); returns their paths.
-fn write_annotated_twin(
-    files: &[(PathBuf, String); 2],
-    intervals: &[ParamInterval],
-    dataset: &str,
-    steps: &str,
-    dir: &Path,
-) -> anyhow::Result<Vec<PathBuf>> {
-    let (texts, unplaced) =
-        judge::write::annotated_twin([&files[0].1, &files[1].1], intervals, dataset, steps);
-    for key in unplaced {
-        eprintln!(
-            "drive-sim: `{key}` is set in neither {} nor {}: its set is in judge.json only",
-            files[0].0.display(),
-            files[1].0.display()
-        );
-    }
-    std::fs::create_dir_all(dir).map_err(|e| drive_sim::Error::io(dir, e))?;
-    let mut paths = Vec::new();
-    for (name, text) in ["robot.toml", "terrain.toml"].iter().zip(&texts) {
-        let p = dir.join(name);
-        drive_sim::output::write_atomic(&p, text.as_bytes())?;
-        paths.push(p);
-    }
-    Ok(paths)
 }

@@ -2,7 +2,7 @@
 //! `compare`'s statistics ([`drive_sim::compare::tune`]).
 
 use drive_sim::calibration::twin;
-use drive_sim::compare::tune::{self, search::SearchOptions, TuneOptions, TuneOutcome, TuneRequest};
+use drive_sim::compare::tune::{self, search::SearchOptions, TuneOptions, TuneRequest};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -137,7 +137,7 @@ pub fn tune(args: &TuneArgs) -> anyhow::Result<()> {
             boxes: &boxes,
             opts: &opts,
         },
-        &|line| eprintln!("drive-sim: [{:>6.1} s] {line}", t0.elapsed().as_secs_f64()),
+        &|event| eprintln!("drive-sim: [{:>6.1} s] {event}", t0.elapsed().as_secs_f64()),
     )?;
     let start_source = format!(
         "robot `{}` and terrain `{}`{}",
@@ -172,7 +172,8 @@ pub fn tune(args: &TuneArgs) -> anyhow::Result<()> {
         staged.path(),
     )?;
     staged.commit()?;
-    print_outcome(&outcome)?;
+    // As a write, not `print!`: a closed pipe is an error the caller handles, not a panic.
+    std::io::stdout().write_all(tune::write::table(&outcome).as_bytes())?;
     super::input::twin_hints(&args.real, &args.out, args.choose_on);
     if outcome.accepted {
         // The tuned values carry no interval: the judge, inverted, gives one (minutes each).
@@ -196,129 +197,5 @@ pub fn tune(args: &TuneArgs) -> anyhow::Result<()> {
         args.out.display(),
         t0.elapsed().as_secs_f64()
     );
-    Ok(())
-}
-
-fn print_outcome(o: &TuneOutcome) -> std::io::Result<()> {
-    let mut out = std::io::stdout().lock();
-    writeln!(out, "{:<36} {:>12} {:>12}   box", "parameter", "start", "chosen")?;
-    for p in &o.params {
-        writeln!(
-            out,
-            "{:<36} {:>12} {:>12.4}   [{}, {}] {}{}",
-            p.name,
-            p.start.map_or_else(|| "off".into(), |v| format!("{v:.4}")),
-            p.chosen,
-            p.lower,
-            p.upper,
-            p.unit,
-            if p.at_bound { " (at its bound)" } else { "" }
-        )?;
-    }
-    writeln!(
-        out,
-        "loss on the {} {} steps, seeds {:?}: start {} -> chosen {:.3} ({} points, {})",
-        o.real_steps_chosen_on,
-        o.options.choose_on.as_str(),
-        o.choose_seeds,
-        o.start_loss
-            .map_or_else(|| "failed".into(), |l| format!("{l:.3}")),
-        o.chosen_loss,
-        o.search.evaluations,
-        o.search.stop
-    )?;
-    writeln!(
-        out,
-        "check on fresh seeds {:?}: reduction {:.3} ± {:.3} (SE) -> {}",
-        o.check.seeds,
-        o.check.mean_reduction,
-        o.check.se,
-        if o.accepted {
-            "accepted: the twin is the chosen model"
-        } else {
-            "not accepted: the twin is the start"
-        }
-    )?;
-    for (h, held_out) in [(&o.heldout, true), (&o.same_steps, false)] {
-        let Some(h) = h else { continue };
-        writeln!(
-            out,
-            "judged on the {} {} steps ({}), one run per fresh seed:",
-            h.real_steps,
-            h.steps.as_str(),
-            if held_out {
-                "never used above"
-            } else {
-                "the steps it was chosen on: not held out"
-            }
-        )?;
-        writeln!(out, "{:<8} {:>6} {:>10}  verdict", "model", "seed", "loss")?;
-        let halves: &[tune::JudgedRun] = match &h.real_halves {
-            Some(r) => std::slice::from_ref(r),
-            None => &[],
-        };
-        for (label, runs) in [
-            ("start", &h.start[..]),
-            ("chosen", &h.chosen[..]),
-            ("halves", halves),
-        ] {
-            for r in runs {
-                let verdict = match (&r.verdict, &r.error) {
-                    (Some(v), _) => {
-                        let word = if v.reproduces {
-                            "reproduces".to_string()
-                        } else {
-                            format!(
-                                "differs: {}",
-                                [
-                                    v.significant.clone(),
-                                    v.areas_beyond_tolerance
-                                        .iter()
-                                        .map(|a| format!("{a} > 5 pp"))
-                                        .collect(),
-                                    v.tf_beyond_yardstick.clone(),
-                                ]
-                                .concat()
-                                .join(", ")
-                            )
-                        };
-                        if v.tf_significant.is_empty() {
-                            word
-                        } else {
-                            format!(
-                                "{word} (maps differing by the permutation test: {})",
-                                v.tf_significant.join(", ")
-                            )
-                        }
-                    }
-                    (None, Some(e)) => format!("run failed: {e}"),
-                    (None, None) => "-".into(),
-                };
-                writeln!(
-                    out,
-                    "{label:<8} {:>6} {:>10}  {verdict}",
-                    if label == "halves" {
-                        "-".to_string()
-                    } else {
-                        r.seed.to_string()
-                    },
-                    r.loss
-                        .as_ref()
-                        .map_or_else(|| "-".into(), |l| format!("{:.3}", l.total))
-                )?;
-            }
-        }
-    }
-    if o.heldout.is_some() {
-        writeln!(
-            out,
-            "(halves: the real run's {} steps against its {} steps, as a model matching the first exactly would be judged)",
-            o.options.choose_on.as_str(),
-            o.options.choose_on.other_half().map_or("", |h| h.as_str())
-        )?;
-    }
-    for n in &o.notes {
-        writeln!(out, "note: {n}")?;
-    }
     Ok(())
 }

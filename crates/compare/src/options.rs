@@ -77,6 +77,29 @@ impl Default for CompareOptions {
     }
 }
 
+impl CompareOptions {
+    /// Checks the numbers `drive-sim compare` sets, naming its options, before any log is read:
+    /// at least 100 bootstrap resamples and at least one halving behind the maps' yardstick.
+    /// [`super::compare`] itself refuses an unusable yardstick or level whoever calls it.
+    pub fn validate(&self) -> Result<()> {
+        if self.bootstrap.resamples < 100 {
+            return Err(Error::config(
+                "--resamples",
+                "resamples",
+                format!("must be at least 100, got {}", self.bootstrap.resamples),
+            ));
+        }
+        if self.tf_yardstick_splits == 0 {
+            return Err(Error::config(
+                "--yardstick-splits",
+                "yardstick_splits",
+                "must be at least 1 (1: the odd and even steps alone), got 0",
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Refuses options no comparison can use, before any work.
 pub(super) fn check_options(opts: &CompareOptions) -> Result<()> {
     if opts.tf_yardstick_splits == 0 {

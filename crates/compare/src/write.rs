@@ -1,7 +1,7 @@
 //! Writing a comparison: `comparison.json`, the difference-map figures, and `report.html`
 //! whose first screen is the verdict table.
 
-use super::{ComparisonReport, MetricDiff, SimComparison};
+use super::{ComparisonReport, MetricDiff, SimComparison, TfDiff};
 use drive_sim_analysis::bootstrap::Interval;
 use drive_sim_model::error::{Error, Result};
 use drive_sim_report::{
@@ -30,117 +30,129 @@ fn verdict_word(m: &MetricDiff) -> &'static str {
 pub fn verdict_text(r: &ComparisonReport) -> String {
     let mut s = String::new();
     for c in &r.sims {
-        let _ = writeln!(
-            s,
-            "{} vs {} ({} bootstrap, {} resamples, Holm over {} medians at {}; T/U areas within {} pp): {}",
-            c.sim.name,
-            r.real.name,
-            match c.pairing {
-                super::Pairing::Paired => "paired-by-step",
-                super::Pairing::TwoSample => "two-sample",
-            },
-            r.options.bootstrap.resamples,
-            c.metrics.iter().filter(|m| m.tolerance.is_none()).count(),
-            r.options.alpha,
-            r.options.area_tolerance_pp,
-            if c.verdict.reproduces {
-                "REPRODUCES"
-            } else {
-                "DIFFERS"
-            }
-        );
-        let _ = writeln!(
-            s,
-            "  {:<26} {:>10} {:>10} {:>10} {:>24} {:>8}  verdict",
-            "metric", "real", "sim", "sim-real", "95 % interval", "p Holm"
-        );
-        for m in &c.metrics {
-            let _ = writeln!(
-                s,
-                "  {:<26} {:>10.4} {:>10.4} {:>10.4} {:>24} {:>8.4}  {}",
-                format!("{} [{}]", m.metric, m.unit),
-                m.real,
-                m.sim,
-                m.difference,
-                ci(&m.difference_ci95),
-                m.p_holm,
-                verdict_word(m)
-            );
-        }
-        for t in &c.transfer {
-            let _ = writeln!(
-                s,
-                "  TF {:<17} RMS {:.4} {}, yardstick {:.4} (split-half {:.4} over {} halvings; odd/even {:.4}), ratio {:.2} on {} points: {}{}",
-                t.channel,
-                t.rms,
-                t.unit,
-                t.yardstick,
-                t.split_half_rms_mean.unwrap_or(t.split_half_rms),
-                t.yardstick_splits.unwrap_or(1),
-                t.split_half_rms,
-                t.ratio,
-                t.points,
-                if t.points == 0 {
-                    "not compared"
-                } else if t.within {
-                    "within"
-                } else {
-                    "beyond"
-                },
-                t.p_permutation_holm
-                    .map(|p| format!("; permutation p (Holm) {p:.3}"))
-                    .unwrap_or_default()
-            );
-        }
-        if let Some(l) = &c.loss {
-            let _ = writeln!(
-                s,
-                "  loss {:.2} (each term 1 at its verdict's threshold, squared and summed: what `tune` minimises)",
-                l.total
-            );
-        }
-        // The body against its wheels, by curvature: of the ratios whose interval excludes no
-        // difference, the one that differs most (a diagnostic; the report has the whole table).
-        let worst = c
-            .curvature
-            .classes
-            .iter()
-            .flat_map(|k| {
-                [("forward speed", &k.forward_ratio), ("yaw rate", &k.yaw_ratio)]
-                    .map(|(what, st)| (k, what, st))
-            })
-            .filter(|(_, _, st)| {
-                st.difference.is_finite() && st.difference_ci95.is_some_and(|i| !i.contains(0.0))
-            })
-            .max_by(|a, b| a.2.difference.abs().total_cmp(&b.2.difference.abs()));
-        if let Some((k, what, st)) = worst {
-            let _ = writeln!(
-                s,
-                "  body / wheel {what} by curvature, largest clear difference: {} (real {} / sim {} steps) real {:.3}, sim {:.3}, sim-real {:+.3} {} (report: the table per class)",
-                k.class, k.steps.0, k.steps.1, st.real, st.sim, st.difference, ci(&st.difference_ci95)
-            );
-        }
-        if let Some(d) = &c.step_scatter {
-            let _ = writeln!(s, "  {}", d.line());
-        }
-        if let Some(d) = &c.turn_memory {
-            let _ = writeln!(s, "  {}", d.line());
-        }
-        if let Some(t) = &c.time {
-            let _ = writeln!(
-                s,
-                "  time efficiency real {:.1} %, sim {:.1} %; interruptions per step real {:.3}, sim {:.3}",
-                100.0 * t.real_time_efficiency,
-                100.0 * t.sim_time_efficiency,
-                t.real_interruptions_per_step,
-                t.sim_interruptions_per_step
-            );
-        }
+        sim_block(&mut s, r, c);
     }
     for w in &r.warnings {
         let _ = writeln!(s, "warning [{}]: {}", w.name, w.message);
     }
     s
+}
+
+/// One simulated log's block of [`verdict_text`].
+fn sim_block(s: &mut String, r: &ComparisonReport, c: &SimComparison) {
+    let _ = writeln!(
+        s,
+        "{} vs {} ({} bootstrap, {} resamples, Holm over {} medians at {}; T/U areas within {} pp): {}",
+        c.sim.name,
+        r.real.name,
+        match c.pairing {
+            super::Pairing::Paired => "paired-by-step",
+            super::Pairing::TwoSample => "two-sample",
+        },
+        r.options.bootstrap.resamples,
+        c.metrics.iter().filter(|m| m.tolerance.is_none()).count(),
+        r.options.alpha,
+        r.options.area_tolerance_pp,
+        if c.verdict.reproduces {
+            "REPRODUCES"
+        } else {
+            "DIFFERS"
+        }
+    );
+    let _ = writeln!(
+        s,
+        "  {:<26} {:>10} {:>10} {:>10} {:>24} {:>8}  verdict",
+        "metric", "real", "sim", "sim-real", "95 % interval", "p Holm"
+    );
+    for m in &c.metrics {
+        let _ = writeln!(
+            s,
+            "  {:<26} {:>10.4} {:>10.4} {:>10.4} {:>24} {:>8.4}  {}",
+            format!("{} [{}]", m.metric, m.unit),
+            m.real,
+            m.sim,
+            m.difference,
+            ci(&m.difference_ci95),
+            m.p_holm,
+            verdict_word(m)
+        );
+    }
+    for t in &c.transfer {
+        let _ = writeln!(s, "{}", transfer_line(t));
+    }
+    if let Some(l) = &c.loss {
+        let _ = writeln!(
+            s,
+            "  loss {:.2} (each term 1 at its verdict's threshold, squared and summed: what `tune` minimises)",
+            l.total
+        );
+    }
+    if let Some(line) = clearest_curvature_difference(c) {
+        let _ = writeln!(s, "{line}");
+    }
+    if let Some(d) = &c.step_scatter {
+        let _ = writeln!(s, "  {}", d.line());
+    }
+    if let Some(d) = &c.turn_memory {
+        let _ = writeln!(s, "  {}", d.line());
+    }
+    if let Some(t) = &c.time {
+        let _ = writeln!(
+            s,
+            "  time efficiency real {:.1} %, sim {:.1} %; interruptions per step real {:.3}, sim {:.3}",
+            100.0 * t.real_time_efficiency,
+            100.0 * t.sim_time_efficiency,
+            t.real_interruptions_per_step,
+            t.sim_interruptions_per_step
+        );
+    }
+}
+
+/// A map's line of [`verdict_text`]: its RMS difference against the yardstick, and the
+/// permutation test's p where it was run.
+fn transfer_line(t: &TfDiff) -> String {
+    format!(
+        "  TF {:<17} RMS {:.4} {}, yardstick {:.4} (split-half {:.4} over {} halvings; odd/even {:.4}), ratio {:.2} on {} points: {}{}",
+        t.channel,
+        t.rms,
+        t.unit,
+        t.yardstick,
+        t.split_half_rms_mean.unwrap_or(t.split_half_rms),
+        t.yardstick_splits.unwrap_or(1),
+        t.split_half_rms,
+        t.ratio,
+        t.points,
+        if t.points == 0 {
+            "not compared"
+        } else if t.within {
+            "within"
+        } else {
+            "beyond"
+        },
+        t.p_permutation_holm
+            .map(|p| format!("; permutation p (Holm) {p:.3}"))
+            .unwrap_or_default()
+    )
+}
+
+/// The body against its wheels, by curvature: of the ratios whose interval excludes no
+/// difference, the one that differs most (a diagnostic; the report has the whole table).
+fn clearest_curvature_difference(c: &SimComparison) -> Option<String> {
+    let (k, what, st) = c
+        .curvature
+        .classes
+        .iter()
+        .flat_map(|k| {
+            [("forward speed", &k.forward_ratio), ("yaw rate", &k.yaw_ratio)].map(|(what, st)| (k, what, st))
+        })
+        .filter(|(_, _, st)| {
+            st.difference.is_finite() && st.difference_ci95.is_some_and(|i| !i.contains(0.0))
+        })
+        .max_by(|a, b| a.2.difference.abs().total_cmp(&b.2.difference.abs()))?;
+    Some(format!(
+        "  body / wheel {what} by curvature, largest clear difference: {} (real {} / sim {} steps) real {:.3}, sim {:.3}, sim-real {:+.3} {} (report: the table per class)",
+        k.class, k.steps.0, k.steps.1, st.real, st.sim, st.difference, ci(&st.difference_ci95)
+    ))
 }
 
 fn curvature_table(r: &ComparisonReport, c: &SimComparison) -> Comparison {

@@ -231,77 +231,128 @@ pub struct IntervalRequest<'a> {
     pub opts: &'a IntervalOptions,
 }
 
+/// What [`intervals`] tells its caller as it goes. `Display` gives the line `drive-sim judge
+/// --interval` prints (after its clock).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum IntervalEvent<'a> {
+    /// The walks start (each value is judged as the twin was).
+    Walking {
+        /// Parameters walked, one after the other.
+        parameters: usize,
+    },
+    /// One value of a parameter judged.
+    Judged {
+        /// The parameter's key or base name.
+        parameter: &'a str,
+        /// The judgement at that value.
+        evaluation: Evaluation,
+    },
+}
+
+impl std::fmt::Display for IntervalEvent<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            IntervalEvent::Walking { parameters } => write!(
+                f,
+                "interval: walking {parameters} parameter(s), each value judged as above"
+            ),
+            IntervalEvent::Judged {
+                parameter,
+                evaluation: e,
+            } => write!(
+                f,
+                "interval {parameter}: {} -> p {:.3}, mean loss {:.2}: {}",
+                short(e.value),
+                e.p,
+                e.real_loss,
+                if e.accepted { "in the set" } else { "rejected" }
+            ),
+        }
+    }
+}
+
 /// The set of each parameter of `req.specs` for the twin (see the module doc). `progress`
-/// gets one line per judged value.
-pub fn intervals(req: &IntervalRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<Vec<ParamInterval>> {
-    let (iopts, opts, model, real) = (req.opts, req.judge.opts, req.judge.model, req.judge.real);
-    let specs = req.specs;
-    iopts.validate()?;
-    let quiet = |_: &str| {};
-    specs
+/// hears when the walks start and of each judged value.
+pub fn intervals(
+    req: &IntervalRequest,
+    progress: &(dyn Fn(&IntervalEvent) + Sync),
+) -> Result<Vec<ParamInterval>> {
+    req.opts.validate()?;
+    if !req.specs.is_empty() {
+        progress(&IntervalEvent::Walking {
+            parameters: req.specs.len(),
+        });
+    }
+    req.specs
         .iter()
-        .map(|spec| {
-            let name = spec.param.key();
-            let value = spec.param.get(model);
-            // The twin's own value: its judgement is the centre's.
-            let centre = Evaluation {
-                value,
-                p: req.centre.loss.p,
-                real_loss: req.centre.loss.real,
-                accepted: req.centre.indistinguishable,
-            };
-            let mut evaluations: Vec<Evaluation> = vec![centre];
-            let mut eval = |v: f64| -> Result<Evaluation> {
-                let m = model.with_values(std::slice::from_ref(spec), &[v])?;
-                let o: JudgeOutcome = judge(
-                    &JudgeRequest {
-                        real,
-                        model: &m,
-                        opts,
-                    },
-                    &quiet,
-                )?;
-                let e = Evaluation {
-                    value: v,
-                    p: o.loss.p,
-                    real_loss: o.loss.real,
-                    accepted: o.indistinguishable,
-                };
-                progress(&format!(
-                    "interval {name}: {} -> p {:.3}, mean loss {:.2}: {}",
-                    short(v),
-                    e.p,
-                    e.real_loss,
-                    if e.accepted { "in the set" } else { "rejected" }
-                ));
-                evaluations.push(e);
-                Ok(e)
-            };
-            let (lower, upper) = if centre.accepted {
-                let step = (spec.upper - spec.lower) / 8.0;
-                let lo = walk(value, spec.lower, -step, iopts, &mut eval)?;
-                let hi = walk(value, spec.upper, step, iopts, &mut eval)?;
-                (Some(lo), Some(hi))
-            } else {
-                (None, None)
-            };
-            Ok(ParamInterval {
-                name,
-                unit: spec.param.unit().to_string(),
-                value,
-                box_lower: spec.lower,
-                box_upper: spec.upper,
-                level: 1.0 - opts.alpha,
-                lower,
-                upper,
-                evaluations,
-                method: format!(
-                    "inverted Monte Carlo test (judge: {} runs, {} references, seeds from {}), the other parameters at the twin's values; walk by box/8 doubling, {} bisections",
-                    opts.sims, opts.references, opts.seed, iopts.refine
-                ),
-            })
-        })
+        .map(|spec| interval_of(req, spec, progress))
         .collect()
+}
+
+/// The set of one parameter: walks down and up from the twin's value when the twin itself is
+/// accepted.
+fn interval_of(
+    req: &IntervalRequest,
+    spec: &ParamSpec,
+    progress: &(dyn Fn(&IntervalEvent) + Sync),
+) -> Result<ParamInterval> {
+    let (iopts, opts, model, real) = (req.opts, req.judge.opts, req.judge.model, req.judge.real);
+    let name = spec.param.key();
+    let value = spec.param.get(model);
+    // The twin's own value: its judgement is the centre's.
+    let centre = Evaluation {
+        value,
+        p: req.centre.loss.p,
+        real_loss: req.centre.loss.real,
+        accepted: req.centre.indistinguishable,
+    };
+    let mut evaluations: Vec<Evaluation> = vec![centre];
+    let mut eval = |v: f64| -> Result<Evaluation> {
+        let m = model.with_values(std::slice::from_ref(spec), &[v])?;
+        let o: JudgeOutcome = judge(
+            &JudgeRequest {
+                real,
+                model: &m,
+                opts,
+            },
+            &|_| {},
+        )?;
+        let e = Evaluation {
+            value: v,
+            p: o.loss.p,
+            real_loss: o.loss.real,
+            accepted: o.indistinguishable,
+        };
+        progress(&IntervalEvent::Judged {
+            parameter: &name,
+            evaluation: e,
+        });
+        evaluations.push(e);
+        Ok(e)
+    };
+    let (lower, upper) = if centre.accepted {
+        let step = (spec.upper - spec.lower) / 8.0;
+        let lo = walk(value, spec.lower, -step, iopts, &mut eval)?;
+        let hi = walk(value, spec.upper, step, iopts, &mut eval)?;
+        (Some(lo), Some(hi))
+    } else {
+        (None, None)
+    };
+    Ok(ParamInterval {
+        name,
+        unit: spec.param.unit().to_string(),
+        value,
+        box_lower: spec.lower,
+        box_upper: spec.upper,
+        level: 1.0 - opts.alpha,
+        lower,
+        upper,
+        evaluations,
+        method: format!(
+            "inverted Monte Carlo test (judge: {} runs, {} references, seeds from {}), the other parameters at the twin's values; walk by box/8 doubling, {} bisections",
+            opts.sims, opts.references, opts.seed, iopts.refine
+        ),
+    })
 }
 
 /// Walks from the accepted `from` towards `end` (the box's end) by `step` (signed), doubling,
@@ -419,6 +470,28 @@ mod tests {
         };
         walk(3.0, 8.0, 0.1, &opts, &mut eval).unwrap();
         assert!(n <= 3, "{n} judgements");
+    }
+
+    /// The lines are the ones `drive-sim judge --interval` has always printed.
+    #[test]
+    fn events_display_as_the_printed_lines() {
+        assert_eq!(
+            IntervalEvent::Walking { parameters: 1 }.to_string(),
+            "interval: walking 1 parameter(s), each value judged as above"
+        );
+        let judged = IntervalEvent::Judged {
+            parameter: "wheel_speed_saturation_rad_s",
+            evaluation: Evaluation {
+                value: 11.04468,
+                p: 0.2,
+                real_loss: 13.7512,
+                accepted: true,
+            },
+        };
+        assert_eq!(
+            judged.to_string(),
+            "interval wheel_speed_saturation_rad_s: 11.04 -> p 0.200, mean loss 13.75: in the set"
+        );
     }
 
     #[test]

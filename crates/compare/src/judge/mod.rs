@@ -34,20 +34,26 @@
 //! is the protocol of `drive-sim run --robot twin/robot.toml --terrain twin/terrain.toml
 //! --steps N --seed S`, held in memory.
 
+mod event;
 pub mod interval;
+mod outcome;
+mod score;
 pub mod write;
+
+pub use event::JudgeEvent;
+pub use outcome::{CandidateScore, CriterionTest, JudgeOutcome, LossTest, RunScore};
+pub use score::{criteria_of, monte_carlo_p};
 
 use crate::real_steps::{check_run_steps, check_same_robot, real_steps, RealSteps};
 use crate::tune::twin_run;
-use crate::{
-    compare_prepared_sims, CompareOptions, Input, PreparedReal, PreparedSim, SimComparison, TfSmoother,
-};
-use drive_sim_analysis::bootstrap::{holm, Bootstrap};
+use crate::{CompareOptions, Input, PreparedSim, TfSmoother};
+use drive_sim_analysis::bootstrap::Bootstrap;
 use drive_sim_calibration::ModelParams;
 use drive_sim_log::{DriveLog, UseSteps};
 use drive_sim_model::error::{Error, Result};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Offset of the reference runs' seeds from the simulated runs'.
 pub const REFERENCE_SEED_OFFSET: u64 = 5000;
@@ -154,203 +160,9 @@ pub struct JudgeRequest<'a> {
     pub opts: &'a JudgeOptions,
 }
 
-/// One simulated run against one candidate (the real run or a reference): the criteria it
-/// fails and its loss.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RunScore {
-    /// Seed of the simulated run.
-    pub sim_seed: u64,
-    /// Criteria failed ([`DIFFERS`] when the verdict is not "reproduces").
-    pub failed: Vec<String>,
-    /// The loss of [`crate::loss`] (each term 1 at its verdict's threshold).
-    pub loss: Option<f64>,
-}
-
-/// The simulated runs against one candidate.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CandidateScore {
-    /// `real` or `reference`.
-    pub label: String,
-    /// Seed of a reference run (`None` for the real run).
-    pub seed: Option<u64>,
-    /// Its analysed steps.
-    pub steps: usize,
-    /// Each simulated run against it.
-    pub runs: Vec<RunScore>,
-    /// Runs failing each criterion, in the order of [`JudgeOutcome::criteria`].
-    pub fails: Vec<usize>,
-    /// Mean loss of the runs.
-    pub mean_loss: f64,
-}
-
-/// One criterion's test.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CriterionTest {
-    /// [`DIFFERS`], a median (`median_rho`, `median_slip_vx`, ...), an area
-    /// (`t_area_pct_body`), or a map (`vx map`, ...).
-    pub criterion: String,
-    /// Simulated runs failing it against the real run.
-    pub real_fails: usize,
-    /// The same against each reference run.
-    pub reference_fails: Vec<usize>,
-    /// Mean of `reference_fails` / runs: how often a run of the twin fails it against the twin.
-    pub reference_rate: f64,
-    /// Monte Carlo p-value: (1 + references failing at least as many runs) / (references + 1).
-    pub p: f64,
-    /// Holm-adjusted over the criteria other than [`DIFFERS`] (for [`DIFFERS`]: `p`).
-    pub p_holm: f64,
-}
-
-/// The loss's test.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct LossTest {
-    /// Mean loss of the simulated runs against the real run.
-    pub real: f64,
-    /// The same against each reference.
-    pub references: Vec<f64>,
-    /// Monte Carlo p-value: (1 + references with a mean loss at least the real's) /
-    /// (references + 1).
-    pub p: f64,
-}
-
-/// Everything [`judge`] found (`judge.json`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct JudgeOutcome {
-    /// The real log.
-    pub dataset: String,
-    /// Its robot.
-    pub robot: String,
-    /// Options.
-    pub options: JudgeOptions,
-    /// Analysed real steps judged against.
-    pub real_steps_analysed: usize,
-    /// DRIVE steps of each run.
-    pub steps_per_run: u32,
-    /// Seeds of the simulated runs that completed.
-    pub sim_seeds: Vec<u64>,
-    /// Seeds of the reference runs that completed.
-    pub reference_seeds: Vec<u64>,
-    /// The tests, [`DIFFERS`] first.
-    pub criteria: Vec<CriterionTest>,
-    /// The loss's test.
-    pub loss: LossTest,
-    /// The loss's p-value is above `alpha`: `compare` cannot tell the real run from the twin's
-    /// own runs.
-    pub indistinguishable: bool,
-    /// Criteria whose Holm-adjusted p-value is at most `alpha`: where the twin falls short.
-    /// (Holm over the 14 criteria, the verdict's 13 and the step scatter, needs more references
-    /// than the default 19 to reach 0.05.)
-    pub short_on: Vec<String>,
-    /// Criteria whose own p-value is at most `alpha`, uncorrected: a diagnostic of where the
-    /// real run is more extreme than (nearly) every reference, not a test (14 criteria at 5 %
-    /// flag about 0.7 of them for a perfect twin).
-    pub flagged: Vec<String>,
-    /// The simulated runs against the real run.
-    pub real: CandidateScore,
-    /// The simulated runs against each reference run.
-    pub references: Vec<CandidateScore>,
-    /// What happened, in words (runs that failed, the p-values' resolution).
-    pub notes: Vec<String>,
-    /// Sets of the twin's parameters by inverting this test (`judge --interval`,
-    /// [`interval`]); empty unless asked.
-    #[serde(default)]
-    pub intervals: Vec<interval::ParamInterval>,
-}
-
-/// The criteria a comparison fails, in a fixed order: the verdict, the medians, the areas,
-/// the maps, then the step scatter ([`STEP_SCATTER`]) and the turn memory ([`TURN_MEMORY`]),
-/// diagnostics outside the verdict and the loss (their intervals miss each other). Returns
-/// (names, failed flags).
-pub fn criteria_of(c: &SimComparison) -> Vec<(String, bool)> {
-    let mut out = vec![(DIFFERS.to_string(), !c.verdict.reproduces)];
-    for m in c.metrics.iter().filter(|m| m.tolerance.is_none()) {
-        out.push((m.metric.clone(), m.significant));
-    }
-    for m in c.metrics.iter().filter(|m| m.tolerance.is_some()) {
-        out.push((m.metric.clone(), m.within_tolerance == Some(false)));
-    }
-    for t in &c.transfer {
-        out.push((format!("{} map", t.channel), t.points > 0 && !t.within));
-    }
-    out.push((
-        STEP_SCATTER.to_string(),
-        c.step_scatter.is_some_and(|d| d.differs),
-    ));
-    out.push((TURN_MEMORY.to_string(), c.turn_memory.is_some_and(|d| d.differs)));
-    out
-}
-
-/// Monte Carlo p-value of an observed statistic among references drawn under the hypothesis
-/// (larger is more extreme): `(1 + #{r ≥ observed}) / (n + 1)` over the finite references.
-/// NaN without a finite reference or a finite observation.
-pub fn monte_carlo_p(observed: f64, references: &[f64]) -> f64 {
-    let finite: Vec<f64> = references.iter().copied().filter(|r| r.is_finite()).collect();
-    if finite.is_empty() || !observed.is_finite() {
-        return f64::NAN;
-    }
-    let at_least = finite.iter().filter(|&&r| r >= observed).count();
-    (1 + at_least) as f64 / (finite.len() + 1) as f64
-}
-
-/// Scores the simulated runs (their seeds, and the runs analysed once) against one candidate's
-/// steps.
-fn score(
-    label: &str,
-    seed: Option<u64>,
-    candidate: &DriveLog,
-    sims: (&[u64], &[PreparedSim]),
-    copts: &CompareOptions,
-) -> Result<(CandidateScore, Vec<String>)> {
-    let prepared = PreparedReal::new(
-        Input {
-            log: candidate,
-            file: None,
-        },
-        copts,
-    )?;
-    let (sim_seeds, sims) = sims;
-    let report = compare_prepared_sims(&prepared, sims)?;
-    let steps = report.real.steps;
-    let mut names = Vec::new();
-    let mut fails: Vec<usize> = Vec::new();
-    let mut runs = Vec::new();
-    for (sim_seed, c) in sim_seeds.iter().zip(&report.sims) {
-        let crit = criteria_of(c);
-        if names.is_empty() {
-            names = crit.iter().map(|(n, _)| n.clone()).collect();
-            fails = vec![0; names.len()];
-        }
-        for (k, (_, failed)) in crit.iter().enumerate() {
-            fails[k] += usize::from(*failed);
-        }
-        runs.push(RunScore {
-            sim_seed: *sim_seed,
-            failed: crit.into_iter().filter(|(_, f)| *f).map(|(n, _)| n).collect(),
-            loss: c.loss.as_ref().map(|l| l.total),
-        });
-    }
-    let mean_loss = drive_sim_analysis::stats::mean(
-        &runs
-            .iter()
-            .map(|r| r.loss.unwrap_or(f64::NAN))
-            .collect::<Vec<_>>(),
-    );
-    Ok((
-        CandidateScore {
-            label: label.into(),
-            seed,
-            steps,
-            runs,
-            fails,
-            mean_loss,
-        },
-        names,
-    ))
-}
-
 /// Judges the twin (see the module doc). Bad input (options, a log of another robot, too few
-/// real steps) is refused before the first run. `progress` gets one line per phase.
-pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<JudgeOutcome> {
+/// real steps) is refused before the first run. `progress` hears of each phase.
+pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&JudgeEvent) + Sync)) -> Result<JudgeOutcome> {
     let opts = req.opts;
     opts.validate()?;
     let real = req.real;
@@ -361,20 +173,76 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<Jud
         ..
     } = real_steps(real, opts.real_steps, "--real-steps", "judge against")?;
     let steps = opts.steps.unwrap_or(n_real as u32);
-    let copts = opts.compare_options();
     let mut notes = Vec::new();
-    progress(&format!(
-        "judge: {} runs of the twin against the {n_real} {} steps of `{}` and against {} runs of its own, {steps} DRIVE steps each",
-        opts.sims,
-        opts.real_steps.as_str(),
-        real.meta.name,
-        opts.references
-    ));
-    // The simulated runs, held for every comparison.
+    progress(&JudgeEvent::Started {
+        dataset: &real.meta.name,
+        real_steps: opts.real_steps,
+        real_steps_analysed: n_real,
+        sims: opts.sims,
+        references: opts.references,
+        steps_per_run: steps,
+    });
+    let sims = twin_runs(req.model, opts, steps, &mut notes)?;
+    // Each run is analysed once, for the real run and every reference.
+    let seeds: Vec<u64> = sims.iter().map(|(s, _)| *s).collect();
+    let prepared = sims
+        .iter()
+        .map(|(_, log)| PreparedSim::new(Input { log, file: None }))
+        .collect::<Result<Vec<_>>>()?;
+    let scoring = Scoring {
+        model: req.model,
+        steps,
+        seeds: &seeds,
+        sims: &prepared,
+        copts: opts.compare_options(),
+    };
+    let (real_score, names) = scoring.score("real", None, &judged)?;
+    progress(&JudgeEvent::AgainstReal { score: &real_score });
+    let references = scoring.references(opts, &mut notes, progress)?;
+    let criteria = score::criterion_tests(&names, &real_score, &references, sims.len());
+    let ref_losses: Vec<f64> = references.iter().map(|c| c.mean_loss).collect();
+    let loss = LossTest {
+        real: real_score.mean_loss,
+        p: monte_carlo_p(real_score.mean_loss, &ref_losses),
+        references: ref_losses,
+    };
+    let outcome = JudgeOutcome {
+        dataset: real.meta.name.clone(),
+        robot: real.meta.robot.clone(),
+        options: *opts,
+        real_steps_analysed: n_real,
+        steps_per_run: steps,
+        sim_seeds: seeds,
+        reference_seeds: references.iter().filter_map(|c| c.seed).collect(),
+        // The Monte Carlo test's rule: reject when p <= alpha (with 19 references and alpha
+        // 0.05, when the real run is the most extreme of the 20; exact size alpha under the
+        // hypothesis).
+        indistinguishable: loss.p > opts.alpha,
+        short_on: score::criteria_at_most(&criteria, opts.alpha, |c| c.p_holm),
+        flagged: score::criteria_at_most(&criteria, opts.alpha, |c| c.p),
+        criteria,
+        loss,
+        real: real_score,
+        references,
+        notes,
+        intervals: Vec::new(),
+    };
+    progress(&JudgeEvent::Decided { outcome: &outcome });
+    Ok(outcome)
+}
+
+/// The twin's runs of seeds `seed..` (in parallel, in seed order); a run that fails is left out
+/// with a note. Fewer than two completed: nothing to judge.
+fn twin_runs(
+    model: &ModelParams,
+    opts: &JudgeOptions,
+    steps: u32,
+    notes: &mut Vec<String>,
+) -> Result<Vec<(u64, DriveLog)>> {
     let sim_seeds: Vec<u64> = (0..opts.sims as u64).map(|i| opts.seed + i).collect();
     let runs: Vec<(u64, Result<DriveLog>)> = sim_seeds
         .par_iter()
-        .map(|&s| (s, twin_run(req.model, steps, s)))
+        .map(|&s| (s, twin_run(model, steps, s)))
         .collect();
     let mut sims = Vec::new();
     for (s, r) in runs {
@@ -393,151 +261,88 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<Jud
             notes.join("; ")
         )));
     }
-    // Each run is analysed once, for the real run and every reference.
-    let seeds: Vec<u64> = sims.iter().map(|(s, _)| *s).collect();
-    let prepared = sims
-        .iter()
-        .map(|(_, log)| PreparedSim::new(Input { log, file: None }))
-        .collect::<Result<Vec<_>>>()?;
-    let (real_score, names) = score("real", None, &judged, (&seeds, &prepared), &copts)?;
-    progress(&format!(
-        "judge: against the real run: {} of {} runs differ, mean loss {:.2}",
-        real_score.fails[0],
-        sims.len(),
-        real_score.mean_loss
-    ));
-    let reference_seeds: Vec<u64> = (0..opts.references as u64)
-        .map(|j| opts.seed + REFERENCE_SEED_OFFSET + j)
-        .collect();
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    let refs: Vec<(u64, Result<CandidateScore>)> = reference_seeds
-        .par_iter()
-        .map(|&s| {
-            let r = twin_run(req.model, steps, s)
-                .and_then(|log| score("reference", Some(s), &log, (&seeds, &prepared), &copts))
-                .map(|(c, _)| c);
-            let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-            if let Ok(c) = &r {
-                progress(&format!(
-                    "judge: reference {k}/{} (seed {s}): {} of {} runs differ, mean loss {:.2}",
-                    reference_seeds.len(),
-                    c.fails[0],
-                    sims.len(),
-                    c.mean_loss
-                ));
+    Ok(sims)
+}
+
+/// The twin's runs, analysed once, and how every candidate is compared with them.
+struct Scoring<'a> {
+    model: &'a ModelParams,
+    /// DRIVE steps of a reference run.
+    steps: u32,
+    seeds: &'a [u64],
+    sims: &'a [PreparedSim<'a>],
+    copts: CompareOptions,
+}
+
+impl Scoring<'_> {
+    /// The runs against one candidate's steps, with the criteria's names.
+    fn score(
+        &self,
+        label: &str,
+        seed: Option<u64>,
+        candidate: &DriveLog,
+    ) -> Result<(CandidateScore, Vec<String>)> {
+        score::score(label, seed, candidate, (self.seeds, self.sims), &self.copts)
+    }
+
+    /// The reference runs (seeds `seed + REFERENCE_SEED_OFFSET..`, in parallel), each scored in
+    /// the real run's place; one that fails is left out with a note. Fewer than four: too few
+    /// for a p-value. Adds the note on the p-values' resolution.
+    fn references(
+        &self,
+        opts: &JudgeOptions,
+        notes: &mut Vec<String>,
+        progress: &(dyn Fn(&JudgeEvent) + Sync),
+    ) -> Result<Vec<CandidateScore>> {
+        let reference_seeds: Vec<u64> = (0..opts.references as u64)
+            .map(|j| opts.seed + REFERENCE_SEED_OFFSET + j)
+            .collect();
+        let done = AtomicUsize::new(0);
+        let refs: Vec<(u64, Result<CandidateScore>)> = reference_seeds
+            .par_iter()
+            .map(|&s| {
+                let r = twin_run(self.model, self.steps, s)
+                    .and_then(|log| self.score("reference", Some(s), &log))
+                    .map(|(c, _)| c);
+                let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+                if let Ok(score) = &r {
+                    progress(&JudgeEvent::Reference {
+                        done: k,
+                        of: reference_seeds.len(),
+                        seed: s,
+                        score,
+                    });
+                }
+                (s, r)
+            })
+            .collect();
+        let mut references = Vec::new();
+        for (s, r) in refs {
+            match r {
+                Ok(c) => references.push(c),
+                Err(e) => notes.push(format!("reference run of seed {s} failed ({e}): left out")),
             }
-            (s, r)
-        })
-        .collect();
-    let mut references = Vec::new();
-    for (s, r) in refs {
-        match r {
-            Ok(c) => references.push(c),
-            Err(e) => notes.push(format!("reference run of seed {s} failed ({e}): left out")),
         }
-    }
-    if references.len() < 4 {
-        return Err(Error::Analysis(format!(
-            "judge: {} of {} reference runs completed: too few for a p-value ({})",
+        if references.len() < 4 {
+            return Err(Error::Analysis(format!(
+                "judge: {} of {} reference runs completed: too few for a p-value ({})",
+                references.len(),
+                opts.references,
+                notes.join("; ")
+            )));
+        }
+        notes.push(format!(
+            "p-values are Monte Carlo ranks among {} reference runs: none is below {:.3}",
             references.len(),
-            opts.references,
-            notes.join("; ")
-        )));
+            1.0 / (references.len() + 1) as f64
+        ));
+        Ok(references)
     }
-    notes.push(format!(
-        "p-values are Monte Carlo ranks among {} reference runs: none is below {:.3}",
-        references.len(),
-        1.0 / (references.len() + 1) as f64
-    ));
-    let n_sims = sims.len() as f64;
-    let mut criteria: Vec<CriterionTest> = names
-        .iter()
-        .enumerate()
-        .map(|(k, name)| {
-            let reference_fails: Vec<usize> = references.iter().map(|c| c.fails[k]).collect();
-            let as_f = |v: &[usize]| v.iter().map(|x| *x as f64).collect::<Vec<_>>();
-            CriterionTest {
-                criterion: name.clone(),
-                real_fails: real_score.fails[k],
-                reference_rate: drive_sim_analysis::stats::mean(&as_f(&reference_fails)) / n_sims,
-                p: monte_carlo_p(real_score.fails[k] as f64, &as_f(&reference_fails)),
-                reference_fails,
-                p_holm: f64::NAN,
-            }
-        })
-        .collect();
-    let rest: Vec<f64> = criteria.iter().skip(1).map(|c| c.p).collect();
-    for (c, a) in criteria.iter_mut().skip(1).zip(holm(&rest)) {
-        c.p_holm = a;
-    }
-    criteria[0].p_holm = criteria[0].p;
-    let ref_losses: Vec<f64> = references.iter().map(|c| c.mean_loss).collect();
-    let loss = LossTest {
-        real: real_score.mean_loss,
-        p: monte_carlo_p(real_score.mean_loss, &ref_losses),
-        references: ref_losses,
-    };
-    // The Monte Carlo test's rule: reject when p <= alpha (with 19 references and alpha 0.05,
-    // when the real run is the most extreme of the 20; exact size alpha under the hypothesis).
-    let indistinguishable = loss.p > opts.alpha;
-    let short_on = criteria
-        .iter()
-        .skip(1)
-        .filter(|c| c.p_holm <= opts.alpha)
-        .map(|c| c.criterion.clone())
-        .collect();
-    let flagged = criteria
-        .iter()
-        .skip(1)
-        .filter(|c| c.p <= opts.alpha)
-        .map(|c| c.criterion.clone())
-        .collect();
-    progress(&format!(
-        "judge: {} (the loss's p {:.3}, the verdict's {:.3})",
-        if indistinguishable {
-            "indistinguishable from the twin's own runs"
-        } else {
-            "distinguishable from the twin's own runs"
-        },
-        loss.p,
-        criteria[0].p
-    ));
-    Ok(JudgeOutcome {
-        dataset: real.meta.name.clone(),
-        robot: real.meta.robot.clone(),
-        options: *opts,
-        real_steps_analysed: n_real,
-        steps_per_run: steps,
-        sim_seeds: seeds,
-        reference_seeds: references.iter().filter_map(|c| c.seed).collect(),
-        criteria,
-        loss,
-        indistinguishable,
-        short_on,
-        flagged,
-        real: real_score,
-        references,
-        notes,
-        intervals: Vec::new(),
-    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn monte_carlo_p_by_hand() {
-        // 4 references, 2 of them at least 3: (1 + 2) / 5.
-        assert!((monte_carlo_p(3.0, &[1.0, 3.0, 5.0, 2.0]) - 0.6).abs() < 1e-12);
-        // Beyond every reference: the smallest p, 1 / 5.
-        assert!((monte_carlo_p(9.0, &[1.0, 3.0, 5.0, 2.0]) - 0.2).abs() < 1e-12);
-        // Below every reference: 1.
-        assert_eq!(monte_carlo_p(0.0, &[1.0, 3.0, 5.0, 2.0]), 1.0);
-        // Non-finite references do not count.
-        assert!((monte_carlo_p(3.0, &[1.0, f64::NAN, 5.0]) - 2.0 / 3.0).abs() < 1e-12);
-        assert!(monte_carlo_p(3.0, &[f64::NAN]).is_nan());
-    }
 
     #[test]
     fn options_are_checked_before_any_run() {

@@ -6,7 +6,7 @@
 use super::interval::{short as short_number, ParamInterval};
 use super::{JudgeOutcome, DIFFERS};
 use drive_sim_calibration::twin::annotate_value;
-use drive_sim_model::error::Result;
+use drive_sim_model::error::{Error, Result};
 use drive_sim_model::provenance::Provenance;
 use drive_sim_report::{bar_chart, AxisLabel, BarChart, BarSeries};
 use std::path::{Path, PathBuf};
@@ -155,6 +155,50 @@ pub fn annotated_twin(
         }
     }
     (texts, unplaced)
+}
+
+/// The twin's two files and their text, when `robot` and `terrain` (as `--robot` and
+/// `--terrain` give them: names or paths) both name files; `None` otherwise. Read before any
+/// run, so that a file that vanished is an error before the long work.
+pub fn read_twin_files(robot: Option<&str>, terrain: Option<&str>) -> Result<Option<[(PathBuf, String); 2]>> {
+    let file = |arg: Option<&str>| arg.map(Path::new).filter(|p| p.is_file()).map(Path::to_path_buf);
+    let (Some(robot), Some(terrain)) = (file(robot), file(terrain)) else {
+        return Ok(None);
+    };
+    let read = |p: &Path| std::fs::read_to_string(p).map_err(|e| Error::io(p, e));
+    Ok(Some([
+        (robot.clone(), read(&robot)?),
+        (terrain.clone(), read(&terrain)?),
+    ]))
+}
+
+/// The twin's files written with each set of `intervals` in its value's comment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AnnotatedTwin {
+    /// `robot.toml` and `terrain.toml` as written.
+    pub files: Vec<PathBuf>,
+    /// The keys neither file sets: their sets are in `judge.json` only.
+    pub unplaced: Vec<String>,
+}
+
+/// Writes `dir/robot.toml` and `dir/terrain.toml`: the twin's files (`texts`: robot, terrain)
+/// with each set in its value's comment ([`annotated_twin`]).
+pub fn write_annotated_twin(
+    texts: [&str; 2],
+    intervals: &[ParamInterval],
+    dataset: &str,
+    steps: &str,
+    dir: &Path,
+) -> Result<AnnotatedTwin> {
+    let (texts, unplaced) = annotated_twin(texts, intervals, dataset, steps);
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let mut files = Vec::new();
+    for (name, text) in ["robot.toml", "terrain.toml"].iter().zip(&texts) {
+        let p = dir.join(name);
+        drive_sim_model::output::write_atomic(&p, text.as_bytes())?;
+        files.push(p);
+    }
+    Ok(AnnotatedTwin { files, unplaced })
 }
 
 /// Writes `judge.json` (stamped with `provenance`), `judge.md` and the rates' figure into

@@ -30,17 +30,22 @@
 //! twin/terrain.toml --steps N --seed S` (uniform-wheel sampler, typical sensor noise), held
 //! in memory.
 
+mod choose;
+mod event;
+mod judging;
 mod outcome;
 mod params;
 mod runs;
 pub mod search;
 pub mod write;
 
-use outcome::check_rule;
+use choose::{choose, LossRuns, Space};
+pub use event::TuneEvent;
+use judging::Judging;
 pub use outcome::{HeldOut, JudgedRun, PointEvaluation, SeedCheck, TuneOutcome, TunedParam};
 pub use params::{apply_boxes, tuned_specs, BoxOverride};
+use runs::loss_opts;
 pub use runs::twin_run;
-use runs::{evaluation, judged, loss_opts, run_against, seed_run, SeedRun};
 pub use write::twin_of;
 
 use crate::loss::Loss;
@@ -56,10 +61,8 @@ use drive_sim_log::{DriveLog, UseSteps};
 use drive_sim_model::effects::{self, CommandReach, REGISTRY};
 use drive_sim_model::error::{Error, Result};
 use drive_sim_sim::SensorNoise;
-use rayon::prelude::*;
 use search::{SearchOptions, SearchSummary};
 use serde::{Deserialize, Serialize};
-use std::cell::RefCell;
 
 /// Offset of the check seeds from the choosing ones.
 pub const CHECK_SEED_OFFSET: u64 = 1000;
@@ -166,8 +169,9 @@ pub struct TuneRequest<'a> {
 }
 
 /// Tunes (see the module doc). Bad input (unknown names, options, a log of another robot, too
-/// few steps) is refused before the first run. `progress` gets one line per phase.
-pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneOutcome> {
+/// few steps) is refused before the first run. `progress` hears of each phase and of each
+/// point of the search.
+pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&TuneEvent) + Sync)) -> Result<TuneOutcome> {
     let opts = req.opts;
     opts.validate()?;
     let real = req.real;
@@ -179,275 +183,108 @@ pub fn tune(req: &TuneRequest, progress: &(dyn Fn(&str) + Sync)) -> Result<TuneO
         .other_half()
         .map(|h| real_steps(real, h, "--choose-on", "tune on"))
         .transpose()?;
-    let (chosen_half, n_choose) = (chosen.log, chosen.analysed);
-    let reach = CommandReach::of_commands(
-        chosen_half.samples.iter().map(|s| s.m.cmd),
-        &req.start.robot.idd(),
-    );
-    let mut specs = tuned_specs(req.tune, req.start, &reach)?;
-    apply_boxes(&mut specs, req.boxes)?;
-    let steps = opts.steps.unwrap_or(n_choose as u32);
-    let lo: Vec<f64> = specs.iter().map(|s| s.lower).collect();
-    let width: Vec<f64> = specs.iter().map(|s| s.upper - s.lower).collect();
-    let x0: Vec<f64> = specs.iter().map(|s| s.start_in(req.start)).collect();
-    let to_x = |z: &[f64]| -> Vec<f64> {
-        z.iter()
-            .zip(lo.iter().zip(&width))
-            .map(|(z, (l, w))| l + z * w)
-            .collect()
-    };
-    let z0: Vec<f64> = x0
-        .iter()
-        .zip(lo.iter().zip(&width))
-        .map(|(x, (l, w))| (x - l) / w)
-        .collect();
-    let model_at = |x: &[f64]| req.start.with_values(&specs, x);
-    // The start model as given (an effect it does not have stays off: the search's first point
-    // is then mid-box, but the check compares the choice with this model).
-    let start_model = req.start.clone();
-
+    let space = Space::new(req, &chosen.log)?;
+    let steps = opts.steps.unwrap_or(chosen.analysed as u32);
     // The real steps the search and the check compare with, analysed once.
     let loss_real = PreparedReal::new(
         Input {
-            log: &chosen_half,
+            log: &chosen.log,
             file: None,
         },
         &loss_opts(opts.loss_resamples, opts.tf_smoother),
     )?;
     let choose_seeds = opts.seeds(0, opts.choose_seeds);
-    progress(&format!(
-        "tune: {} parameter(s) on {} {} steps of `{}`, {} DRIVE steps x {} seed(s) per point, at most {} points",
-        specs.len(),
-        n_choose,
-        opts.choose_on.as_str(),
-        real.meta.name,
+    progress(&TuneEvent::Started {
+        dataset: &real.meta.name,
+        choose_on: opts.choose_on,
+        real_steps: chosen.analysed,
+        params: space.specs.len(),
+        steps_per_run: steps,
+        seeds: choose_seeds.len(),
+        max_points: opts.search.max_evaluations,
+    });
+    let runs = LossRuns {
+        real: &loss_real,
         steps,
-        choose_seeds.len(),
-        opts.search.max_evaluations
-    ));
-    // Every point evaluated, in order (the search calls this closure from one thread at a time;
-    // each call runs its points' seeds in parallel).
-    let evaluations: RefCell<Vec<PointEvaluation>> = RefCell::new(Vec::new());
-    let cost_many = |zs: &[Vec<f64>]| -> Vec<Option<f64>> {
-        let jobs: Vec<(usize, u64)> = (0..zs.len())
-            .flat_map(|i| choose_seeds.iter().map(move |s| (i, *s)))
-            .collect();
-        // In the order of `jobs`: each point's seeds side by side.
-        let runs: Vec<SeedRun> = jobs
-            .par_iter()
-            .map(|&(i, seed)| match model_at(&to_x(&zs[i])) {
-                Ok(m) => seed_run(&loss_real, &m, steps, seed),
-                Err(e) => SeedRun {
-                    outcome: Err(e.to_string()),
-                },
-            })
-            .collect();
-        let mut evals = evaluations.borrow_mut();
-        let mut out = Vec::new();
-        for (z, mine) in zs.iter().zip(runs.chunks(choose_seeds.len())) {
-            let e = evaluation(to_x(z), mine);
-            let best = evals
-                .iter()
-                .chain(std::iter::once(&e))
-                .filter_map(|p| p.loss)
-                .fold(f64::INFINITY, f64::min);
-            progress(&format!(
-                "tune: point {} {} -> loss {} (best {best:.2})",
-                evals.len() + 1,
-                format_values(&specs, &e.values),
-                e.loss.map_or_else(
-                    || format!("failed ({})", e.error.clone().unwrap_or_default()),
-                    |l| format!("{l:.2}")
-                ),
-            ));
-            out.push(e.loss);
-            evals.push(e);
-        }
-        out
     };
-    // The start model on the search's seeds: the baseline the search's losses compare with.
-    let start_runs: Vec<SeedRun> = choose_seeds
-        .par_iter()
-        .map(|&s| seed_run(&loss_real, &start_model, steps, s))
-        .collect();
-    let start_eval = evaluation(req.start.values_of(&specs), &start_runs);
-    let start_loss = start_eval.loss;
-    progress(&format!(
-        "tune: the start model: loss {}",
-        start_loss.map_or_else(
-            || format!("failed ({})", start_eval.error.clone().unwrap_or_default()),
-            |l| format!("{l:.2}")
-        )
-    ));
-    let (z_best, chosen_loss, summary) = search::minimise(&z0, &opts.search, &cost_many);
-    let evaluations = evaluations.into_inner();
-    let x_best = to_x(&z_best);
-    let chosen_model = model_at(&x_best)?;
-    let same_point = chosen_model == start_model;
-    progress(&format!(
-        "tune: search done ({} points, {}): best {} loss {chosen_loss:.2} (start {})",
-        summary.evaluations,
-        summary.stop,
-        format_values(&specs, &x_best),
-        start_loss.map_or_else(|| "failed".into(), |l| format!("{l:.2}"))
-    ));
-
+    // 1. The choice.
+    let choice = choose(&space, &runs, &choose_seeds, &opts.search, progress)?;
     // 2. The check on fresh seeds.
     let check_seeds = opts.seeds(CHECK_SEED_OFFSET, opts.check_seeds);
-    let pairs: Vec<(SeedRun, SeedRun)> = check_seeds
-        .par_iter()
-        .map(|&s| {
-            (
-                seed_run(&loss_real, &start_model, steps, s),
-                seed_run(&loss_real, &chosen_model, steps, s),
-            )
-        })
-        .collect();
-    let total = |r: &SeedRun| r.outcome.as_ref().ok().map(|o| o.total);
-    let check = check_rule(
-        check_seeds,
-        pairs.iter().map(|p| total(&p.0)).collect(),
-        pairs.iter().map(|p| total(&p.1)).collect(),
-        same_point,
-    );
-    progress(&format!(
-        "tune: check on {} fresh seeds: loss reduction {:.2} ± {:.2} (SE): {}",
-        check.seeds.len(),
-        check.mean_reduction,
-        check.se,
-        if check.accepted {
-            "accepted"
-        } else {
-            "not accepted, the twin stays the start"
-        }
-    ));
-
+    let check = runs.check(check_seeds, req.start, &choice.model, progress);
     // 3. The judgement: on the other half when the choice used one (held out), else on the
     // choosing steps themselves with fresh seeds (labelled: not a held-out result).
-    let judge_seeds = opts.seeds(JUDGE_SEED_OFFSET, opts.check_seeds);
-    let judge_on =
-        |half: UseSteps, log: &DriveLog, real_steps: usize, halves: Option<&DriveLog>| -> HeldOut {
-            let judging = CompareOptions {
-                tf_smoother: opts.tf_smoother,
-                ..CompareOptions::default()
-            };
-            let prepared = PreparedReal::new(Input { log, file: None }, &judging).map_err(|e| e.to_string());
-            let reps: Vec<(u64, std::result::Result<ComparisonReport, String>)> = judge_seeds
-                .par_iter()
-                .map(|&s| {
-                    let r = prepared.as_ref().map_err(Clone::clone).and_then(|p| {
-                        run_against(p, &[&start_model, &chosen_model], steps, s).map_err(|e| e.to_string())
-                    });
-                    (s, r)
-                })
-                .collect();
-            let real_halves = halves.map(|other| {
-                let c = prepared.as_ref().map_err(Clone::clone).and_then(|p| {
-                    compare_prepared(
-                        p,
-                        &[Input {
-                            log: other,
-                            file: None,
-                        }],
-                    )
-                    .map_err(|e| e.to_string())
-                });
-                judged(c.as_ref(), 0, 0)
-            });
-            let h = HeldOut {
-                real_halves,
-                steps: half,
-                real_steps,
-                start: reps.iter().map(|(s, r)| judged(r.as_ref(), 0, *s)).collect(),
-                chosen: reps.iter().map(|(s, r)| judged(r.as_ref(), 1, *s)).collect(),
-                reports: reps.into_iter().filter_map(|(_, r)| r.ok()).collect(),
-            };
-            let mean = |runs: &[JudgedRun]| {
-                let v: Vec<f64> = runs
-                    .iter()
-                    .filter_map(|r| r.loss.as_ref().map(|l| l.total))
-                    .collect();
-                v.iter().sum::<f64>() / v.len().max(1) as f64
-            };
-            progress(&format!(
-                "tune: judged on the {} {} steps{} ({} seeds): mean loss start {:.2}, chosen {:.2}",
-                h.real_steps,
-                half.as_str(),
-                if halves.is_some() {
-                    ""
-                } else {
-                    " it was chosen on (not held out)"
-                },
-                h.start.len(),
-                mean(&h.start),
-                mean(&h.chosen)
-            ));
-            h
-        };
-    let (heldout, same_steps) = match &heldout_half {
-        Some(h) => (
-            Some(judge_on(h.steps, &h.log, h.analysed, Some(&chosen_half))),
-            None,
-        ),
-        None => (None, Some(judge_on(opts.choose_on, &chosen_half, n_choose, None))),
+    let judging = Judging {
+        smoother: opts.tf_smoother,
+        seeds: opts.seeds(JUDGE_SEED_OFFSET, opts.check_seeds),
+        models: [req.start, &choice.model],
+        steps,
     };
-    let mut notes = Vec::new();
-    if heldout.is_none() {
-        notes.push("chosen on every step: judged on the same steps with fresh seeds (`same_steps`), not held out (choose on odd or even steps for a held-out judgement)".into());
-    }
-    if !summary.converged {
-        notes.push(format!("the search did not converge: {}", summary.stop));
-    }
-    let params: Vec<TunedParam> = specs
+    let (heldout, same_steps) = match &heldout_half {
+        Some(h) => (Some(judging.on(h, Some(&chosen.log), progress)), None),
+        None => (None, Some(judging.on(&chosen, None, progress))),
+    };
+    let params = tuned_params(&space, &choice.x_best);
+    let notes = notes(heldout.is_none(), &choice.summary, &params);
+    let accepted = check.accepted;
+    Ok(TuneOutcome {
+        dataset: real.meta.name.clone(),
+        robot: real.meta.robot.clone(),
+        options: *opts,
+        real_steps_chosen_on: chosen.analysed,
+        steps_per_run: steps,
+        choose_seeds,
+        params,
+        evaluations: choice.evaluations,
+        search: choice.summary,
+        start_loss: choice.start.loss,
+        start_evaluation: choice.start,
+        chosen_loss: choice.loss,
+        check,
+        heldout,
+        same_steps,
+        accepted,
+        notes,
+        model: Some(if accepted { choice.model } else { req.start.clone() }),
+    })
+}
+
+/// Each parameter: its box, the start model's value, where the search started and the choice.
+fn tuned_params(space: &Space, x_best: &[f64]) -> Vec<TunedParam> {
+    space
+        .specs
         .iter()
-        .zip(x0.iter().zip(&x_best))
+        .zip(space.x0.iter().zip(x_best))
         .map(|(s, (a, b))| TunedParam {
             name: s.param.name(),
             unit: s.param.unit().to_string(),
             lower: s.lower,
             upper: s.upper,
-            start: Some(s.param.get(req.start)).filter(|v| v.is_finite() && s.param.neutral() != Some(*v)),
+            start: Some(s.param.get(space.start)).filter(|v| v.is_finite() && s.param.neutral() != Some(*v)),
             search_start: *a,
             chosen: *b,
             at_bound: s.at_bound(*b),
         })
-        .collect();
+        .collect()
+}
+
+/// What the outcome says in words: a judgement that is not held out, a search that did not
+/// converge, parameters that ended on their box.
+fn notes(not_held_out: bool, summary: &SearchSummary, params: &[TunedParam]) -> Vec<String> {
+    let mut notes = Vec::new();
+    if not_held_out {
+        notes.push("chosen on every step: judged on the same steps with fresh seeds (`same_steps`), not held out (choose on odd or even steps for a held-out judgement)".into());
+    }
+    if !summary.converged {
+        notes.push(format!("the search did not converge: {}", summary.stop));
+    }
     for p in params.iter().filter(|p| p.at_bound) {
         notes.push(format!(
             "`{}` ended on its box [{}, {}]: a stand-in for something else, or a box too small",
             p.name, p.lower, p.upper
         ));
     }
-    let accepted = check.accepted;
-    Ok(TuneOutcome {
-        dataset: real.meta.name.clone(),
-        robot: real.meta.robot.clone(),
-        options: *opts,
-        real_steps_chosen_on: n_choose,
-        steps_per_run: steps,
-        choose_seeds,
-        params,
-        evaluations,
-        search: summary,
-        start_loss,
-        start_evaluation: start_eval,
-        chosen_loss,
-        check,
-        heldout,
-        same_steps,
-        accepted,
-        notes,
-        model: Some(if accepted { chosen_model } else { start_model }),
-    })
-}
-
-fn format_values(specs: &[ParamSpec], x: &[f64]) -> String {
-    specs
-        .iter()
-        .zip(x)
-        .map(|(s, v)| format!("{}={v:.4}", s.param.key()))
-        .collect::<Vec<_>>()
-        .join(" ")
+    notes
 }
 
 #[cfg(test)]

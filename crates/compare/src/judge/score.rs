@@ -1,0 +1,165 @@
+//! Scoring the twin's runs against a candidate (the real run or one of the twin's own runs), and
+//! the Monte Carlo tests of the scores.
+
+use super::{CandidateScore, CriterionTest, RunScore, DIFFERS, STEP_SCATTER, TURN_MEMORY};
+use crate::{compare_prepared_sims, CompareOptions, Input, PreparedReal, PreparedSim, SimComparison};
+use drive_sim_analysis::bootstrap::holm;
+use drive_sim_log::DriveLog;
+use drive_sim_model::error::Result;
+
+/// The criteria a comparison fails, in a fixed order: the verdict, the medians, the areas,
+/// the maps, then the step scatter ([`STEP_SCATTER`]) and the turn memory ([`TURN_MEMORY`]),
+/// diagnostics outside the verdict and the loss (their intervals miss each other). Returns
+/// (names, failed flags).
+pub fn criteria_of(c: &SimComparison) -> Vec<(String, bool)> {
+    let mut out = vec![(DIFFERS.to_string(), !c.verdict.reproduces)];
+    for m in c.metrics.iter().filter(|m| m.tolerance.is_none()) {
+        out.push((m.metric.clone(), m.significant));
+    }
+    for m in c.metrics.iter().filter(|m| m.tolerance.is_some()) {
+        out.push((m.metric.clone(), m.within_tolerance == Some(false)));
+    }
+    for t in &c.transfer {
+        out.push((format!("{} map", t.channel), t.points > 0 && !t.within));
+    }
+    out.push((
+        STEP_SCATTER.to_string(),
+        c.step_scatter.is_some_and(|d| d.differs),
+    ));
+    out.push((TURN_MEMORY.to_string(), c.turn_memory.is_some_and(|d| d.differs)));
+    out
+}
+
+/// Monte Carlo p-value of an observed statistic among references drawn under the hypothesis
+/// (larger is more extreme): `(1 + #{r ≥ observed}) / (n + 1)` over the finite references.
+/// NaN without a finite reference or a finite observation.
+pub fn monte_carlo_p(observed: f64, references: &[f64]) -> f64 {
+    let finite: Vec<f64> = references.iter().copied().filter(|r| r.is_finite()).collect();
+    if finite.is_empty() || !observed.is_finite() {
+        return f64::NAN;
+    }
+    let at_least = finite.iter().filter(|&&r| r >= observed).count();
+    (1 + at_least) as f64 / (finite.len() + 1) as f64
+}
+
+/// Scores the simulated runs (their seeds, and the runs analysed once) against one candidate's
+/// steps.
+pub(super) fn score(
+    label: &str,
+    seed: Option<u64>,
+    candidate: &DriveLog,
+    sims: (&[u64], &[PreparedSim]),
+    copts: &CompareOptions,
+) -> Result<(CandidateScore, Vec<String>)> {
+    let prepared = PreparedReal::new(
+        Input {
+            log: candidate,
+            file: None,
+        },
+        copts,
+    )?;
+    let (sim_seeds, sims) = sims;
+    let report = compare_prepared_sims(&prepared, sims)?;
+    let steps = report.real.steps;
+    let mut names = Vec::new();
+    let mut fails: Vec<usize> = Vec::new();
+    let mut runs = Vec::new();
+    for (sim_seed, c) in sim_seeds.iter().zip(&report.sims) {
+        let crit = criteria_of(c);
+        if names.is_empty() {
+            names = crit.iter().map(|(n, _)| n.clone()).collect();
+            fails = vec![0; names.len()];
+        }
+        for (k, (_, failed)) in crit.iter().enumerate() {
+            fails[k] += usize::from(*failed);
+        }
+        runs.push(RunScore {
+            sim_seed: *sim_seed,
+            failed: crit.into_iter().filter(|(_, f)| *f).map(|(n, _)| n).collect(),
+            loss: c.loss.as_ref().map(|l| l.total),
+        });
+    }
+    let mean_loss = drive_sim_analysis::stats::mean(
+        &runs
+            .iter()
+            .map(|r| r.loss.unwrap_or(f64::NAN))
+            .collect::<Vec<_>>(),
+    );
+    Ok((
+        CandidateScore {
+            label: label.into(),
+            seed,
+            steps,
+            runs,
+            fails,
+            mean_loss,
+        },
+        names,
+    ))
+}
+
+/// Each criterion's test: how many runs fail it against the real run, against each reference,
+/// the Monte Carlo p-value, and Holm over the criteria other than the verdict ([`DIFFERS`],
+/// first, keeps its own p).
+pub(super) fn criterion_tests(
+    names: &[String],
+    real: &CandidateScore,
+    references: &[CandidateScore],
+    n_sims: usize,
+) -> Vec<CriterionTest> {
+    let n_sims = n_sims as f64;
+    let mut criteria: Vec<CriterionTest> = names
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let reference_fails: Vec<usize> = references.iter().map(|c| c.fails[k]).collect();
+            let as_f = |v: &[usize]| v.iter().map(|x| *x as f64).collect::<Vec<_>>();
+            CriterionTest {
+                criterion: name.clone(),
+                real_fails: real.fails[k],
+                reference_rate: drive_sim_analysis::stats::mean(&as_f(&reference_fails)) / n_sims,
+                p: monte_carlo_p(real.fails[k] as f64, &as_f(&reference_fails)),
+                reference_fails,
+                p_holm: f64::NAN,
+            }
+        })
+        .collect();
+    let rest: Vec<f64> = criteria.iter().skip(1).map(|c| c.p).collect();
+    for (c, a) in criteria.iter_mut().skip(1).zip(holm(&rest)) {
+        c.p_holm = a;
+    }
+    criteria[0].p_holm = criteria[0].p;
+    criteria
+}
+
+/// The criteria after the verdict whose p-value (as `p` reads it) is at most `alpha`.
+pub(super) fn criteria_at_most(
+    criteria: &[CriterionTest],
+    alpha: f64,
+    p: fn(&CriterionTest) -> f64,
+) -> Vec<String> {
+    criteria
+        .iter()
+        .skip(1)
+        .filter(|c| p(c) <= alpha)
+        .map(|c| c.criterion.clone())
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn monte_carlo_p_by_hand() {
+        // 4 references, 2 of them at least 3: (1 + 2) / 5.
+        assert!((monte_carlo_p(3.0, &[1.0, 3.0, 5.0, 2.0]) - 0.6).abs() < 1e-12);
+        // Beyond every reference: the smallest p, 1 / 5.
+        assert!((monte_carlo_p(9.0, &[1.0, 3.0, 5.0, 2.0]) - 0.2).abs() < 1e-12);
+        // Below every reference: 1.
+        assert_eq!(monte_carlo_p(0.0, &[1.0, 3.0, 5.0, 2.0]), 1.0);
+        // Non-finite references do not count.
+        assert!((monte_carlo_p(3.0, &[1.0, f64::NAN, 5.0]) - 2.0 / 3.0).abs() < 1e-12);
+        assert!(monte_carlo_p(3.0, &[f64::NAN]).is_nan());
+    }
+}
