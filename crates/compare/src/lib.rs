@@ -23,6 +23,28 @@
 //!
 //! The library computes ([`compare`] → [`ComparisonReport`]); [`mod@write`] writes
 //! `comparison.json`, the figures and the report.
+//!
+//! Closing the loop on a twin: [`tune`] searches a twin's parameters in closed loop on
+//! compare's statistics, and [`judge`] asks whether compare can tell the real run from the
+//! twin's own runs at all (a Monte Carlo test against runs of the twin in the real run's place).
+//!
+//! ```no_run
+//! use drive_sim_compare::{compare, CompareOptions, Input};
+//! use std::path::Path;
+//!
+//! let real = drive_sim_log::read_log(Path::new("warthog_gravel.csv"))?;
+//! let twin = drive_sim_log::read_log(Path::new("out/run/warthog_gravel_s0.mcap"))?;
+//! let report = compare(
+//!     Input { log: &real, file: None },
+//!     &[Input { log: &twin, file: None }],
+//!     &CompareOptions::default(),
+//! )?;
+//! let verdict = &report.sims[0].verdict;
+//! println!("reproduces: {}; significant: {:?}", verdict.reproduces, verdict.significant);
+//! # Ok::<(), drive_sim_model::Error>(())
+//! ```
+
+#![warn(missing_docs, unreachable_pub)]
 
 pub mod curvature;
 pub mod judge;
