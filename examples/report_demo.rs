@@ -123,7 +123,7 @@ fn covariance(a: &[f64], b: &[f64]) -> [[f64; 2]; 2] {
     [[c(a, ma, a, ma), ab], [ab, c(b, mb, b, mb)]]
 }
 
-fn main() -> drive_sim::Result<()> {
+fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let measured = args.iter().any(|a| a == "--measured");
     let out: PathBuf = args

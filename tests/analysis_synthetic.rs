@@ -309,10 +309,13 @@ fn nothing_to_analyse_is_an_error() {
         .collect();
     let log = DriveLog::from_frames(meta(), &f);
     match analyze(&log, &quick()) {
-        Err(drive_sim::Error::Analysis(m)) => assert!(
-            m.contains("no complete step") && m.contains("missing window"),
-            "{m}"
-        ),
+        Err(e @ drive_sim::analysis::Error::NoCompleteStep { .. }) => {
+            let m = e.to_string();
+            assert!(
+                m.contains("no complete step") && m.contains("missing window"),
+                "{m}"
+            )
+        }
         other => panic!(
             "expected an analysis error, got {:?}",
             other.map(|a| a.steps.len())

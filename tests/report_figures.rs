@@ -4,13 +4,13 @@
 use std::path::Path;
 
 use drive_sim::kinematics::{BodyVelocity, CommandSpace, IdealDiffDrive, WheelSpeeds};
+use drive_sim::report::Error;
 use drive_sim::report::{
     box_plots, command_space_figure, contour_segments, heat_maps, histograms, line_bands, risk_map,
     scenario_colour, value_scatter, AxisLabel, BandPoint, BandSeries, BoxPanel, ColourMap, ColourScale,
     CommandScenario, EnergyAxis, EnergyLimit, FigureFiles, Grid2, HeatPanel, HistPanel, HtmlReport,
     KeyFigure, LineAxes, RiskEllipse, RiskScenario, Samples, ScatterPanel, ValuePoint, CHI2_2DOF_95,
 };
-use drive_sim::Error;
 
 fn husky() -> CommandSpace {
     CommandSpace {
@@ -110,7 +110,7 @@ fn command_space_figure_files_and_nan_count() {
     assert_eq!(svg_size(&svg).0, 3 * 470);
     assert!(matches!(
         command_space_figure(dir.path(), "cs2", "t", &husky(), &[]),
-        Err(Error::Report(_))
+        Err(Error::NothingToDraw { what: "scenario", .. })
     ));
     // A scenario without data draws an empty row, no error.
     let empty = CommandScenario {

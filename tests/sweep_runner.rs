@@ -4,7 +4,7 @@
 use drive_sim::harness::sweep::{
     merge, run_sweep, RunOptions, RunOutcome, RunSpec, Shard, SweepMatrix, DONE_FILE,
 };
-use drive_sim::Error;
+use drive_sim::harness::Error;
 use serde_json::{json, Value};
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -28,7 +28,7 @@ fn matrix() -> SweepMatrix {
 }
 
 /// A fake run: writes a file, returns figures computed from the spec.
-fn fake(spec: &RunSpec, dir: &Path) -> drive_sim::Result<Value> {
+fn fake(spec: &RunSpec, dir: &Path) -> drive_sim::harness::Result<Value> {
     std::fs::write(dir.join("log.txt"), &spec.id).unwrap();
     Ok(json!({
         "rho": {"median": spec.seed as f64 / 10.0},
@@ -101,7 +101,7 @@ fn resume_skips_finished_runs_and_redoes_partial_ones() {
         calls.fetch_add(1, Ordering::SeqCst);
         if spec.seed == 3 {
             std::fs::write(dir.join("partial.txt"), "half").unwrap();
-            return Err(Error::Analysis("simulated failure".into()));
+            return Err(Error::log(dir.join("partial.txt"), "run", "simulated failure"));
         }
         fake(spec, dir)
     };
@@ -340,7 +340,7 @@ fn a_sweep_split_across_batch_tasks_runs_every_run_once_and_merges() {
 /// The field named by a config error.
 fn field_of(text: &str) -> String {
     match SweepMatrix::parse(text, Path::new("bad.toml")).unwrap_err() {
-        Error::Config { field, file, .. } => {
+        Error::Model(drive_sim::Error::Config { field, file, .. }) => {
             assert_eq!(file, Path::new("bad.toml"));
             field
         }
@@ -443,13 +443,19 @@ steps = 8
 "#;
     let m = SweepMatrix::parse(text, Path::new("ideal.toml")).unwrap();
     // The lead's real callback simulates the terrain; the ideal plant ignores it.
-    let simulate = |spec: &RunSpec| -> drive_sim::Result<RunSummary> {
+    let simulate = |spec: &RunSpec| -> drive_sim::harness::Result<RunSummary> {
         let (robot, _) = Robot::resolve(&spec.robot)?;
         let mut plant = IdealPlant::new(robot.idd(), robot.powertrain.time_constant_s);
         let mut sampler = make_sampler_for(&spec.sampler, spec.seed, &spec.protocol)
-            .ok_or_else(|| Error::Analysis(format!("unknown sampler {}", spec.sampler)))?;
+            .ok_or_else(|| drive_sim::harness::unknown_sampler(&spec.sampler))?;
         let mut frames = Vec::new();
-        run_drive(&mut plant, &robot, sampler.as_mut(), &spec.protocol, &mut frames)
+        Ok(run_drive(
+            &mut plant,
+            &robot,
+            sampler.as_mut(),
+            &spec.protocol,
+            &mut frames,
+        )?)
     };
     let tmp = tempfile::tempdir().unwrap();
     let report = run_sweep(

@@ -53,7 +53,7 @@ pub fn open_log(path: &Path, args: &InputArgs) -> drive_sim::Result<DriveLog> {
 pub fn starting_models(
     log: &DriveLog,
     args: &InputArgs,
-) -> drive_sim::Result<drive_sim::calibration::StartingModels> {
+) -> drive_sim::calibration::Result<drive_sim::calibration::StartingModels> {
     let models =
         drive_sim::calibration::StartingModels::resolve(log, args.robot.as_deref(), args.terrain.as_deref())?;
     for n in &models.notes {

@@ -113,10 +113,7 @@ pub fn main() -> i32 {
         }
         Err(e)
             if e.chain().any(|c| {
-                matches!(
-                    c.downcast_ref::<drive_sim::Error>(),
-                    Some(drive_sim::Error::Interrupted { .. })
-                )
+                stage_error(c).is_some_and(|s| matches!(s.model, Some(drive_sim::Error::Interrupted { .. })))
             }) =>
         {
             eprintln!("drive-sim: {}", describe_error(&e));
@@ -125,16 +122,45 @@ pub fn main() -> i32 {
         Err(e) => {
             eprintln!("drive-sim: error: {}", describe_error(&e));
             // Exit code 2 for bad input (as clap does for bad arguments), 1 for a failed run.
-            if e.chain().any(|c| {
-                c.downcast_ref::<drive_sim::Error>()
-                    .is_some_and(drive_sim::Error::is_bad_input)
-            }) {
+            if e.chain().any(|c| stage_error(c).is_some_and(|s| s.bad_input)) {
                 2
             } else {
                 1
             }
         }
     }
+}
+
+/// What a link of an error chain says of the failure when it is one of the library's errors:
+/// whether the user's input is at fault, and the shared error it carries (an interrupt, a bad
+/// file). Each stage's error wraps the shared one transparently, so it is asked, not the chain.
+struct StageError<'a> {
+    bad_input: bool,
+    model: Option<&'a drive_sim::Error>,
+}
+
+fn stage_error<'a>(c: &'a (dyn std::error::Error + 'static)) -> Option<StageError<'a>> {
+    macro_rules! try_stage {
+        ($($t:ty),*) => {$(
+            if let Some(e) = c.downcast_ref::<$t>() {
+                return Some(StageError { bad_input: e.is_bad_input(), model: e.model() });
+            }
+        )*};
+    }
+    if let Some(e) = c.downcast_ref::<drive_sim::Error>() {
+        return Some(StageError {
+            bad_input: e.is_bad_input(),
+            model: Some(e),
+        });
+    }
+    try_stage!(
+        drive_sim::analysis::Error,
+        drive_sim::report::Error,
+        drive_sim::harness::Error,
+        drive_sim::calibration::Error,
+        drive_sim::compare::Error
+    );
+    None
 }
 
 fn dispatch(cli: Cli) -> anyhow::Result<()> {

@@ -1,9 +1,9 @@
 //! `drive-sim run`: DRIVE in closed loop on the simulated robot, logged to MCAP.
 
 use drive_sim::effects::Effects;
-use drive_sim::error::{Error, Result};
 pub use drive_sim::harness::run::{describe, RunReport};
 use drive_sim::harness::run::{record_run, RunEvent, RunRequest};
+use drive_sim::harness::Result;
 use drive_sim::sim::{SensorNoise, SimConfig};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -104,7 +104,7 @@ pub fn run(args: &RunArgs) -> Result<RunReport> {
     };
     bar.set_style(
         ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} steps, {elapsed} elapsed, eta {eta}")
-            .map_err(|e| Error::Analysis(e.to_string()))?
+            .expect("the progress template is valid")
             .progress_chars("=> "),
     );
     bar.set_prefix(format!("{} on {}", args.robot, args.terrain));

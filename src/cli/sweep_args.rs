@@ -1,7 +1,7 @@
 //! Command-line arguments of `drive-sim sweep` and `drive-sim sweep-merge`.
 
-use drive_sim::error::Result;
 use drive_sim::harness::sweep::{select_shard, RunOptions, Shard, ShardChoice};
+use drive_sim::harness::Result;
 use std::path::PathBuf;
 
 /// Arguments of `drive-sim sweep`.

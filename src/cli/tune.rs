@@ -119,7 +119,7 @@ pub fn tune(args: &TuneArgs) -> anyhow::Result<()> {
         .boxes
         .iter()
         .map(|b| tune::BoxOverride::parse(b))
-        .collect::<drive_sim::Result<Vec<_>>>()?;
+        .collect::<drive_sim::compare::Result<Vec<_>>>()?;
     eprintln!("drive-sim: reading {}", args.real.display());
     let log = super::input::open_log(&args.real, &args.input)?;
     let models = super::input::starting_models(&log, &args.input)?;

@@ -21,6 +21,9 @@
 
 #![warn(missing_docs, unreachable_pub)]
 
+pub mod error;
+pub use error::{Error, Result};
+
 pub mod bootstrap;
 pub mod crosscheck;
 mod pipeline;
@@ -38,7 +41,6 @@ pub mod velocity;
 use crosscheck::{CrossCheck, CrossCheckParams, YawRateSource};
 use drive_sim_log::{DriveLog, Nominal, Origin};
 use drive_sim_model::kinematics::{BodyVelocity, WheelSpeeds};
-use drive_sim_model::Result;
 use rho::{MassProperties, Rho};
 use risk::{MaxKineticEnergy, RiskScenario};
 use segment::Exclusion;

@@ -8,6 +8,7 @@ use super::{
     MedianIntervals, SlipStats, SmootherParams, StepResult, SummaryRow, WindowResult,
 };
 use crate::crosscheck::{CrossCheck, CrossCheckParams, YawRateSource};
+use crate::error::{Error, Result};
 use crate::rho::MassProperties;
 use crate::segment::{self, Exclusion, StepSegment};
 use crate::slip::SlipRecord;
@@ -16,7 +17,6 @@ use crate::stats::BoxStats;
 use crate::velocity::{self, SampleKinematics};
 use drive_sim_log::{DriveLog, LogMeta, Nominal};
 use drive_sim_model::kinematics::{BodyVelocity, CommandSpace, IdealDiffDrive, WheelSpeeds};
-use drive_sim_model::{Error, Result};
 
 /// The log's nominal model as the stages use it.
 pub(crate) struct NominalModel {
@@ -53,12 +53,11 @@ pub(crate) fn segment_steps<'a>(
             .take(3)
             .map(|e| format!("step {}: {}", e.step, e.reason))
             .collect();
-        return Err(Error::Analysis(format!(
-            "{}: no complete step to analyse ({} excluded; {})",
-            meta.name,
-            exclusions.len(),
-            why.join("; ")
-        )));
+        return Err(Error::NoCompleteStep {
+            dataset: meta.name.clone(),
+            excluded: exclusions.len(),
+            first_reasons: why,
+        });
     }
     Ok((segments, exclusions))
 }

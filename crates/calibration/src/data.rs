@@ -8,7 +8,7 @@ use super::metrics::{
 use super::model::{ModelParams, PlantFactory};
 use super::replay::replay_map;
 use super::steps::{step_start_in, StepSlice, StepStart};
-use drive_sim_model::error::{Error, Result};
+use crate::error::{Error, Result};
 use drive_sim_model::kinematics::WheelSpeeds;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
@@ -40,7 +40,7 @@ impl<'a> StepSet<'a> {
                 all.iter()
                     .find(|s| s.step == *w)
                     .copied()
-                    .ok_or_else(|| Error::Analysis(format!("step {w} is not in the log")))
+                    .ok_or(Error::StepNotInLog { step: *w })
             })
             .collect::<Result<_>>()?;
         let features = steps
@@ -156,22 +156,24 @@ pub fn split_steps(
 ) -> Result<Split> {
     let test_fraction = 1.0 - train_fraction - validation_fraction;
     if !(train_fraction > 0.0 && validation_fraction > 0.0 && test_fraction > 1e-9) {
-        return Err(Error::Analysis(format!(
-            "`{dataset}`: the split fractions must be positive and sum below 1 (train \
-             {train_fraction}, validation {validation_fraction}, test the rest)"
-        )));
+        return Err(Error::SplitFractions {
+            dataset: dataset.to_string(),
+            train: train_fraction,
+            validation: validation_fraction,
+        });
     }
     let n = commands.len();
     let need = (MIN_STEPS_PER_SET as f64 / train_fraction.min(validation_fraction).min(test_fraction)).ceil()
         as usize;
     if n < need {
-        return Err(Error::Analysis(format!(
-            "`{dataset}` has {n} completed steps: too few for a train / validation / test split \
-             of {:.0} / {:.0} / {:.0} % with at least {MIN_STEPS_PER_SET} steps in each (needs {need})",
-            100.0 * train_fraction,
-            100.0 * validation_fraction,
-            100.0 * test_fraction
-        )));
+        return Err(Error::TooFewSteps {
+            dataset: dataset.to_string(),
+            steps: n,
+            need,
+            min_per_set: MIN_STEPS_PER_SET,
+            train: train_fraction,
+            validation: validation_fraction,
+        });
     }
     let mut order: Vec<(f64, f64, u32)> = commands
         .iter()

@@ -3,7 +3,7 @@
 use super::residual::{ResidualAnalysis, ResidualMap};
 use super::stages::selection::SelectionRound;
 use super::CalibrationReport;
-use drive_sim_model::error::Result;
+use crate::error::Result;
 use drive_sim_report::{
     bar_chart, box_plots, heat_maps, line_bands, AxisLabel, BandPoint, BandSeries, BarChart, BarSeries,
     BoxGroup, BoxPanel, ColourMap, ColourScale, FigureFiles, Grid2, HeatPanel, HtmlReport, KeyFigure,
@@ -244,7 +244,7 @@ pub fn write_html(
         h.figure(caption.clone(), files)?;
     }
     h.section("Reproduce").paragraph(report.reproduce.clone());
-    h.write(dir)
+    Ok(h.write(dir)?)
 }
 
 /// The summary: status, notes and the held-out scores.

@@ -10,7 +10,7 @@ use super::solver::covariance::{sandwich, Covariance};
 use super::solver::lm::{self, LmOptions};
 use super::solver::nelder_mead::{self, NmOptions};
 use super::solver::{Iteration, Layout, LeastSquares, Solution, Stop};
-use drive_sim_model::error::{Error, Result};
+use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::sync::OnceLock;
 
@@ -33,11 +33,11 @@ impl Optimizer {
         match name {
             "levenberg-marquardt" | "lm" => Ok(Self::LevenbergMarquardt),
             "nelder-mead" | "nm" => Ok(Self::NelderMead),
-            _ => Err(Error::Unknown {
+            _ => Err(Error::from(drive_sim_model::Error::Unknown {
                 kind: "optimizer",
                 name: name.to_string(),
                 available: Self::NAMES.join(", "),
-            }),
+            })),
         }
     }
 }
@@ -433,16 +433,10 @@ pub fn fit(
         }
     }
     let Some((sol, model, problem)) = best else {
-        return Err(Error::Analysis(format!(
-            "no model could be evaluated on the {} steps fitted ({} parameters: {})",
-            data.len(),
-            specs.len(),
-            specs
-                .iter()
-                .map(|s| s.param.name())
-                .collect::<Vec<_>>()
-                .join(", ")
-        )));
+        return Err(Error::NothingEvaluable {
+            steps: data.len(),
+            params: specs.iter().map(|s| s.param.name().to_string()).collect(),
+        });
     };
     let mut params: Vec<FittedParam> = Vec::new();
     // Continuous parameters free at the solution get a covariance.

@@ -48,6 +48,9 @@
 
 #![warn(missing_docs, unreachable_pub)]
 
+pub mod error;
+pub use error::{Error, Result};
+
 pub mod data;
 pub mod diagnosis;
 pub mod discovery;
@@ -96,7 +99,6 @@ pub use to_dir::{
 };
 
 use drive_sim_log::DriveLog;
-use drive_sim_model::error::{Error, Result};
 use drive_sim_model::robot::Robot;
 use drive_sim_model::terrain::Terrain;
 use serde::{Deserialize, Serialize};
@@ -256,11 +258,11 @@ impl ModelKind {
         match name {
             "simulator" | "sim" => Ok(Self::Simulator),
             "kinematic" => Ok(Self::Kinematic),
-            _ => Err(Error::Unknown {
+            _ => Err(Error::from(drive_sim_model::Error::Unknown {
                 kind: "model",
                 name: name.to_string(),
                 available: Self::NAMES.join(", "),
-            }),
+            })),
         }
     }
 

@@ -29,9 +29,9 @@
 //! what the bootstrap (over steps) compares.
 
 use super::steps::StepSlice;
+use crate::error::{Error, Result};
 use drive_sim_analysis::velocity::window_pose_velocities;
 use drive_sim_log::{Pose, Sample};
-use drive_sim_model::error::{Error, Result};
 use drive_sim_model::geometry::wrap_angle;
 use drive_sim_model::kinematics::WheelSpeeds;
 use serde::{Deserialize, Serialize};
@@ -80,7 +80,7 @@ fn relative(p: &Pose, q: &Pose) -> [f64; 3] {
 /// Extracts the features of one step.
 pub fn step_features(step: u32, samples: &[Sample]) -> Result<StepFeatures> {
     if samples.is_empty() {
-        return Err(Error::Analysis(format!("step {step} has no sample")));
+        return Err(Error::StepWithoutSamples { step });
     }
     let mut f = StepFeatures {
         step,
@@ -184,9 +184,7 @@ impl NoiseFloor {
             }
         }
         if n_scatter == 0 {
-            return Err(Error::Analysis(
-                "noise floor: no steady window with at least two samples".into(),
-            ));
+            return Err(Error::NoSteadyScatter);
         }
         let series = scatter.map(|s| (s / n_scatter as f64).sqrt().max(MIN_FLOOR));
         let (steady, pose) = if n_pairs > 0 {
@@ -326,13 +324,12 @@ impl StepResiduals {
 /// Compares a replayed step with the recorded one (same step, same sampling), entry by entry.
 pub fn step_residuals(sim: &StepFeatures, meas: &StepFeatures) -> Result<StepResiduals> {
     if sim.step != meas.step || sim.series.len() != meas.series.len() {
-        return Err(Error::Analysis(format!(
-            "step {}: replay has {} samples, recording {} (step {})",
-            sim.step,
-            sim.series.len(),
-            meas.series.len(),
-            meas.step
-        )));
+        return Err(Error::ReplayMismatch {
+            step: sim.step,
+            replay: sim.series.len(),
+            recording: meas.series.len(),
+            recording_step: meas.step,
+        });
     }
     let steady = sim
         .steady

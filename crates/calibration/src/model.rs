@@ -4,8 +4,8 @@
 
 use super::params::{Param, ParamSpec};
 use super::surrogate::KinematicPlant;
+use crate::error::Result;
 use drive_sim_model::effects::{Effect, Effects};
-use drive_sim_model::error::Result;
 use drive_sim_model::robot::Robot;
 use drive_sim_model::terrain::Terrain;
 use drive_sim_sim::{IdealPlant, Plant, SimConfig, Simulator};

@@ -168,8 +168,10 @@ pub struct CalibrationReport {
 
 /// The calibrated terrain as a terrain TOML file, with a header saying where it comes from.
 pub fn fitted_terrain_toml(report: &CalibrationReport) -> Result<String> {
-    let body = toml::to_string(&report.model_after.terrain)
-        .map_err(|e| Error::Analysis(format!("cannot serialize the fitted terrain: {e}")))?;
+    let body = toml::to_string(&report.model_after.terrain).map_err(|source| Error::Toml {
+        what: "the fitted terrain",
+        source,
+    })?;
     Ok(format!(
         "# Fitted to `{}` by drive-sim calibrate ({} model, seed {}).\n\
          # Held-out score {:.3} (declared model {:.3}, 1 = noise floor); held-out steady vx RMSE\n\
@@ -204,8 +206,7 @@ pub fn fitted_terrain_toml(report: &CalibrationReport) -> Result<String> {
 pub fn write_timings(timings: &Timings, dir: &Path) -> Result<PathBuf> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let path = dir.join("timings.json");
-    let json = serde_json::to_string_pretty(timings)
-        .map_err(|e| Error::Analysis(format!("cannot serialize the timings: {e}")))?;
+    let json = serde_json::to_string_pretty(timings).map_err(|e| Error::json(&path, e))?;
     std::fs::write(&path, json).map_err(|e| Error::io(&path, e))?;
     Ok(path)
 }
@@ -216,8 +217,7 @@ pub fn write_timings(timings: &Timings, dir: &Path) -> Result<PathBuf> {
 pub fn write_report(report: &CalibrationReport, dir: &Path) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let json_path = dir.join("calibration.json");
-    let json = serde_json::to_string_pretty(report)
-        .map_err(|e| Error::Analysis(format!("cannot serialize the report: {e}")))?;
+    let json = serde_json::to_string_pretty(report).map_err(|e| Error::json(&json_path, e))?;
     std::fs::write(&json_path, json).map_err(|e| Error::io(&json_path, e))?;
     let toml_path = dir.join(format!("{}_fitted_terrain.toml", report.dataset));
     std::fs::write(&toml_path, fitted_terrain_toml(report)?).map_err(|e| Error::io(&toml_path, e))?;

@@ -2,9 +2,9 @@
 //! of a registered effect ([`drive_sim_model::effects`]), each with its unit, and a search box.
 
 use super::model::ModelParams;
+use crate::error::{Error, Result};
 use drive_sim_model::config::Validate;
 use drive_sim_model::effects::{self, CommandReach, Effect, ParamDef, ParamKind, REGISTRY};
-use drive_sim_model::error::{Error, Result};
 
 /// A quantity of the model the optimizer may vary.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -136,10 +136,10 @@ impl Param {
             .def()
             .is_some_and(|d| d.kind == ParamKind::Limit && v == f64::INFINITY);
         if !(v.is_finite() || off_limit) {
-            return Err(Error::Analysis(format!(
-                "parameter `{}`: non-finite value {v}",
-                self.name()
-            )));
+            return Err(Error::NonFiniteParameter {
+                name: self.name().to_string(),
+                value: v,
+            });
         }
         match self {
             Self::PeakLongitudinal => m.terrain.friction.peak_longitudinal = v,
@@ -149,9 +149,7 @@ impl Param {
             Self::Baseline => m.robot.wheels.baseline_m = v,
             Self::TimeConstant => m.robot.powertrain.time_constant_s = v,
             Self::Effect { .. } => {
-                let d = self
-                    .def()
-                    .ok_or_else(|| Error::Analysis("unknown effect parameter".into()))?;
+                let d = self.def().ok_or(Error::UnknownEffectParameter)?;
                 m.effects.set(d.key, v)?;
             }
         }
@@ -236,10 +234,18 @@ impl ModelParams {
         }
         m.robot
             .validate()
-            .map_err(|(f, e)| Error::Analysis(format!("robot parameter `{f}`: {e}")))?;
+            .map_err(|(field, message)| Error::InvalidModel {
+                model: "robot",
+                field: field.to_string(),
+                message: message.to_string(),
+            })?;
         m.terrain
             .validate()
-            .map_err(|(f, e)| Error::Analysis(format!("terrain parameter `{f}`: {e}")))?;
+            .map_err(|(field, message)| Error::InvalidModel {
+                model: "terrain",
+                field: field.to_string(),
+                message: message.to_string(),
+            })?;
         Ok(m)
     }
 

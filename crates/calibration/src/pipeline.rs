@@ -3,6 +3,7 @@
 //! stages of [`crate::stages`] in order, each timed.
 
 use crate::data::{split_steps, StepSet};
+use crate::error::{Error, Result};
 use crate::events::CalibrationEvent;
 use crate::metrics::NoiseFloor;
 use crate::model::PlantFactory;
@@ -17,7 +18,6 @@ use crate::steps::StepSlice;
 use crate::{diagnosis, steps, twin, CalibrationOptions, CalibrationReport};
 use drive_sim_log::DriveLog;
 use drive_sim_model::effects::CommandReach;
-use drive_sim_model::error::{Error, Result};
 use drive_sim_model::kinematics::WheelSpeeds;
 use drive_sim_model::robot::Robot;
 use drive_sim_model::terrain::Terrain;
@@ -212,12 +212,14 @@ fn mean_commands(slices: &[StepSlice<'_>]) -> Vec<(u32, WheelSpeeds)> {
 /// The noise floor of the training steps; refused when no step has the two steady windows
 /// it compares.
 fn training_floor(name: &str, train: &StepSet<'_>) -> Result<NoiseFloor> {
-    let floor = NoiseFloor::estimate(&train.features)
-        .map_err(|e| Error::Analysis(format!("`{name}`: no noise floor from its training steps: {e}")))?;
+    let floor = NoiseFloor::estimate(&train.features).map_err(|e| Error::NoNoiseFloor {
+        dataset: name.to_string(),
+        source: Box::new(e),
+    })?;
     if floor.steps_used == 0 {
-        return Err(Error::Analysis(format!(
-            "`{name}`: no training step has two steady windows, so the steady channels have no              noise floor estimate (the floor compares the two steady windows of each step)"
-        )));
+        return Err(Error::NoTwoWindowStep {
+            dataset: name.to_string(),
+        });
     }
     Ok(floor)
 }
@@ -248,7 +250,7 @@ fn candidate_pool(
     if let Some(only) = &opts.candidates {
         for n in only {
             if drive_sim_model::effects::effect(n).is_none() {
-                return Err(Error::Unknown {
+                return Err(Error::from(drive_sim_model::Error::Unknown {
                     kind: "candidate effect",
                     name: n.clone(),
                     available: drive_sim_model::effects::REGISTRY
@@ -256,7 +258,7 @@ fn candidate_pool(
                         .map(|e| e.name())
                         .collect::<Vec<_>>()
                         .join(", "),
-                });
+                }));
             }
         }
     }

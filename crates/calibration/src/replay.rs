@@ -9,9 +9,9 @@
 
 use super::model::{ModelParams, PlantFactory};
 use super::steps::{step_slices, step_start_in, StepSlice, StepStart};
+use crate::error::{Error, Result};
 use drive_sim_log::{DriveLog, Frame, LogMeta, Origin, Sample};
 use drive_sim_model::effects::StepContext;
-use drive_sim_model::error::{Error, Result};
 use drive_sim_sim::Plant;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -76,7 +76,7 @@ pub fn replay_step(
             _ => 1.0 / rate_hz,
         };
         plant.advance(dt).map_err(|e| match e {
-            Error::Diverged { message, time_s, .. } => Error::Diverged {
+            drive_sim_model::Error::Diverged { message, time_s, .. } => drive_sim_model::Error::Diverged {
                 step: step.step,
                 time_s,
                 message,
@@ -99,11 +99,10 @@ pub fn replay_map<T: Send>(
     f: impl Fn(usize, Vec<Sample>) -> Result<T> + Sync,
 ) -> Result<Vec<T>> {
     if steps.len() != starts.len() {
-        return Err(Error::Analysis(format!(
-            "replay: {} steps but {} start states",
-            steps.len(),
-            starts.len()
-        )));
+        return Err(Error::StartStates {
+            steps: steps.len(),
+            starts: starts.len(),
+        });
     }
     let chunks: Vec<Vec<T>> = (0..steps.len())
         .collect::<Vec<_>>()
@@ -155,9 +154,13 @@ pub fn replay_log(
         Some(want) => {
             let mut v = Vec::with_capacity(want.len());
             for w in want {
-                let s = all.iter().find(|s| s.step == *w).ok_or_else(|| {
-                    Error::Analysis(format!("replay: step {w} is not in log `{}`", log.meta.name))
-                })?;
+                let s = all
+                    .iter()
+                    .find(|s| s.step == *w)
+                    .ok_or_else(|| Error::ReplayStepNotInLog {
+                        step: *w,
+                        log: log.meta.name.clone(),
+                    })?;
                 v.push(*s);
             }
             v

@@ -3,12 +3,12 @@
 //! alone ([`crate::calibrate_into`]), several jointly ([`crate::joint`]). Every input is checked
 //! and the output folder staged before any long work; the folder appears whole, or not at all.
 
+use crate::error::{Error, Result};
 use crate::events::CalibrationEvent;
 use crate::joint::{self, JointInput, JointLog, JointReport};
 use crate::to_dir::{calibrate_into, CalibrateLogRequest, CalibrateOutcome, StartingModels};
 use crate::{models_for, CalibrationOptions, ModelKind, Optimizer};
 use drive_sim_log::{DriveLog, OpenOptions, UseSteps};
-use drive_sim_model::error::{Error, Result};
 use drive_sim_model::output::StagedDir;
 use std::path::{Path, PathBuf};
 

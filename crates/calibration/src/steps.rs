@@ -2,9 +2,9 @@
 //! replayed step starts from, and the planar pose arithmetic both the estimators and the
 //! replay use. Below [`super::metrics`] and [`super::replay`], which both read it.
 
+use crate::error::{Error, Result};
 use drive_sim_analysis::segment::{usable_steps, Exclusion, SegmentRules};
 use drive_sim_log::{DriveLog, Pose, Sample};
-use drive_sim_model::error::{Error, Result};
 use drive_sim_model::geometry::wrap_angle;
 use drive_sim_model::kinematics::{BodyVelocity, WheelSpeeds};
 
@@ -68,9 +68,7 @@ pub struct StepStart {
 
 /// Estimates the state at the start of a step (see [`StepStart`]).
 pub fn step_start(samples: &[Sample]) -> Result<StepStart> {
-    let first = samples
-        .first()
-        .ok_or_else(|| Error::Analysis("empty step".into()))?;
+    let first = samples.first().ok_or(Error::EmptyStep)?;
     let velocity = match first.m.reference {
         Some(v) if v.is_finite() => v,
         _ => start_velocity(samples),

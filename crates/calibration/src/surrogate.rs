@@ -4,9 +4,9 @@
 //! machinery (replay, metrics, optimizer, effect selection) can be tested end to end on it,
 //! and it is the fast model `calibrate` can fall back to.
 
+use crate::error::{Error, Result};
 use drive_sim_log::{GroundTruth, Measurement, Pose};
 use drive_sim_model::effects::{Effects, PlantModifiers, StepContext, TermInput};
-use drive_sim_model::error::{Error, Result};
 use drive_sim_model::geometry::wrap_angle;
 use drive_sim_model::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use drive_sim_sim::plant::{integrate_unicycle_with, kinematic_measurement, Heading, Plant};
@@ -81,10 +81,9 @@ impl KinematicPlant {
         noise: Option<KinematicNoise>,
     ) -> Result<Self> {
         if let Some(e) = effects.first_contact_effect() {
-            return Err(Error::Analysis(format!(
-                "the kinematic model has no tyre model and cannot represent the effect `{}`",
-                e.name()
-            )));
+            return Err(Error::ContactEffectInKinematicModel {
+                effect: e.name().to_string(),
+            });
         }
         let mods = effects.modifiers();
         let on_body = effects.acts_on_body();
@@ -200,9 +199,9 @@ impl Plant for KinematicPlant {
         self.cmds.push_back((self.time_s, cmd));
     }
 
-    fn advance(&mut self, dt_s: f64) -> Result<()> {
+    fn advance(&mut self, dt_s: f64) -> drive_sim_model::Result<()> {
         if !(dt_s.is_finite() && dt_s >= 0.0) {
-            return Err(Error::Diverged {
+            return Err(drive_sim_model::Error::Diverged {
                 step: 0,
                 time_s: self.time_s,
                 message: format!("invalid time step {dt_s}"),

@@ -17,8 +17,8 @@
 use super::fit::FittedParam;
 use super::model::ModelParams;
 use super::CalibrationReport;
+use crate::error::{Error, Result};
 use drive_sim_model::effects::{Effect, Effects};
-use drive_sim_model::error::{Error, Result};
 use drive_sim_model::robot::Robot;
 use drive_sim_model::terrain::Terrain;
 use serde::{Deserialize, Serialize};
@@ -143,8 +143,10 @@ pub fn commented_toml<T: Serialize>(
     header: &[String],
     comments: &BTreeMap<String, String>,
 ) -> Result<String> {
-    let text =
-        toml::to_string(value).map_err(|e| Error::Analysis(format!("cannot write a twin file: {e}")))?;
+    let text = toml::to_string(value).map_err(|source| Error::Toml {
+        what: "a twin file",
+        source,
+    })?;
     let mut out = String::new();
     for h in header {
         out.push_str("# ");
@@ -234,16 +236,26 @@ pub struct TwinFiles {
 /// commented as such.
 pub fn twin_files(params: &ModelParams, prov: &Provenance) -> Result<TwinFiles> {
     let (robot, terrain) = twin_models(params)?;
-    let rv = toml::Value::try_from(&robot)
-        .map_err(|e| Error::Analysis(format!("cannot write a twin robot: {e}")))?;
-    let tv = toml::Value::try_from(&terrain)
-        .map_err(|e| Error::Analysis(format!("cannot write a twin terrain: {e}")))?;
+    let rv = toml::Value::try_from(&robot).map_err(|source| Error::Toml {
+        what: "a twin robot",
+        source,
+    })?;
+    let tv = toml::Value::try_from(&terrain).map_err(|source| Error::Toml {
+        what: "a twin terrain",
+        source,
+    })?;
     let before = match &prov.before {
         Some(b) => {
             let (r, t) = twin_models(b)?;
             Some((
-                toml::Value::try_from(&r).map_err(|e| Error::Analysis(e.to_string()))?,
-                toml::Value::try_from(&t).map_err(|e| Error::Analysis(e.to_string()))?,
+                toml::Value::try_from(&r).map_err(|source| Error::Toml {
+                    what: "the robot before calibration",
+                    source,
+                })?,
+                toml::Value::try_from(&t).map_err(|source| Error::Toml {
+                    what: "the terrain before calibration",
+                    source,
+                })?,
             ))
         }
         None => None,
@@ -332,10 +344,10 @@ pub fn fitted_params(report: &CalibrationReport) -> Vec<FittedParam> {
 /// are effective, not physical): an error says so.
 pub fn twin_of_report(report: &CalibrationReport) -> Result<TwinFiles> {
     if report.model_kind != "simulator" {
-        return Err(Error::Analysis(format!(
-            "a twin comes from a simulator calibration; this one fitted the {} model, whose values are effective, not physical",
-            report.model_kind
-        )));
+        return Err(Error::TwinOfKinematicModel {
+            model_kind: report.model_kind.clone(),
+            why: ", whose values are effective, not physical",
+        });
     }
     let dataset = report
         .source_file
@@ -407,7 +419,7 @@ impl TwinCheck {
 pub fn check_twin(robot: &Robot, terrain: &Terrain, steps: u32, seed: u64) -> Result<TwinCheck> {
     let protocol = drive_sim_protocol::ProtocolConfig::for_run(robot, terrain, steps);
     let mut sampler = drive_sim_protocol::sampler::make_sampler_for("uniform-wheel", seed, &protocol)
-        .ok_or_else(|| Error::Analysis("the uniform-wheel sampler is not registered".into()))?;
+        .ok_or(Error::SamplerMissing("uniform-wheel"))?;
     let cfg = drive_sim_sim::SimConfig {
         seed,
         ..Default::default()
@@ -455,7 +467,7 @@ struct Discard {
 }
 
 impl drive_sim_model::measurement::FrameSink for Discard {
-    fn frame(&mut self, _frame: &drive_sim_model::measurement::Frame) -> Result<()> {
+    fn frame(&mut self, _frame: &drive_sim_model::measurement::Frame) -> drive_sim_model::Result<()> {
         Ok(())
     }
     fn step_done(&mut self, completed: u32) {

@@ -46,6 +46,9 @@
 
 #![warn(missing_docs, unreachable_pub)]
 
+pub mod error;
+pub use error::{Error, Result};
+
 pub mod curvature;
 pub mod judge;
 pub mod loss;
@@ -70,7 +73,6 @@ pub use report::{
 
 use drive_sim_analysis::{analyze, Analysis, AnalysisParams, SmootherParams};
 use drive_sim_log::{DriveLog, Origin};
-use drive_sim_model::error::{Error, Result};
 use std::path::PathBuf;
 
 /// The analysis `compare` runs on each log: default parameters without the smoother (the
@@ -83,7 +85,7 @@ pub fn analysis_of(log: &DriveLog) -> Result<Analysis> {
         },
         ..AnalysisParams::default()
     };
-    analyze(log, &params)
+    Ok(analyze(log, &params)?)
 }
 
 /// Whether a log records the protocol's interruptions and timing (simulated logs and bags do;

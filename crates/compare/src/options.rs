@@ -1,8 +1,8 @@
 //! Options of [`super::compare`]: the verdicts' thresholds, the maps' grid and smoother, and
 //! how many halvings of the real run make the maps' yardstick.
 
+use crate::error::{Error, Result};
 use drive_sim_analysis::bootstrap::Bootstrap;
-use drive_sim_model::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 
 /// Options of [`super::compare`].

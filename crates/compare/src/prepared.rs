@@ -2,13 +2,13 @@
 //! bootstrap statistics and maps) and a simulated run ([`PreparedSim`]), so that a closed-loop
 //! search or the judge compares many runs without analysing any of them twice.
 
+use crate::error::Result;
 use crate::metrics::{resampled, rows, StepRow};
 use crate::options::check_options;
 use crate::{analysis_of, records_time, tf, CompareOptions, Input, Warning};
 use drive_sim_analysis::bootstrap::MIN_STEPS_FOR_INTERVAL;
 use drive_sim_analysis::smoother::Smoothed;
 use drive_sim_analysis::Analysis;
-use drive_sim_model::error::Result;
 use drive_sim_model::kinematics::CommandSpace;
 
 /// The real side of a comparison, computed once: its analysis, its steps' bootstrap

@@ -2,10 +2,10 @@
 //! runs with, checked before the first run: the twin is of the log's robot, and the steps used
 //! are enough for an interval.
 
+use crate::error::{Error, Result};
 use drive_sim_analysis::bootstrap::MIN_STEPS_FOR_INTERVAL;
 use drive_sim_calibration::ModelParams;
 use drive_sim_log::{DriveLog, UseSteps};
-use drive_sim_model::error::{Error, Result};
 
 /// Refuses a twin of another robot than the real log's (bad input on `--robot`); `verb` says
 /// what the twin is for ("tuned", "judged").

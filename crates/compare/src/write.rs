@@ -2,8 +2,8 @@
 //! whose first screen is the verdict table.
 
 use super::{ComparisonReport, MetricDiff, SimComparison, TfDiff};
+use crate::error::{Error, Result};
 use drive_sim_analysis::bootstrap::Interval;
-use drive_sim_model::error::{Error, Result};
 use drive_sim_report::{
     heat_maps, AxisLabel, ColourMap, ColourScale, Comparison, FigureFiles, Grid2, HeatPanel, HtmlReport,
 };
@@ -312,7 +312,7 @@ fn map_figure(
             command_space: real_u.to_vec(),
         })
         .collect();
-    heat_maps(
+    Ok(heat_maps(
         dir,
         &format!("{stem}_{idx}"),
         &format!(
@@ -326,7 +326,7 @@ fn map_figure(
             range: None,
         },
         None,
-    )
+    )?)
 }
 
 /// Writes `comparison.json`, one difference-map figure per simulated log and `report.html`
@@ -334,7 +334,7 @@ fn map_figure(
 pub fn write_comparison(r: &ComparisonReport, real_u: &[(f64, f64)], dir: &Path) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let json = dir.join("comparison.json");
-    let text = serde_json::to_string_pretty(r).map_err(|e| Error::Report(format!("comparison.json: {e}")))?;
+    let text = serde_json::to_string_pretty(r).map_err(|e| Error::json(&json, e))?;
     std::fs::write(&json, text).map_err(|e| Error::io(&json, e))?;
     let mut paths = vec![json];
     let mut html = HtmlReport::new(format!("Does the simulation reproduce {}?", r.real.name));

@@ -1,10 +1,10 @@
 //! The analysis of DRIVE logs behind `drive-sim analyze` and the demo: each log read, analysed
 //! with the paper's parameters for its robot, and the logs reported together.
 
+use crate::error::{Error, Result};
 use drive_sim_analysis::smoother::KernelCovariance;
 use drive_sim_analysis::{Analysis, AnalysisParams, SmootherParams};
 use drive_sim_log::DriveLog;
-use drive_sim_model::error::{Error, Result};
 use drive_sim_report::analysis_report::{write_analysis_report_of, AnalysisReportFiles, LogSummary};
 use std::path::PathBuf;
 

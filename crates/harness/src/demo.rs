@@ -3,7 +3,7 @@
 
 use super::analyze::{analyse_log, report, AnalyzeEvent, AnalyzeOptions, AnalyzedLogs};
 use super::run::{record_run_with_log, RunEvent, RunReport, RunRequest};
-use drive_sim_model::error::Result;
+use crate::error::Result;
 use drive_sim_sim::{SensorNoise, SimConfig};
 use std::path::PathBuf;
 

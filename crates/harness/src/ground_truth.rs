@@ -10,9 +10,9 @@
 //! purpose: DRIVE starts each step from the previous command, the truth always from rest, so the
 //! truth is the plant's response, not the protocol's history.
 
+use crate::error::Result;
 use drive_sim_analysis::smoother::{smooth_exact, Grid, KernelCovariance};
 use drive_sim_analysis::Analysis;
-use drive_sim_model::error::Result;
 use drive_sim_model::kinematics::{BodyVelocity, CommandSpace, WheelSpeeds};
 use drive_sim_sim::Plant;
 use rayon::prelude::*;

@@ -25,6 +25,9 @@
 //! ```
 #![warn(missing_docs, unreachable_pub)]
 
+pub mod error;
+pub use error::{Error, Result};
+
 pub mod analyze;
 pub mod demo;
 pub mod ground_truth;

@@ -2,9 +2,9 @@
 //! run` and the demo do): the log streams to `<out>/<name>.mcap.partial`, renamed when the run
 //! completes, and a `<name>.run.json` summary is written beside it.
 
+use crate::error::{Error, Result};
 use drive_sim_log::mcap::{McapSummary, McapWriter};
 use drive_sim_log::{DriveLog, Frame, LogMeta, Nominal, Origin};
-use drive_sim_model::error::{Error, Result};
 use drive_sim_model::output::write_json_atomic as write_json;
 use drive_sim_model::provenance::{InputFile, Provenance};
 use drive_sim_model::robot::{Robot, BUILTIN_ROBOTS};
@@ -142,7 +142,7 @@ struct Sink<'a> {
 }
 
 impl FrameSink for Sink<'_> {
-    fn frame(&mut self, frame: &Frame) -> Result<()> {
+    fn frame(&mut self, frame: &Frame) -> drive_sim_model::Result<()> {
         if let Some(k) = &mut self.kept {
             k.push(*frame);
         }
@@ -246,15 +246,15 @@ fn record(
     let t0 = Instant::now();
     let summary = match run_drive(&mut sim, &robot, sampler.as_mut(), &protocol, &mut sink) {
         Ok(s) => s,
-        Err(e @ Error::Interrupted { .. }) => {
+        Err(e @ drive_sim_model::Error::Interrupted { .. }) => {
             let closed = sink.writer.finish_interrupted()?;
             (sink.progress)(RunEvent::Interrupted { log: &closed.path });
-            return Err(e);
+            return Err(e.into());
         }
         Err(e) => {
             let partial = sink.writer.partial_path().to_path_buf();
             (sink.progress)(RunEvent::Failed { partial: &partial });
-            return Err(e);
+            return Err(e.into());
         }
     };
     let McapSummary {

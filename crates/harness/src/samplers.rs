@@ -5,11 +5,11 @@
 use super::simulate::{
     analysis_params_without_smoother, kernel_for, simulate, simulator_truth, truth_grid, unknown_sampler,
 };
+use crate::error::{Error, Result};
 use crate::ground_truth::{transfer_error, TransferError, TruthField};
 use drive_sim_analysis::analyze;
 use drive_sim_analysis::smoother::KernelCovariance;
 use drive_sim_analysis::stats::mean_sd;
-use drive_sim_model::error::{Error, Result};
 use drive_sim_model::robot::Robot;
 use drive_sim_model::terrain::Terrain;
 use drive_sim_protocol::sampler::SAMPLERS;
@@ -217,7 +217,7 @@ pub fn compare(args: &SamplersOptions) -> Result<SamplersReport> {
     } else {
         for n in &args.only {
             if !SAMPLERS.contains(&n.as_str()) {
-                return Err(unknown_sampler(n));
+                return Err(unknown_sampler(n).into());
             }
         }
         args.only.clone()
@@ -360,7 +360,7 @@ fn error_figure(
                 .collect(),
         })
         .collect();
-    line_bands(
+    Ok(line_bands(
         dir,
         stem,
         &format!("Transfer-function error, {title} (mean ± 1 sd over seeds)"),
@@ -371,7 +371,7 @@ fn error_figure(
             log_y: false,
         },
         &series,
-    )
+    )?)
 }
 
 /// Writes `samplers.json`, the figures and `report.html` into `dir`.
@@ -435,7 +435,7 @@ pub fn write_outputs(report: &SamplersReport, dir: &Path) -> Result<PathBuf> {
             .collect();
         html.table(s.sampler.clone(), &rows);
     }
-    html.write(dir)
+    Ok(html.write(dir)?)
 }
 
 #[cfg(test)]

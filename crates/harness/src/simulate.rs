@@ -1,11 +1,11 @@
 //! DRIVE on the simulator into memory: the building block of the sampler comparison, the sweep
 //! runs and the protocol-claim tests, which analyse the log without writing MCAP.
 
+use crate::error::Result;
 use crate::ground_truth::{ground_truth, GroundTruthParams, TruthField};
 use drive_sim_analysis::smoother::{Grid, KernelCovariance};
 use drive_sim_analysis::{AnalysisParams, SmootherParams};
 use drive_sim_log::{DriveLog, Frame, LogMeta, Nominal, Origin};
-use drive_sim_model::error::{Error, Result};
 use drive_sim_model::robot::Robot;
 use drive_sim_model::terrain::Terrain;
 use drive_sim_protocol::sampler::{make_sampler_for, Sampler, SAMPLERS};
@@ -60,7 +60,7 @@ struct Tee<'a> {
 }
 
 impl FrameSink for Tee<'_> {
-    fn frame(&mut self, frame: &Frame) -> Result<()> {
+    fn frame(&mut self, frame: &Frame) -> drive_sim_model::Result<()> {
         self.frames.push(*frame);
         match self.also.as_deref_mut() {
             Some(s) => s.frame(frame),
@@ -140,8 +140,8 @@ pub fn simulate(
 }
 
 /// The error for a sampler name that is not registered, listing those that are.
-pub fn unknown_sampler(name: &str) -> Error {
-    Error::Unknown {
+pub fn unknown_sampler(name: &str) -> drive_sim_model::Error {
+    drive_sim_model::Error::Unknown {
         kind: "sampler",
         name: name.to_string(),
         available: SAMPLERS.join(", "),
@@ -182,7 +182,7 @@ pub fn truth_grid(robot: &Robot, nvx: usize, nwz: usize) -> Grid {
 /// Open-loop ground truth of `robot` on `terrain` (noise off, terrain seed 0) on `grid`.
 pub fn simulator_truth(robot: &Robot, terrain: &Terrain, grid: &Grid) -> Result<TruthField> {
     ground_truth(
-        || Simulator::new(robot, terrain, SimConfig::default()),
+        || Ok(Simulator::new(robot, terrain, SimConfig::default())?),
         &robot.command_space(),
         grid,
         &GroundTruthParams::default(),

@@ -9,10 +9,10 @@
 //! braking assumption does not follow the terrain unless the matrix sets it.
 
 use super::simulate::{analysis_params_without_smoother, simulate_into, simulated_meta, unknown_sampler};
+use crate::error::{Error, Result};
 use crate::sweep::{RunSpec, SweepMatrix};
 use drive_sim_analysis::analyze;
 use drive_sim_log::mcap::McapWriter;
-use drive_sim_model::error::{Error, Result};
 use drive_sim_model::output::write_json_atomic as write_json;
 use drive_sim_model::provenance::{InputFile, Provenance};
 use drive_sim_model::robot::{Robot, BUILTIN_ROBOTS};
@@ -143,11 +143,11 @@ pub fn sweep_run_with(spec: &RunSpec, dir: &Path, keep_log: bool) -> Result<Valu
         Ok(r) => r,
         // An interrupted run's log is closed readable; the run stays incomplete (no marker)
         // and is redone when the sweep resumes.
-        Err(e @ Error::Interrupted { .. }) => {
+        Err(Error::Model(e @ drive_sim_model::Error::Interrupted { .. })) => {
             if let Some(w) = writer {
                 w.finish_interrupted()?;
             }
-            return Err(e);
+            return Err(e.into());
         }
         Err(e) => return Err(e),
     };

@@ -66,12 +66,6 @@ pub enum Error {
         #[source]
         source: serde_json::Error,
     },
-    /// An analysis that cannot be done on the data given (e.g. no complete step).
-    #[error("analysis: {0}")]
-    Analysis(String),
-    /// A figure or report that cannot be produced from the data given (e.g. no series at all).
-    #[error("report: {0}")]
-    Report(String),
     /// Input/output failure on a path.
     #[error("{path}: {source}")]
     Io {
@@ -107,11 +101,7 @@ impl Error {
         match self {
             Error::Config { .. } | Error::Unknown { .. } | Error::Log { .. } => true,
             Error::Io { source, .. } => source.kind() == std::io::ErrorKind::NotFound,
-            Error::Diverged { .. }
-            | Error::Interrupted { .. }
-            | Error::Json { .. }
-            | Error::Analysis(_)
-            | Error::Report(_) => false,
+            Error::Diverged { .. } | Error::Interrupted { .. } | Error::Json { .. } => false,
         }
     }
     /// Builds an [`Error::Json`] error.

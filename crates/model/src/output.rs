@@ -40,8 +40,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 
 /// Writes pretty JSON to `path` atomically, naming the file on failure.
 pub fn write_json_atomic(path: &Path, value: &impl Serialize) -> Result<()> {
-    let text = serde_json::to_string_pretty(value)
-        .map_err(|e| Error::json(path, e))?;
+    let text = serde_json::to_string_pretty(value).map_err(|e| Error::json(path, e))?;
     write_atomic(path, text.as_bytes())
 }
 

@@ -88,13 +88,11 @@ impl Provenance {
 /// `path` (rewritten atomically); the other fields are kept as they are.
 pub fn stamp_json_file(path: &Path, provenance: &Provenance) -> crate::Result<()> {
     let text = std::fs::read_to_string(path).map_err(|e| crate::Error::io(path, e))?;
-    let mut v: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| crate::Error::json(path, e))?;
+    let mut v: serde_json::Value = serde_json::from_str(&text).map_err(|e| crate::Error::json(path, e))?;
     if let Some(o) = v.as_object_mut() {
         o.insert(
             "provenance".into(),
-            serde_json::to_value(provenance)
-                .map_err(|e| crate::Error::json(path, e))?,
+            serde_json::to_value(provenance).map_err(|e| crate::Error::json(path, e))?,
         );
     }
     crate::output::write_json_atomic(path, &v)

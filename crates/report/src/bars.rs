@@ -12,7 +12,7 @@ use super::style::{
     Figure, FigureFiles, LegendEntry, Swatch,
 };
 use super::AxisLabel;
-use drive_sim_model::{Error, Result};
+use crate::error::{Error, Result};
 
 /// One series of bars: a value per category (`None`: no bar).
 #[derive(Debug, Clone, PartialEq)]
@@ -155,19 +155,25 @@ impl Figure for BarFig<'_> {
 /// no series, or a series does not have one value per category.
 pub fn bar_chart(dir: &Path, stem: &str, title: &str, chart: &BarChart) -> Result<FigureFiles> {
     if chart.categories.is_empty() || chart.series.is_empty() {
-        return Err(Error::Report(format!("{stem}: no bar to draw")));
+        return Err(Error::NothingToDraw {
+            figure: stem.to_string(),
+            what: "bar",
+        });
     }
     if let Some(s) = chart
         .series
         .iter()
         .find(|s| s.values.len() != chart.categories.len())
     {
-        return Err(Error::Report(format!(
-            "{stem}: series `{}` has {} values for {} categories",
-            s.label,
-            s.values.len(),
-            chart.categories.len()
-        )));
+        return Err(Error::InvalidFigure {
+            figure: stem.to_string(),
+            message: format!(
+                "series `{}` has {} values for {} categories",
+                s.label,
+                s.values.len(),
+                chart.categories.len()
+            ),
+        });
     }
     let labels: Vec<String> = chart.series.iter().map(|s| s.label.clone()).collect();
     let colours = assign_colours(&labels);

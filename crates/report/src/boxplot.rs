@@ -12,7 +12,7 @@ use super::style::{
     tick_style, title_legend_body, DrawResult, Figure, FigureFiles, LegendEntry, Swatch,
 };
 use super::{AxisLabel, BoxGroup};
-use drive_sim_model::{Error, Result};
+use crate::error::{Error, Result};
 
 /// One panel of box plots: one quantity, one box per group.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -173,7 +173,10 @@ impl Figure for BoxFig<'_> {
 /// `all` is white. Errors if there is no panel or no group at all.
 pub fn box_plots(dir: &Path, stem: &str, title: &str, panels: &[BoxPanel]) -> Result<FigureFiles> {
     if panels.iter().all(|p| p.groups.is_empty()) {
-        return Err(Error::Report(format!("{stem}: no box to draw")));
+        return Err(Error::NothingToDraw {
+            figure: stem.to_string(),
+            what: "box",
+        });
     }
     let mut labels: Vec<String> = vec![];
     for g in panels.iter().flat_map(|p| &p.groups) {

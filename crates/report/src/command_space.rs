@@ -11,9 +11,9 @@ use super::style::{
     assign_colours, canvas_height, closed, no_data, render, title_legend_body, xy_chart, DrawResult, Figure,
     FigureFiles, LegendEntry, Swatch,
 };
+use crate::error::{Error, Result};
 use drive_sim_model::geometry::convex_hull;
 use drive_sim_model::kinematics::{BodyVelocity, CommandSpace, WheelSpeeds};
-use drive_sim_model::{Error, Result};
 
 /// One scenario (robot on a terrain, one dataset) of the command-space figure.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -219,7 +219,10 @@ pub fn command_space_figure(
     scenarios: &[CommandScenario],
 ) -> Result<FigureFiles> {
     if scenarios.is_empty() {
-        return Err(Error::Report(format!("{stem}: no scenario to draw")));
+        return Err(Error::NothingToDraw {
+            figure: stem.to_string(),
+            what: "scenario",
+        });
     }
     let labels: Vec<&str> = scenarios.iter().map(|s| s.label.as_str()).collect();
     let colours = assign_colours(&labels);

@@ -7,7 +7,7 @@
 //! border of U. The algorithm below is the textbook one (16 cases, saddles resolved by the cell
 //! centre mean), with masked cells skipped.
 
-use drive_sim_model::{Error, Result};
+use crate::error::{Error, Result};
 
 /// Values on a rectilinear grid over the body-frame command space (e.g. a transfer function
 /// or ρ smoothed onto grid points).
@@ -61,16 +61,16 @@ impl Grid2 {
     pub fn validate(&self) -> Result<()> {
         for (name, axis) in [("vx_m_s", &self.vx_m_s), ("wz_rad_s", &self.wz_rad_s)] {
             if axis.is_empty() {
-                return Err(Error::Report(format!("grid axis {name} is empty")));
+                return Err(Error::InvalidShape(format!("grid axis {name} is empty")));
             }
             if let Some(i) = axis.iter().position(|v| !v.is_finite()) {
-                return Err(Error::Report(format!(
+                return Err(Error::InvalidShape(format!(
                     "grid axis {name}[{i}] is not finite ({})",
                     axis[i]
                 )));
             }
             if let Some(i) = axis.windows(2).position(|w| w[1] <= w[0]) {
-                return Err(Error::Report(format!(
+                return Err(Error::InvalidShape(format!(
                     "grid axis {name} is not strictly increasing at index {}: {} then {}",
                     i + 1,
                     axis[i],
@@ -80,7 +80,7 @@ impl Grid2 {
         }
         let n = self.vx_m_s.len() * self.wz_rad_s.len();
         if self.values.len() != n {
-            return Err(Error::Report(format!(
+            return Err(Error::InvalidShape(format!(
                 "grid has {} values for {} x {} = {n} points",
                 self.values.len(),
                 self.vx_m_s.len(),
@@ -121,7 +121,7 @@ impl Grid2 {
 /// Errors if the spacing is not a positive finite number or would give more than 500 levels.
 pub fn contour_levels(lo: f64, hi: f64, spacing: f64) -> Result<Vec<f64>> {
     if !(spacing.is_finite() && spacing > 0.0) {
-        return Err(Error::Report(format!(
+        return Err(Error::InvalidShape(format!(
             "contour spacing must be positive and finite, got {spacing}"
         )));
     }
@@ -131,7 +131,7 @@ pub fn contour_levels(lo: f64, hi: f64, spacing: f64) -> Result<Vec<f64>> {
     let k0 = (lo / spacing).ceil();
     let k1 = (hi / spacing).floor();
     if k1 - k0 > 500.0 {
-        return Err(Error::Report(format!(
+        return Err(Error::InvalidShape(format!(
             "contour spacing {spacing} gives {} levels over [{lo}, {hi}]; at most 500",
             k1 - k0 + 1.0
         )));
@@ -151,7 +151,9 @@ pub fn contour_levels(lo: f64, hi: f64, spacing: f64) -> Result<Vec<f64>> {
 pub fn contour_segments(grid: &Grid2, level: f64) -> Result<Vec<ContourSegment>> {
     grid.validate()?;
     if !level.is_finite() {
-        return Err(Error::Report(format!("contour level {level} is not finite")));
+        return Err(Error::InvalidShape(format!(
+            "contour level {level} is not finite"
+        )));
     }
     let (nx, nw) = (grid.vx_m_s.len(), grid.wz_rad_s.len());
     let mut out = vec![];

@@ -2,7 +2,7 @@
 
 use nalgebra::{Matrix2, SymmetricEigen};
 
-use drive_sim_model::{Error, Result};
+use crate::error::{Error, Result};
 
 /// Chi-square quantile with 2 degrees of freedom at 95 %: `-2 ln(0.05)`.
 pub const CHI2_2DOF_95: f64 = 5.991_464_547_107_979;
@@ -25,24 +25,26 @@ pub struct EllipseAxes {
 /// ellipse, which is valid.
 pub fn ellipse_axes(cov: [[f64; 2]; 2], chi2: f64) -> Result<EllipseAxes> {
     if !(chi2.is_finite() && chi2 > 0.0) {
-        return Err(Error::Report(format!(
+        return Err(Error::InvalidShape(format!(
             "chi-square scale must be positive, got {chi2}"
         )));
     }
     let flat = [cov[0][0], cov[0][1], cov[1][0], cov[1][1]];
     if flat.iter().any(|v| !v.is_finite()) {
-        return Err(Error::Report(format!("covariance {cov:?} is not finite")));
+        return Err(Error::InvalidShape(format!("covariance {cov:?} is not finite")));
     }
     let scale = flat.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     if (cov[0][1] - cov[1][0]).abs() > 1e-9 * scale.max(f64::MIN_POSITIVE) {
-        return Err(Error::Report(format!("covariance {cov:?} is not symmetric")));
+        return Err(Error::InvalidShape(format!(
+            "covariance {cov:?} is not symmetric"
+        )));
     }
     let m = Matrix2::new(cov[0][0], cov[0][1], cov[1][0], cov[1][1]);
     let eig = SymmetricEigen::new(m);
     let (l0, l1) = (eig.eigenvalues[0], eig.eigenvalues[1]);
     let tol = -1e-12 * scale;
     if l0 < tol || l1 < tol {
-        return Err(Error::Report(format!(
+        return Err(Error::InvalidShape(format!(
             "covariance {cov:?} is not positive semi-definite (eigenvalues {l0}, {l1})"
         )));
     }
@@ -71,7 +73,9 @@ pub fn ellipse_points(
     n: usize,
 ) -> Result<Vec<(f64, f64)>> {
     if !(centre.0.is_finite() && centre.1.is_finite()) {
-        return Err(Error::Report(format!("ellipse centre {centre:?} is not finite")));
+        return Err(Error::InvalidShape(format!(
+            "ellipse centre {centre:?} is not finite"
+        )));
     }
     let ax = ellipse_axes(cov, chi2)?;
     let n = n.max(8);

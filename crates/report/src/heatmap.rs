@@ -12,7 +12,7 @@ use super::style::{
     ColourMap, DrawResult, Figure, FigureFiles, LegendEntry, Swatch, XyChart,
 };
 use super::AxisLabel;
-use drive_sim_model::{Error, Result};
+use crate::error::{Error, Result};
 
 /// How values become colours, shared by all panels of a figure (so panels compare).
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -358,7 +358,7 @@ fn resolve_range(scale: &ColourScale, data: Option<(f64, f64)>) -> Result<(f64, 
             if lo.is_finite() && hi.is_finite() && hi > lo {
                 Ok((lo, hi))
             } else {
-                Err(Error::Report(format!(
+                Err(Error::InvalidShape(format!(
                     "colour range ({lo}, {hi}) must be finite and increasing"
                 )))
             }
@@ -387,14 +387,18 @@ pub fn heat_maps(
     contour_spacing: Option<f64>,
 ) -> Result<FigureFiles> {
     if panels.is_empty() {
-        return Err(Error::Report(format!("{stem}: no heat-map panel to draw")));
+        return Err(Error::NothingToDraw {
+            figure: stem.to_string(),
+            what: "heat-map panel",
+        });
     }
     let mut skipped = 0;
     let mut prepared = vec![];
     for p in panels {
-        p.grid
-            .validate()
-            .map_err(|e| Error::Report(format!("{stem}: panel `{}`: {e}", p.title)))?;
+        p.grid.validate().map_err(|e| Error::InvalidFigure {
+            figure: stem.to_string(),
+            message: format!("panel `{}`: {e}", p.title),
+        })?;
         skipped += p.grid.non_finite_count();
         prepared.push((
             p.title.clone(),
@@ -508,7 +512,10 @@ pub fn value_scatter(
     scale: &ColourScale,
 ) -> Result<FigureFiles> {
     if panels.is_empty() {
-        return Err(Error::Report(format!("{stem}: no scatter panel to draw")));
+        return Err(Error::NothingToDraw {
+            figure: stem.to_string(),
+            what: "scatter panel",
+        });
     }
     let finite = |q: &&ValuePoint| q.vx_m_s.is_finite() && q.wz_rad_s.is_finite() && q.value.is_finite();
     let skipped = panels

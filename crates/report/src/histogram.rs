@@ -11,7 +11,7 @@ use super::style::{
     xy_chart, DrawResult, Figure, FigureFiles, LegendEntry, Swatch,
 };
 use super::{AxisLabel, Samples};
-use drive_sim_model::{Error, Result};
+use crate::error::{Error, Result};
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 /// One histogram panel: one quantity, one overlaid histogram per series.
@@ -165,12 +165,16 @@ pub fn histograms(
     bins: usize,
 ) -> Result<FigureFiles> {
     if panels.is_empty() {
-        return Err(Error::Report(format!("{stem}: no histogram panel to draw")));
+        return Err(Error::NothingToDraw {
+            figure: stem.to_string(),
+            what: "histogram panel",
+        });
     }
     if bins == 0 || bins > 10_000 {
-        return Err(Error::Report(format!(
-            "{stem}: bin count must be in 1..=10000, got {bins}"
-        )));
+        return Err(Error::InvalidFigure {
+            figure: stem.to_string(),
+            message: format!("bin count must be in 1..=10000, got {bins}"),
+        });
     }
     let mut labels: Vec<String> = vec![];
     for s in panels.iter().flat_map(|p| &p.series) {

@@ -5,7 +5,7 @@ use std::fmt::Display;
 use std::path::{Path, PathBuf};
 
 use super::FigureFiles;
-use drive_sim_model::{Error, Result};
+use crate::error::{Error, Result};
 
 /// One row of a key-figure table.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -90,14 +90,19 @@ pub(crate) fn escape(s: &str) -> String {
 /// Returns the `<svg ...>...</svg>` element of an SVG document (drops an XML prolog and
 /// comments before it), or an error if there is none.
 fn svg_element(text: &str, origin: &str) -> Result<String> {
-    let start = text
-        .find("<svg")
-        .ok_or_else(|| Error::Report(format!("{origin}: no <svg> element")))?;
-    let end = text
-        .rfind("</svg>")
-        .ok_or_else(|| Error::Report(format!("{origin}: <svg> element is not closed")))?;
+    let start = text.find("<svg").ok_or_else(|| Error::Svg {
+        origin: origin.to_string(),
+        message: "no <svg> element",
+    })?;
+    let end = text.rfind("</svg>").ok_or_else(|| Error::Svg {
+        origin: origin.to_string(),
+        message: "<svg> element is not closed",
+    })?;
     if end < start {
-        return Err(Error::Report(format!("{origin}: malformed SVG")));
+        return Err(Error::Svg {
+            origin: origin.to_string(),
+            message: "malformed SVG",
+        });
     }
     Ok(text[start..end + "</svg>".len()].to_string())
 }

@@ -5,7 +5,8 @@
 //! directory, returning a [`FigureFiles`]. Non-finite values are left out and counted
 //! ([`FigureFiles::skipped_non_finite`]); empty series draw as empty panels with a "no data"
 //! note; a request with nothing at all to draw, or with an impossible parameter, is an
-//! [`Error::Report`](drive_sim_model::Error::Report).
+//! [`Error`] of this crate ([`Error::NothingToDraw`], [`Error::InvalidFigure`], ...); a failure
+//! shared with the other stages (I/O, JSON) is its [`Error::Model`].
 //!
 //! Colours are per scenario label and the same in every figure ([`scenario_colour`]): a
 //! label naming a terrain gets the paper's terrain colour (asphalt grey, grass green, gravel
@@ -39,10 +40,12 @@
 //! // Writes rho.svg and rho.png of the same pixel size.
 //! let files = bar_chart(&dir, "rho", "Median ρ by terrain", &chart)?;
 //! assert!(files.svg.exists() && files.png.exists());
-//! # Ok::<(), drive_sim_model::Error>(())
+//! # Ok::<(), drive_sim_report::Error>(())
 //! ```
 
 #![warn(missing_docs, unreachable_pub)]
+
+pub mod error;
 
 pub mod analysis_report;
 mod bars;
@@ -64,6 +67,7 @@ pub use boxplot::{box_plots, BoxPanel};
 pub use command_space::{command_space_figure, CommandScenario};
 pub use contour::{contour_levels, contour_polylines, contour_segments, ContourSegment, Grid2};
 pub use ellipse::{ellipse_axes, ellipse_points, EllipseAxes, CHI2_2DOF_95};
+pub use error::{Error, Result};
 pub use heatmap::{heat_maps, value_scatter, ColourScale, HeatPanel, ScatterPanel, ValuePoint};
 pub use histogram::{histograms, HistPanel};
 pub use html::{Comparison, HtmlReport, KeyFigure};

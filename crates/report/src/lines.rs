@@ -10,7 +10,7 @@ use super::style::{
     DrawResult, Figure, FigureFiles, LegendEntry, ScaledAxis, Swatch,
 };
 use super::AxisLabel;
-use drive_sim_model::{Error, Result};
+use crate::error::{Error, Result};
 
 /// One point of a series: the central value and its band at `x`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -150,7 +150,10 @@ pub fn line_bands(
     series: &[BandSeries],
 ) -> Result<FigureFiles> {
     if series.is_empty() {
-        return Err(Error::Report(format!("{stem}: no series to draw")));
+        return Err(Error::NothingToDraw {
+            figure: stem.to_string(),
+            what: "series",
+        });
     }
     let labels: Vec<&str> = series.iter().map(|s| s.label.as_str()).collect();
     let colours = assign_colours(&labels);
@@ -166,10 +169,13 @@ pub fn line_bands(
             .collect();
         skipped += s.points.len() - p.len();
         if let Some(q) = p.iter().find(|q| q.low > q.high) {
-            return Err(Error::Report(format!(
-                "{stem}: series `{}`: band low {} > high {} at x = {}",
-                s.label, q.low, q.high, q.x
-            )));
+            return Err(Error::InvalidFigure {
+                figure: stem.to_string(),
+                message: format!(
+                    "series `{}`: band low {} > high {} at x = {}",
+                    s.label, q.low, q.high, q.x
+                ),
+            });
         }
         p.sort_by(|a, b| a.x.total_cmp(&b.x));
         prepared.push((s.label.clone(), p, c));

@@ -12,7 +12,7 @@ use super::style::{
     canvas_height, finite_extent, note_style, outline_for, render, scenario_colour, title_legend_body, widen,
     xy_chart_scaled, DrawResult, Figure, FigureFiles, LegendEntry, ScaledAxis, Swatch,
 };
-use drive_sim_model::{Error, Result};
+use crate::error::{Error, Result};
 
 /// One navigation scenario (robot, terrain, motion) on the risk map.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -171,8 +171,12 @@ pub fn risk_map(
             continue;
         }
         let mut pts = match &s.ellipse {
-            Some(e) => ellipse_points(e.centre, e.covariance, chi2, 120)
-                .map_err(|err| Error::Report(format!("{stem}: scenario `{}`: {err}", s.label)))?,
+            Some(e) => {
+                ellipse_points(e.centre, e.covariance, chi2, 120).map_err(|err| Error::InvalidFigure {
+                    figure: stem.to_string(),
+                    message: format!("scenario `{}`: {err}", s.label),
+                })?
+            }
             None => vec![],
         };
         if log {
@@ -194,7 +198,10 @@ pub fn risk_map(
         .map(|l| (l, scenario_colour(&l.label)))
         .collect();
     if ellipses.is_empty() && lims.is_empty() {
-        return Err(Error::Report(format!("{stem}: no scenario or limit to draw")));
+        return Err(Error::NothingToDraw {
+            figure: stem.to_string(),
+            what: "scenario or limit",
+        });
     }
     let xs = ellipses
         .iter()

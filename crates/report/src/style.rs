@@ -9,7 +9,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::{register_font, FontStyle};
 
-use drive_sim_model::{Error, Result};
+use crate::error::{Error, Result};
 
 /// The files written by one figure builder.
 #[derive(Debug, Clone, PartialEq)]
@@ -66,9 +66,9 @@ pub(crate) trait Figure {
 /// Checks that a file stem is a plain file name (no directory part, not empty).
 fn check_stem(stem: &str) -> Result<()> {
     if stem.is_empty() || stem.contains('/') || stem.contains('\\') || stem == "." || stem == ".." {
-        return Err(Error::Report(format!(
-            "figure file stem `{stem}` must be a plain, non-empty file name"
-        )));
+        return Err(Error::InvalidStem {
+            stem: stem.to_string(),
+        });
     }
     Ok(())
 }
@@ -87,9 +87,15 @@ pub(crate) fn render(
     let png = dir.join(format!("{stem}.png"));
     let (w, h) = fig.size();
     if w == 0 || h == 0 {
-        return Err(Error::Report(format!("{stem}: empty canvas {w}x{h}")));
+        return Err(Error::InvalidFigure {
+            figure: stem.to_string(),
+            message: format!("empty canvas {w}x{h}"),
+        });
     }
-    let fail = |path: &Path, e: DrawError| Error::Report(format!("{}: {}", path.display(), e.0));
+    let fail = |path: &Path, e: DrawError| Error::Render {
+        path: path.to_path_buf(),
+        message: e.0,
+    };
     {
         let root = SVGBackend::new(&svg, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| fail(&svg, e.into()))?;

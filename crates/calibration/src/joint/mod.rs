@@ -26,6 +26,7 @@ mod write;
 pub use write::{check_joint_twin, joint_twin, write_joint};
 
 use crate::data::StepSet;
+use crate::error::{Error, Result};
 use crate::events::CalibrationEvent;
 use crate::fit::{FitResult, FittedParam};
 use crate::metrics::ErrorSummary;
@@ -36,7 +37,6 @@ use crate::solver::{lm, LeastSquares};
 use crate::{steps, twin, CalibrationOptions, CalibrationReport};
 use drive_sim_log::DriveLog;
 use drive_sim_model::effects::{CommandReach, ParamKind, REGISTRY};
-use drive_sim_model::error::{Error, Result};
 use drive_sim_model::robot::Robot;
 use drive_sim_model::terrain::Terrain;
 use problem::{joint_specs, JointProblem, Prepared};
@@ -213,9 +213,7 @@ pub fn calibrate_joint(
 fn check_logs(logs: &[&DriveLog]) -> Result<()> {
     check_one_robot(logs)?;
     if logs.len() < 2 {
-        return Err(Error::Analysis(
-            "a joint calibration needs at least two logs (one log: `calibrate LOG`)".into(),
-        ));
+        return Err(Error::TooFewLogs);
     }
     let mut names: Vec<&str> = logs.iter().map(|l| l.meta.name.as_str()).collect();
     names.sort_unstable();
@@ -420,9 +418,7 @@ fn solve(
     opts: &CalibrationOptions,
 ) -> Result<(FitResult, Vec<f64>)> {
     if problem.init_layout(x0).is_none() {
-        return Err(Error::Analysis(
-            "the joint model could not be evaluated at its start (every log's own calibrated model)".into(),
-        ));
+        return Err(Error::JointStartFailed);
     }
     let initial_score = (problem
         .layout()

@@ -2,12 +2,12 @@
 //! per log, every log's residuals stacked, each log's channels scored against its own floor.
 
 use crate::data::StepSet;
+use crate::error::Result;
 use crate::metrics::{NoiseFloor, MIN_CHANNEL_RATIO, SCORE_CHANNELS};
 use crate::model::{ModelParams, PlantFactory};
 use crate::params::ParamSpec;
 use crate::solver::{Layout, LeastSquares};
 use drive_sim_model::effects::CommandReach;
-use drive_sim_model::error::Result;
 use std::sync::{Mutex, OnceLock};
 
 /// One log's data for the joint fit.

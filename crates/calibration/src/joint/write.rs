@@ -2,18 +2,18 @@
 //! closed-loop check of each log's twin, and the files written.
 
 use super::JointReport;
+use crate::error::{Error, Result};
 use crate::fit::FittedParam;
 use crate::twin;
-use drive_sim_model::error::{Error, Result};
 
 /// The twin of a joint simulator calibration: one robot file, one terrain file per log
 /// ([`super::terrain_file_name`]), each value commented with the datasets it was fitted on.
 pub fn joint_twin(report: &JointReport) -> Result<(String, Vec<(String, String)>)> {
     if report.model_kind != "simulator" {
-        return Err(Error::Analysis(format!(
-            "a twin comes from a simulator calibration; this one fitted the {} model",
-            report.model_kind
-        )));
+        return Err(Error::TwinOfKinematicModel {
+            model_kind: report.model_kind.clone(),
+            why: "",
+        });
     }
     let all: Vec<&str> = report.logs.iter().map(|l| l.dataset.as_str()).collect();
     let header = vec![
@@ -82,8 +82,7 @@ pub fn write_joint(report: &JointReport, dir: &std::path::Path) -> Result<Vec<st
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let mut paths = Vec::new();
     let json_path = dir.join("calibration.json");
-    let json = serde_json::to_string_pretty(report)
-        .map_err(|e| Error::Analysis(format!("cannot serialize the joint report: {e}")))?;
+    let json = serde_json::to_string_pretty(report).map_err(|e| Error::json(&json_path, e))?;
     std::fs::write(&json_path, json).map_err(|e| Error::io(&json_path, e))?;
     paths.push(json_path);
     for r in &report.singles {

@@ -1,11 +1,11 @@
 //! Stage 1: where the declared model stands, and the base (terrain / robot) fit.
 
 use super::Context;
+use crate::error::Result;
 use crate::events::CalibrationEvent;
 use crate::fit::{fit, FitResult};
 use crate::metrics::{score, StepErrors};
 use crate::model::{IddFactory, ModelParams};
-use drive_sim_model::error::Result;
 
 /// Input of [`run`].
 pub struct BaselineInput<'m> {

@@ -4,12 +4,12 @@
 //! validation steps, and the identifiability of its parameters.
 
 use super::Context;
+use crate::error::Result;
 use crate::fit::{fit, FittedParam};
 use crate::metrics::{score, NoiseFloor, StepErrors};
 use crate::model::{ModelParams, PlantFactory};
 use crate::params::ParamSpec;
 use drive_sim_model::effects::{CommandReach, REGISTRY};
-use drive_sim_model::error::Result;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};

@@ -24,12 +24,12 @@ use super::Context;
 use crate::data::StepSet;
 use crate::diagnosis::{diagnose, Diagnosis};
 use crate::discovery::{discover, DiscoveryOptions, Equation, Library, Rows};
+use crate::error::Result;
 use crate::events::CalibrationEvent;
 use crate::metrics::{StepErrors, StepFeatures};
 use crate::model::ModelParams;
 use crate::params::{Param, ParamSpec};
 use drive_sim_model::effects::{self, Feature, TermInput, TermTarget};
-use drive_sim_model::error::Result;
 use drive_sim_model::kinematics::{IdealDiffDrive, WheelSpeeds};
 use serde::{Deserialize, Serialize};
 

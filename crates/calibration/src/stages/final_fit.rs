@@ -2,12 +2,12 @@
 
 use super::candidates::Candidate;
 use super::Context;
+use crate::error::Result;
 use crate::events::CalibrationEvent;
 use crate::fit::{fit, FitResult};
 use crate::metrics::{score, StepErrors};
 use crate::model::ModelParams;
 use crate::params::ParamSpec;
-use drive_sim_model::error::Result;
 
 /// Input of [`run`].
 pub struct FinalFitInput<'m> {

@@ -6,6 +6,7 @@ use super::final_fit::FinalFitOutput;
 use super::screening::ScreeningReport;
 use super::selection::SelectionOutput;
 use super::Context;
+use crate::error::Result;
 use crate::events::CalibrationEvent;
 use crate::fit::FittedParam;
 use crate::metrics::{step_features, ErrorSummary, StepFeatures};
@@ -14,7 +15,6 @@ use crate::replay::replay_map;
 use crate::residual::{self, ResidualAnalysis};
 use crate::{CalibrationReport, CalibrationStatus, DeclaredEffectCheck, StepScores, TableRow};
 use drive_sim_log::Origin;
-use drive_sim_model::error::Result;
 
 /// Input of [`run`].
 pub struct ReportInput {

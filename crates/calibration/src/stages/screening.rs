@@ -3,10 +3,10 @@
 
 use super::candidates::{evaluate, pairs_of, Candidate, CandidateEvidence, EvaluateInput};
 use super::Context;
+use crate::error::Result;
 use crate::events::CalibrationEvent;
 use crate::fit::fit;
 use crate::model::{KinematicFactory, ModelParams, PlantFactory};
-use drive_sim_model::error::Result;
 use serde::{Deserialize, Serialize};
 
 /// Input of [`run`].

@@ -8,12 +8,12 @@ use super::candidates::{
     bootstrap_reduction_se, evaluate, pairs_of, Candidate, CandidateEvidence, EvaluateInput,
 };
 use super::Context;
+use crate::error::Result;
 use crate::events::{CalibrationEvent, RoundOutcome};
 use crate::fit::fit;
 use crate::metrics::{score, StepErrors};
 use crate::model::ModelParams;
 use crate::params::ParamSpec;
-use drive_sim_model::error::Result;
 use serde::{Deserialize, Serialize};
 
 /// One round of the forward selection.

@@ -23,12 +23,12 @@
 //! A twin whose own value is rejected (`p ≤ alpha`) has an empty set: nothing is walked.
 
 use super::{judge, JudgeOutcome, JudgeRequest};
+use crate::error::{Error, Result};
 use crate::tune::{apply_boxes, tuned_specs, BoxOverride};
 use drive_sim_calibration::params::ParamSpec;
 use drive_sim_calibration::ModelParams;
 use drive_sim_log::DriveLog;
 use drive_sim_model::effects::CommandReach;
-use drive_sim_model::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 
 /// Options of [`intervals`].
@@ -164,17 +164,13 @@ pub fn short(v: f64) -> String {
 /// `--interval-box` (the parameters and boxes are resolved by the same code).
 fn as_interval_option(e: Error) -> Error {
     match e {
-        Error::Config { file, field, message } => {
+        Error::Model(drive_sim_model::Error::Config { file, field, message }) => {
             let option = match file.to_str() {
                 Some("--tune") => "--interval".into(),
                 Some("--box") => "--interval-box".into(),
                 _ => file,
             };
-            Error::Config {
-                file: option,
-                field,
-                message: message.replace("tuned", "walked"),
-            }
+            Error::config(option, field, message.replace("tuned", "walked"))
         }
         other => other,
     }

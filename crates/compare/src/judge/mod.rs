@@ -44,13 +44,13 @@ pub use event::JudgeEvent;
 pub use outcome::{CandidateScore, CriterionTest, JudgeOutcome, LossTest, RunScore};
 pub use score::{criteria_of, monte_carlo_p};
 
+use crate::error::{Error, Result};
 use crate::real_steps::{check_run_steps, check_same_robot, real_steps, RealSteps};
 use crate::tune::twin_run;
 use crate::{CompareOptions, Input, PreparedSim, TfSmoother};
 use drive_sim_analysis::bootstrap::Bootstrap;
 use drive_sim_calibration::ModelParams;
 use drive_sim_log::{DriveLog, UseSteps};
-use drive_sim_model::error::{Error, Result};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -254,12 +254,11 @@ fn twin_runs(
         }
     }
     if sims.len() < 2 {
-        return Err(Error::Analysis(format!(
-            "judge: {} of {} runs of the twin completed: nothing to judge (see the runs' errors: {})",
-            sims.len(),
-            opts.sims,
-            notes.join("; ")
-        )));
+        return Err(Error::TooFewTwinRuns {
+            completed: sims.len(),
+            asked: opts.sims,
+            errors: notes.clone(),
+        });
     }
     Ok(sims)
 }
@@ -324,12 +323,11 @@ impl Scoring<'_> {
             }
         }
         if references.len() < 4 {
-            return Err(Error::Analysis(format!(
-                "judge: {} of {} reference runs completed: too few for a p-value ({})",
-                references.len(),
-                opts.references,
-                notes.join("; ")
-            )));
+            return Err(Error::TooFewReferences {
+                completed: references.len(),
+                asked: opts.references,
+                errors: notes.clone(),
+            });
         }
         notes.push(format!(
             "p-values are Monte Carlo ranks among {} reference runs: none is below {:.3}",

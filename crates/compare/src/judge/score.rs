@@ -2,10 +2,10 @@
 //! the Monte Carlo tests of the scores.
 
 use super::{CandidateScore, CriterionTest, RunScore, DIFFERS, STEP_SCATTER, TURN_MEMORY};
+use crate::error::Result;
 use crate::{compare_prepared_sims, CompareOptions, Input, PreparedReal, PreparedSim, SimComparison};
 use drive_sim_analysis::bootstrap::holm;
 use drive_sim_log::DriveLog;
-use drive_sim_model::error::Result;
 
 /// The criteria a comparison fails, in a fixed order: the verdict, the medians, the areas,
 /// the maps, then the step scatter ([`STEP_SCATTER`]) and the turn memory ([`TURN_MEMORY`]),

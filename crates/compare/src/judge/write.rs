@@ -5,8 +5,8 @@
 
 use super::interval::{short as short_number, ParamInterval};
 use super::{JudgeOutcome, DIFFERS};
+use crate::error::{Error, Result};
 use drive_sim_calibration::twin::annotate_value;
-use drive_sim_model::error::{Error, Result};
 use drive_sim_model::provenance::Provenance;
 use drive_sim_report::{bar_chart, AxisLabel, BarChart, BarSeries};
 use std::path::{Path, PathBuf};

@@ -6,12 +6,12 @@ use super::outcome::check_rule;
 use super::runs::{evaluation, seed_run, SeedRun};
 use super::search::{self, SearchOptions, SearchSummary};
 use super::{apply_boxes, tuned_specs, PointEvaluation, SeedCheck, TuneEvent, TuneRequest};
+use crate::error::Result;
 use crate::PreparedReal;
 use drive_sim_calibration::params::ParamSpec;
 use drive_sim_calibration::ModelParams;
 use drive_sim_log::DriveLog;
 use drive_sim_model::effects::CommandReach;
-use drive_sim_model::error::Result;
 use rayon::prelude::*;
 use std::cell::RefCell;
 
@@ -67,7 +67,7 @@ impl<'a> Space<'a> {
 
     /// The start model with the parameters at `x`.
     fn model_at(&self, x: &[f64]) -> Result<ModelParams> {
-        self.start.with_values(&self.specs, x)
+        Ok(self.start.with_values(&self.specs, x)?)
     }
 }
 

@@ -48,6 +48,7 @@ use runs::loss_opts;
 pub use runs::twin_run;
 pub use write::twin_of;
 
+use crate::error::{Error, Result};
 use crate::loss::Loss;
 use crate::real_steps::{check_run_steps, check_same_robot, real_steps};
 use crate::{
@@ -59,7 +60,6 @@ use drive_sim_calibration::params::ParamSpec;
 use drive_sim_calibration::{twin, ModelParams, PlantFactory, SimFactory};
 use drive_sim_log::{DriveLog, UseSteps};
 use drive_sim_model::effects::{self, CommandReach, REGISTRY};
-use drive_sim_model::error::{Error, Result};
 use drive_sim_sim::SensorNoise;
 use search::{SearchOptions, SearchSummary};
 use serde::{Deserialize, Serialize};

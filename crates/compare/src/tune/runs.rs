@@ -11,7 +11,7 @@ pub(super) struct SeedRun {
 /// --steps N --seed S`, in memory.
 pub fn twin_run(model: &ModelParams, steps: u32, seed: u64) -> Result<DriveLog> {
     let (robot, terrain) = twin::twin_models(model)?;
-    drive_sim_harness::simulate(&robot, &terrain, SAMPLER, steps, seed, SensorNoise::typical()).map(|r| r.log)
+    Ok(drive_sim_harness::simulate(&robot, &terrain, SAMPLER, steps, seed, SensorNoise::typical())?.log)
 }
 
 /// Compare's options for the loss of the search and the check: `resamples` bootstrap draws,

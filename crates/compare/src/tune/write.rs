@@ -5,10 +5,10 @@
 //! (`same_steps/`, not held out). And the table `drive-sim tune` prints ([`table`]).
 
 use super::{HeldOut, JudgedRun, TuneOutcome};
+use crate::error::Error;
+use crate::error::Result;
 use crate::write::write_comparison;
 use drive_sim_calibration::twin::{self, TwinFiles};
-use drive_sim_model::error::Error;
-use drive_sim_model::error::Result;
 use drive_sim_model::provenance::Provenance;
 use std::path::{Path, PathBuf};
 
@@ -38,10 +38,7 @@ pub fn write_tune(
 /// chosen (no interval: a closed-loop search gives none; `tune.json` holds every point it
 /// evaluated).
 pub fn twin_of(outcome: &TuneOutcome, start_source: &str, reproduce: &str) -> Result<twin::TwinFiles> {
-    let model = outcome
-        .model
-        .as_ref()
-        .ok_or_else(|| Error::Analysis("a tuning read back from JSON has no model".into()))?;
+    let model = outcome.model.as_ref().ok_or(Error::TuningWithoutModel)?;
     let mut header = vec![
         format!(
             "Twin tuned in closed loop by drive-sim on `{}` ({} steps), starting from {start_source}.",
@@ -92,7 +89,7 @@ pub fn twin_of(outcome: &TuneOutcome, start_source: &str, reproduce: &str) -> Re
     } else {
         Vec::new()
     };
-    twin::twin_files(
+    Ok(twin::twin_files(
         model,
         &twin::Provenance {
             header,
@@ -100,7 +97,7 @@ pub fn twin_of(outcome: &TuneOutcome, start_source: &str, reproduce: &str) -> Re
             before: None,
             chosen,
         },
-    )
+    )?)
 }
 
 /// The table `drive-sim tune` prints: each parameter's start and choice, the search's and the

@@ -11,7 +11,7 @@
 //! `--shard i/n` wins over the environment.
 
 use super::matrix::Shard;
-use drive_sim_model::error::{Error, Result};
+use crate::error::{Error, Result};
 
 /// Where the shard came from.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -1,7 +1,7 @@
 //! The sweep matrix file and its expansion into run specifications.
 
+use crate::error::{Error, Result};
 use drive_sim_model::config::{parse_toml, positive, Validate};
-use drive_sim_model::error::{Error, Result};
 use drive_sim_model::robot::Robot;
 use drive_sim_model::terrain::Terrain;
 use drive_sim_protocol::sampler::SAMPLERS;
@@ -294,7 +294,7 @@ impl SweepMatrix {
     /// Parses and validates matrix text; errors name `file` and the field. Robot and terrain
     /// names are not resolved (see [`SweepMatrix::load`]).
     pub fn parse(text: &str, file: &Path) -> Result<Self> {
-        parse_toml(text, file)
+        Ok(parse_toml(text, file)?)
     }
 
     /// Reads a matrix file, validates it, and checks that every robot and terrain resolves

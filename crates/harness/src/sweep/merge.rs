@@ -1,7 +1,7 @@
 //! Merging the output directories of shards into one table.
 
 use super::run::{read_record, Manifest, RunRecord, DONE_FILE, MANIFEST_FILE};
-use drive_sim_model::error::{Error, Result};
+use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::collections::{BTreeMap, BTreeSet};
@@ -125,10 +125,9 @@ pub fn merge(dirs: &[PathBuf]) -> Result<MergedReport> {
         }
     }
     if sweep_names.len() > 1 {
-        return Err(Error::Analysis(format!(
-            "the directories hold runs of different sweeps: {}",
-            sweep_names.into_iter().collect::<Vec<_>>().join(", ")
-        )));
+        return Err(Error::MixedSweeps {
+            sweeps: sweep_names.into_iter().collect(),
+        });
     }
     let mut recs: Vec<RunRecord> = records.into_values().map(|(r, _)| r).collect();
     recs.sort_by(|a, b| (a.spec.index, &a.spec.id).cmp(&(b.spec.index, &b.spec.id)));
@@ -172,16 +171,12 @@ impl MergedReport {
     /// The table as CSV text (header row of column names).
     pub fn to_csv(&self) -> Result<String> {
         let mut w = csv::Writer::from_writer(Vec::new());
-        let err = |e: csv::Error| Error::Analysis(format!("writing CSV: {e}"));
-        w.write_record(&self.columns).map_err(err)?;
+        w.write_record(&self.columns)?;
         for row in &self.rows {
-            w.write_record(self.columns.iter().map(|c| cell(row.get(c))))
-                .map_err(err)?;
+            w.write_record(self.columns.iter().map(|c| cell(row.get(c))))?;
         }
-        let bytes = w
-            .into_inner()
-            .map_err(|e| Error::Analysis(format!("writing CSV: {e}")))?;
-        String::from_utf8(bytes).map_err(|e| Error::Analysis(format!("writing CSV: {e}")))
+        let bytes = w.into_inner().map_err(|e| Error::CsvFlush(e.into_error()))?;
+        Ok(String::from_utf8(bytes)?)
     }
 
     /// Writes `merged.json` and `merged.csv` in `dir`; returns their paths.
@@ -189,8 +184,7 @@ impl MergedReport {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
         let json = dir.join("merged.json");
         let csv_path = dir.join("merged.csv");
-        let text =
-            serde_json::to_string_pretty(self).map_err(|e| Error::Analysis(format!("writing JSON: {e}")))?;
+        let text = serde_json::to_string_pretty(self).map_err(|e| Error::json(&json, e))?;
         std::fs::write(&json, text).map_err(|e| Error::io(&json, e))?;
         std::fs::write(&csv_path, self.to_csv()?).map_err(|e| Error::io(&csv_path, e))?;
         Ok((json, csv_path))

@@ -1,7 +1,7 @@
 //! Running the specs of a shard: one directory per run, completion markers, rayon.
 
 use super::matrix::{RunSpec, Shard, SweepMatrix};
-use drive_sim_model::error::{Error, Result};
+use crate::error::{Error, Result};
 use drive_sim_model::output::write_json_atomic;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};

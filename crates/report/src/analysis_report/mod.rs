@@ -11,9 +11,9 @@ mod sections;
 mod summary;
 
 use super::{FigureFiles, HtmlReport};
+use crate::error::{Error, Result};
 use drive_sim_analysis::{velocity, Analysis};
 use drive_sim_log::DriveLog;
-use drive_sim_model::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
 /// What [`write_analysis_report`] wrote.
@@ -107,7 +107,7 @@ pub fn write_analysis_report_of(
     dir: &Path,
 ) -> Result<AnalysisReportFiles> {
     if items.is_empty() {
-        return Err(Error::Report("nothing to report: no analysed log".into()));
+        return Err(Error::NothingToReport);
     }
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let analyses: Vec<&Analysis> = items.iter().map(|(_, a)| *a).collect();

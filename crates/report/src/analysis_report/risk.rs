@@ -1,10 +1,10 @@
 //! The risk-map section of `report.html`: likelihood ρ against severity K_x per scenario.
 
 use super::Report;
+use crate::error::Result;
 use crate::{risk_map, EnergyAxis, EnergyLimit, RiskEllipse, RiskScenario, CHI2_2DOF_95};
 use drive_sim_analysis::risk::MotionClass;
 use drive_sim_analysis::Analysis;
-use drive_sim_model::error::Result;
 
 impl Report<'_> {
     /// The risk map, with each robot's maximum kinetic energy over U as a limit line; no

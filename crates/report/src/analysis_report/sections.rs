@@ -1,6 +1,7 @@
 //! The sections of `report.html` besides the risk map, each writing its figures.
 
 use super::{label, Report};
+use crate::error::Result;
 use crate::findings::{self, Metric};
 use crate::{
     box_plots, command_space_figure, heat_maps, histograms, value_scatter, AxisLabel, BoxPanel, ColourMap,
@@ -8,7 +9,6 @@ use crate::{
     ValuePoint,
 };
 use drive_sim_analysis::{Analysis, StepResult};
-use drive_sim_model::error::Result;
 
 /// The smoothed channels drawn as transfer functions: channel name in the analysis, quantity,
 /// unit and contour spacing.

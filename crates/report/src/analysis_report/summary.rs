@@ -1,8 +1,8 @@
 //! `summary.json` and `transfer_functions.json`: the numbers behind the report, per dataset.
 
 use super::LogSummary;
+use crate::error::Result;
 use drive_sim_analysis::Analysis;
-use drive_sim_model::error::Result;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
