@@ -65,7 +65,7 @@ pub struct CalibrateArgs {
     pub candidates: Option<Vec<String>>,
     /// Calibrate on the odd or even steps only (the twin is then judged on the other half with
     /// `compare --real-steps`), or on all of them.
-    #[arg(long, value_enum, default_value = "all")]
+    #[arg(long, value_parser = super::use_steps_parser(), default_value = "all")]
     pub use_steps: drive_sim::log::UseSteps,
     /// Skip equation discovery: the catalogue's effects only (much faster on measured data,
     /// where discovery refits every candidate term beside every selected effect).

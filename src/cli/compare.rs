@@ -32,7 +32,7 @@ pub struct CompareArgs {
     pub permutations: usize,
     /// Smoother of the compared maps: `kernel` (the paper's weighted mean) or `local-linear`
     /// (a weighted plane: no bias from which commands a run drew on a sloped map).
-    #[arg(long, value_enum, default_value = "kernel")]
+    #[arg(long, value_parser = super::tf_smoother_parser(), default_value = "kernel")]
     pub tf_smoother: drive_sim::compare::TfSmoother,
     /// Halvings of the real run whose mean split-half RMS is the maps' yardstick (its odd and
     /// even steps, then random balanced halvings); 1: the odd and even steps alone.
@@ -40,7 +40,7 @@ pub struct CompareArgs {
     pub yardstick_splits: usize,
     /// Compare only the real log's odd or even steps (e.g. those a twin was not calibrated on,
     /// `calibrate --use-steps`), or all of them.
-    #[arg(long, value_enum, default_value = "all")]
+    #[arg(long, value_parser = super::use_steps_parser(), default_value = "all")]
     pub real_steps: drive_sim::log::UseSteps,
     /// How to read a bag.
     #[command(flatten)]

@@ -13,7 +13,7 @@ pub struct JudgeArgs {
     pub real: PathBuf,
     /// The real steps to judge against: all, or the half the twin was not calibrated on
     /// (`calibrate --use-steps`, `tune --choose-on`).
-    #[arg(long, value_enum, default_value = "all")]
+    #[arg(long, value_parser = super::use_steps_parser(), default_value = "all")]
     pub real_steps: drive_sim::log::UseSteps,
     /// Runs of the twin compared with the real run and with each reference.
     #[arg(long, default_value_t = JudgeOptions::default().sims)]
@@ -30,7 +30,7 @@ pub struct JudgeArgs {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Smoother of the compared maps (as `compare --tf-smoother`).
-    #[arg(long, value_enum, default_value = "kernel")]
+    #[arg(long, value_parser = super::tf_smoother_parser(), default_value = "kernel")]
     pub tf_smoother: drive_sim::compare::TfSmoother,
     /// Bootstrap resamples of each comparison's intervals.
     #[arg(long, default_value_t = JudgeOptions::default().resamples)]

@@ -99,6 +99,32 @@ fn describe_error(e: &anyhow::Error) -> String {
     out
 }
 
+/// The parser of an option naming which steps of a log to use (`all`, `odd`, `even`).
+pub fn use_steps_parser() -> impl clap::builder::TypedValueParser<Value = drive_sim::log::UseSteps> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    use drive_sim::log::UseSteps;
+    PossibleValuesParser::new(UseSteps::ALL.map(|u| PossibleValue::new(u.as_str()).help(u.doc()))).map(|s| {
+        UseSteps::ALL
+            .into_iter()
+            .find(|u| u.as_str() == s)
+            .unwrap_or_default()
+    })
+}
+
+/// The parser of `--tf-smoother` (`kernel`, `local-linear`).
+pub fn tf_smoother_parser() -> impl clap::builder::TypedValueParser<Value = drive_sim::compare::TfSmoother> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    use drive_sim::compare::TfSmoother;
+    PossibleValuesParser::new(TfSmoother::ALL.map(|t| PossibleValue::new(t.as_str()).help(t.doc()))).map(
+        |s| {
+            TfSmoother::ALL
+                .into_iter()
+                .find(|t| t.as_str() == s)
+                .unwrap_or_default()
+        },
+    )
+}
+
 /// Runs the command line; returns the process exit code.
 pub fn main() -> i32 {
     let cli = Cli::parse();

@@ -18,7 +18,7 @@ pub struct TuneArgs {
     pub tune: Vec<String>,
     /// Choose on the real log's odd or even steps (the other half then judges the choice), or
     /// on all of them (no held-out judgement).
-    #[arg(long, value_enum, default_value = "odd")]
+    #[arg(long, value_parser = super::use_steps_parser(), default_value = "odd")]
     pub choose_on: drive_sim::log::UseSteps,
     /// A search box instead of the registry's, `KEY=LOWER:UPPER` (repeatable; an effect
     /// parameter's key or a base parameter's name), e.g. `turning_resistance_scale=0.5:1.5`.
@@ -49,7 +49,7 @@ pub struct TuneArgs {
     #[arg(long, default_value_t = TuneOptions::default().loss_resamples)]
     pub loss_resamples: usize,
     /// Smoother of the compared maps, in the loss and the judgement (as `compare --tf-smoother`).
-    #[arg(long, value_enum, default_value = "kernel")]
+    #[arg(long, value_parser = super::tf_smoother_parser(), default_value = "kernel")]
     pub tf_smoother: drive_sim::compare::TfSmoother,
     /// Output directory.
     #[arg(long, default_value = "out/tune")]

@@ -47,7 +47,7 @@ fn default_yardstick_splits() -> usize {
 }
 
 /// The smoother of the compared transfer-function maps.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum TfSmoother {
     /// The paper's: the kernel-weighted mean of the steps' slips
@@ -58,6 +58,27 @@ pub enum TfSmoother {
     /// ([`drive_sim_analysis::smoother::smooth_local_linear`]): no bias on a sloped map whatever
     /// commands a run drew, such as the wheel slip's ramp beyond a wheel-speed limit.
     LocalLinear,
+}
+
+impl TfSmoother {
+    /// Every smoother, in the order the command line lists them.
+    pub const ALL: [Self; 2] = [Self::Kernel, Self::LocalLinear];
+
+    /// Name on the command line and in `comparison.json`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Kernel => "kernel",
+            Self::LocalLinear => "local-linear",
+        }
+    }
+
+    /// What the smoother computes, in a few words.
+    pub fn doc(self) -> &'static str {
+        match self {
+            Self::Kernel => "The paper's: the kernel-weighted mean of the steps' slips",
+            Self::LocalLinear => "The intercept of a kernel-weighted plane: no bias on a sloped map",
+        }
+    }
 }
 
 impl Default for CompareOptions {

@@ -204,7 +204,7 @@ impl LogMeta {
 }
 
 /// Which steps of a log to use: a twin calibrated on one half of a run is judged on the other.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum UseSteps {
     /// Every step.
@@ -217,6 +217,18 @@ pub enum UseSteps {
 }
 
 impl UseSteps {
+    /// Every choice, in the order the command line lists them.
+    pub const ALL: [Self; 3] = [Self::All, Self::Odd, Self::Even];
+
+    /// What the choice keeps, in a few words.
+    pub fn doc(self) -> &'static str {
+        match self {
+            Self::All => "Every step",
+            Self::Odd => "Steps with an odd number",
+            Self::Even => "Steps with an even number",
+        }
+    }
+
     /// Name on the command line.
     pub fn as_str(self) -> &'static str {
         match self {
