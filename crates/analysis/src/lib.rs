@@ -16,7 +16,7 @@
 //! if let Some(rho) = &analysis.stats.rho {
 //!     println!("median ρ {:.3} over {} steps", rho.median, rho.n);
 //! }
-//! # Ok::<(), drive_sim_model::Error>(())
+//! # Ok::<(), drive_sim_analysis::Error>(())
 //! ```
 
 #![warn(missing_docs, unreachable_pub)]

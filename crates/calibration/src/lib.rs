@@ -43,7 +43,7 @@
 //! }
 //! // Scores on test steps no choice saw: the declared model against the calibrated one.
 //! println!("steady vx error {:.3} -> {:.3} m/s", report.before.steady_vx_m_s, report.after.steady_vx_m_s);
-//! # Ok::<(), drive_sim_model::Error>(())
+//! # Ok::<(), drive_sim_calibration::Error>(())
 //! ```
 
 #![warn(missing_docs, unreachable_pub)]

@@ -41,7 +41,7 @@
 //! )?;
 //! let verdict = &report.sims[0].verdict;
 //! println!("reproduces: {}; significant: {:?}", verdict.reproduces, verdict.significant);
-//! # Ok::<(), drive_sim_model::Error>(())
+//! # Ok::<(), drive_sim_compare::Error>(())
 //! ```
 
 #![warn(missing_docs, unreachable_pub)]

@@ -21,7 +21,7 @@
 //! let analysis = drive_sim_analysis::analyze(&run.log, &Default::default())?;
 //! println!("{} steps, time efficiency {:.2}", run.summary.steps_completed, run.summary.time_efficiency);
 //! # let _ = analysis;
-//! # Ok::<(), drive_sim_model::Error>(())
+//! # Ok::<(), drive_sim_harness::Error>(())
 //! ```
 #![warn(missing_docs, unreachable_pub)]
 
