@@ -17,14 +17,14 @@ trap 'rm -rf "$out"' EXIT
 run() { echo "$1 run --robot warthog --terrain gravel --steps $2 --seed 1 --quiet --force --out $out/$3 --name r"; }
 
 echo "== wall time, $steps-step Warthog DRIVE on gravel with MCAP logging"
-hyperfine -N --warmup 1 --runs 10 -n before "$(run "$before" "$steps" before)" -n after "$(run "$after" "$steps" after)"
+hyperfine -N --warmup 1 --runs "${RUNS:-10}" -n before "$(run "$before" "$steps" before)" -n after "$(run "$after" "$steps" after)"
 if cmp -s "$out/before/r.mcap" "$out/after/r.mcap"; then echo "logs: identical bytes"; else echo "logs: DIFFER"; fi
 
 echo "== instructions (callgrind), 100 steps"
 for side in before after; do
     bin=$before
     [ "$side" = after ] && bin=$after
-    n=$(valgrind --tool=callgrind --callgrind-out-file="$out/cg_$side" $(run "$bin" 100 "cg_$side") 2>&1 \
+    n=$(valgrind --tool=callgrind --callgrind-out-file="$out/callgrind_$side.out" $(run "$bin" 100 "cg_$side") 2>&1 \
         | sed -n 's/.*Collected : \([0-9]*\).*/\1/p')
     echo "$side: $n instructions"
     eval "n_$side=$n"
