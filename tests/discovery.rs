@@ -11,7 +11,7 @@ use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};
 use drive_sim::calibration::{calibrate, CalibrationOptions, CalibrationReport, KinematicFactory};
 use drive_sim::terrain::Terrain;
 
-const SESSION_3_CATALOGUE: [&str; 14] = [
+const CATALOGUE_WITHOUT_STRUCTURAL: [&str; 14] = [
     "dead_time_s",
     "command_speed_limit_m_s",
     "command_yaw_rate_limit_rad_s",
@@ -52,7 +52,7 @@ fn run(name: &str, extra: Unmodelled, seed: u64) -> CalibrationReport {
     // generators carry can only come in through an equation.
     let opts = CalibrationOptions {
         seed,
-        candidates: Some(SESSION_3_CATALOGUE.iter().map(|s| s.to_string()).collect()),
+        candidates: Some(CATALOGUE_WITHOUT_STRUCTURAL.iter().map(|s| s.to_string()).collect()),
         ..CalibrationOptions::default()
     };
     let r = calibrate(&log, &robot, &terrain, &KinematicFactory, &opts).unwrap();
