@@ -52,7 +52,12 @@ fn run(name: &str, extra: Unmodelled, seed: u64) -> CalibrationReport {
     // generators carry can only come in through an equation.
     let opts = CalibrationOptions {
         seed,
-        candidates: Some(CATALOGUE_WITHOUT_STRUCTURAL.iter().map(|s| s.to_string()).collect()),
+        candidates: Some(
+            CATALOGUE_WITHOUT_STRUCTURAL
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
+        ),
         ..CalibrationOptions::default()
     };
     let r = calibrate(&log, &robot, &terrain, &KinematicFactory, &opts).unwrap();
