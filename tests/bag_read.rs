@@ -181,9 +181,9 @@ fn bad_bags_give_errors_naming_topic_time_and_expectation() {
         e.to_string()
     };
 
-    // A missing role.
-    let e = err(&bag("no_imu", &["--drop", "/MTI_imu/data_unbiased"]));
-    assert!(e.contains("imu") && e.contains("sensor_msgs/msg/Imu"), "{e}");
+    // A missing role (the IMU is optional: see the test of bags without one).
+    let e = err(&bag("no_cmd", &["--drop", "/doughnut_cmd_vel"]));
+    assert!(e.contains("cmd") && e.contains("geometry_msgs/msg/Twist"), "{e}");
     // A wrong message type on a role's topic.
     let e = err(&bag("wrong", &["--wrong-type", "/icp_odom"]));
     assert!(
@@ -247,7 +247,7 @@ fn bad_bags_give_errors_naming_topic_time_and_expectation() {
     // The command line exits with code 2 on bad input, and inspect prints before failing.
     let out = Command::new(env!("CARGO_BIN_EXE_drive-sim"))
         .arg("inspect")
-        .arg(tmp.path().join("no_imu"))
+        .arg(tmp.path().join("no_cmd"))
         .output()
         .unwrap();
     assert_eq!(
@@ -554,4 +554,181 @@ fn analyze_replay_and_calibrate_read_a_bag_from_the_command_line() {
         + c["validation_steps"].as_array().unwrap().len()
         + c["heldout_steps"].as_array().unwrap().len();
     assert_eq!(used, expected, "{c}");
+}
+
+/// A lab's remapping: the IMU and the odometry under names no keyword matches, the step and
+/// state topics under a namespace. The only topic of a role's type is taken.
+const RENAMED: [&str; 8] = [
+    "--rename",
+    "/MTI_imu/data_unbiased=/sensors/gyro",
+    "--rename",
+    "/icp_odom=/mapping/pose",
+    "--rename",
+    "/calib_step=/lab/drive/calib_step",
+    "--rename",
+    "/calib_state=/lab/drive/calib_state",
+];
+
+/// Bags with renamed topics are guessed, the choices by type alone printed, and analysed like
+/// their CSV; without an IMU like the CSV with its yaw rate from the pose. `inspect` calls both
+/// readable and prints a roles file that reads them the same way.
+#[test]
+fn renamed_topics_and_a_missing_imu_are_read_like_the_csv() {
+    use drive_sim::analysis::crosscheck::YawRateSource;
+    if skip() {
+        return;
+    }
+    let csv = drive_sim::log::csv::read_measured_csv(format!("{DATA}/warthog_gravel.csv")).unwrap();
+    let (csv_steps, csv_rho) = steps_and_median_rho(&csv);
+    let from_pose = AnalysisParams {
+        yaw_rate_source: Some(YawRateSource::Pose),
+        ..AnalysisParams::default()
+    };
+    let a = analyze(&csv, &from_pose).unwrap();
+    let csv_pose_rho = median(&a.steady_rhos());
+    let tmp = tempfile::tempdir().unwrap();
+    let with = tmp.path().join("with_imu");
+    let without = tmp.path().join("without_imu");
+    write_bag("warthog_gravel", &with, &RENAMED);
+    let mut args = RENAMED.to_vec();
+    args.extend(["--drop", "/MTI_imu/data_unbiased"]);
+    write_bag("warthog_gravel", &without, &args);
+    for (dir, imu) in [(&with, true), (&without, false)] {
+        let o = open(dir, &opts()).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+        let notes = o.notes.join("\n");
+        assert!(notes.contains("guessed from types and names"), "{notes}");
+        assert!(
+            notes.contains("/mapping/pose (nav_msgs/msg/Odometry): the only topic of its type"),
+            "{notes}"
+        );
+        assert!(notes.contains("step index topic"), "{notes}");
+        assert_eq!(
+            notes.contains("/sensors/gyro (sensor_msgs/msg/Imu): the only topic of its type"),
+            imu,
+            "{notes}"
+        );
+        assert_eq!(notes.contains("no IMU"), !imu, "{notes}");
+        let an = analyze(&o.log, &AnalysisParams::default()).unwrap();
+        let (steps, rho) = (an.steps.len(), median(&an.steady_rhos()));
+        let expected = if imu { csv_rho } else { csv_pose_rho };
+        eprintln!(
+            "{}: {steps} steps, median rho {rho:.6} (yaw rate {:?}); CSV {csv_steps} steps, median rho \
+             {expected:.6} (yaw rate {})",
+            dir.display(),
+            an.yaw_rate_source,
+            if imu {
+                "the cross-check's choice"
+            } else {
+                "from the pose"
+            }
+        );
+        assert_eq!(steps, csv_steps);
+        // Equal but for the rounding of the pose through a quaternion.
+        assert!((rho - expected).abs() <= 1e-9, "median rho {rho}, CSV {expected}");
+        assert_eq!(an.crosscheck.imu, imu);
+        if !imu {
+            assert_eq!(an.yaw_rate_source, YawRateSource::Pose);
+            assert!(
+                an.crosscheck.yaw_rate_reason.contains("no IMU"),
+                "{:?}",
+                an.crosscheck
+            );
+            assert!(
+                matches!(
+                    an.crosscheck.verdict("imu_yaw_rate"),
+                    Some(drive_sim::analysis::crosscheck::Verdict::Inconclusive { description })
+                        if description.contains("no IMU")
+                ),
+                "{:?}",
+                an.crosscheck.verdicts
+            );
+        }
+        // inspect: readable, and its roles file reads the bag the same way.
+        let i = drive_sim::log::bag::inspect(dir, &opts());
+        assert!(i.problems.is_empty(), "{:?}", i.problems);
+        let shown = i.to_string();
+        let toml = i
+            .roles
+            .as_ref()
+            .unwrap()
+            .to_toml(&dir.file_name().unwrap().to_string_lossy());
+        assert!(shown.contains(&toml), "{shown}");
+        assert_eq!(toml.contains("# [roles.imu]"), !imu, "{toml}");
+        let file = tmp.path().join("roles.toml");
+        std::fs::write(&file, &toml).unwrap();
+        let by_file = open(
+            dir,
+            &OpenOptions {
+                roles: Some(file.display().to_string()),
+                ..opts()
+            },
+        )
+        .unwrap_or_else(|e| panic!("{e}\n{toml}"));
+        assert_eq!(by_file.log.samples.len(), o.log.samples.len());
+    }
+}
+
+/// A bag without a role the guess needs names the missing role in a sentence; with several
+/// topics of a role's type and no name to decide, the candidates are listed.
+#[test]
+fn a_bag_the_guess_cannot_read_says_what_is_missing() {
+    if skip() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("b");
+    write_bag(
+        "warthog_gravel",
+        &dir,
+        &[
+            "--steps",
+            "4",
+            "--rename",
+            "/left_drive/status/speed=/drive/a/speed",
+            "--rename",
+            "/right_drive/status/speed=/drive/b/speed",
+        ],
+    );
+    let e = open(&dir, &opts()).map(|_| ()).unwrap_err().to_string();
+    assert!(
+        e.contains("with the roles guessed from types and names")
+            && e.contains("candidates: /drive/a/speed, /drive/b/speed"),
+        "{e}"
+    );
+}
+
+/// `calibrate` runs on a bag without an IMU, leaving the `imu_wz` channel out of its score.
+#[test]
+fn calibrate_reads_a_bag_without_an_imu() {
+    if skip() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let bag = tmp.path().join("bag");
+    let mut args = RENAMED.to_vec();
+    args.extend(["--drop", "/MTI_imu/data_unbiased", "--steps", "20"]);
+    write_bag("warthog_gravel", &bag, &args);
+    let cal = tmp.path().join("cal");
+    let o = Command::new(env!("CARGO_BIN_EXE_drive-sim"))
+        .args([
+            "calibrate",
+            "--model",
+            "kinematic",
+            "--no-discovery",
+            "--candidates",
+            "wheel_speed_saturation_rad_s",
+            "--out",
+            cal.to_str().unwrap(),
+        ])
+        .arg(&bag)
+        .args(["--robot", "warthog", "--terrain", "gravel"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let json = std::fs::read_to_string(cal.join("calibration.json")).unwrap();
+    assert!(
+        json.contains("leaves out the imu_wz channel") || stderr.contains("leaves out the imu_wz channel"),
+        "{stderr}"
+    );
 }

@@ -51,6 +51,7 @@ def main():
     ap.add_argument("--gap", type=int, default=-1, help="step where the IMU is silent for 3 s")
     ap.add_argument("--drop", default="", help="topic not written at all")
     ap.add_argument("--wrong-type", default="", help="topic written as std_msgs/Float64")
+    ap.add_argument("--rename", action="append", default=[], metavar="OLD=NEW", help="write topic OLD as NEW (as a lab's remapping does)")
     ap.add_argument("--repeat", type=int, default=1, help="write the steps this many times")
     ap.add_argument("--cloud-bytes", type=int, default=2000, help="point cloud message size")
     ap.add_argument("--cloud-hz", type=float, default=1.0)
@@ -97,6 +98,7 @@ def main():
         w.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
     with w:
         conns = {}
+        renamed = dict(r.split("=", 1) for r in a.rename)
 
         def conn(topic, msgtype):
             if topic == a.drop:
@@ -104,7 +106,8 @@ def main():
             if topic == a.wrong_type:
                 msgtype = "std_msgs/msg/Float64"
             if topic not in conns:
-                conns[topic] = (w.add_connection(topic, msgtype, typestore=ts), msgtype)
+                name = renamed.get(topic, topic)
+                conns[topic] = (w.add_connection(name, msgtype, typestore=ts), msgtype)
             return conns[topic]
 
         def put(topic, msgtype, msg, t_ns):

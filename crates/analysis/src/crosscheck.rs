@@ -125,6 +125,20 @@ pub struct CrossCheck {
     pub yaw_rate_source: YawRateSource,
     /// Why that source.
     pub yaw_rate_reason: String,
+    /// Whether the log has an IMU (some finite IMU yaw rate); without one the IMU channels are
+    /// inconclusive and the yaw rate comes from the pose.
+    #[serde(default = "has_imu_by_default", skip_serializing_if = "is_true")]
+    pub imu: bool,
+}
+
+/// A cross-check that does not say otherwise had an IMU.
+fn has_imu_by_default() -> bool {
+    true
+}
+
+/// Only the absence of an IMU is written out.
+fn is_true(b: &bool) -> bool {
+    *b
 }
 
 impl CrossCheck {
@@ -390,7 +404,19 @@ pub fn cross_check(
             Verdict::Pass
         }
     };
-    let acc = |c: &Comparison| identity_verdict(c, params.acc_scale_tolerance, None, params);
+    // A log without an IMU has no finite IMU reading: its channels are not judged.
+    let imu = windows.iter().flatten().any(|s| s.imu_wz_rad_s.is_finite());
+    let no_imu = || Verdict::Inconclusive {
+        description: NO_IMU.to_string(),
+    };
+    let acc = |c: &Comparison| {
+        if imu {
+            identity_verdict(c, params.acc_scale_tolerance, None, params)
+        } else {
+            no_imu()
+        }
+    };
+    let imu_yaw = if imu { imu_yaw } else { no_imu() };
     verdicts.push(SensorVerdict {
         sensor: "imu_yaw_rate".into(),
         verdict: imu_yaw.clone(),
@@ -412,6 +438,7 @@ pub fn cross_check(
         verdict: acc(&c_ay),
     });
     let (yaw_rate_source, yaw_rate_reason) = match (&imu_yaw, &pose_yaw) {
+        _ if !imu => (YawRateSource::Pose, "no IMU in the log; using the pose".to_string()),
         (Verdict::Pass, _) => (YawRateSource::Imu, "IMU yaw rate passes the cross-check".to_string()),
         (_, Verdict::Pass) => (YawRateSource::Pose, "IMU yaw rate fails the cross-check; using the pose".to_string()),
         _ => (
@@ -425,5 +452,9 @@ pub fn cross_check(
         verdicts,
         yaw_rate_source,
         yaw_rate_reason,
+        imu,
     }
 }
+
+/// The verdict's description on the IMU channels of a log without an IMU.
+const NO_IMU: &str = "no IMU in the log";

@@ -391,7 +391,11 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
     let (segments, exclusions) = pipeline::segment_steps(log, params)?;
     let kin = pipeline::kinematics(&segments, params.derivative_half_width, &nominal.idd);
     let crosscheck = pipeline::cross_check(&segments, &kin, meta.rate_hz, &params.crosscheck);
-    let source = params.yaw_rate_source.unwrap_or(crosscheck.yaw_rate_source);
+    // Without an IMU the pose is the only yaw rate, whatever was asked.
+    let source = match params.yaw_rate_source {
+        Some(forced) if crosscheck.imu => forced,
+        _ => crosscheck.yaw_rate_source,
+    };
     let steps = pipeline::step_results(&segments, &kin, source, &nominal);
 
     let cols = pipeline::SteadyColumns::of(&steps);

@@ -28,20 +28,29 @@ pub struct Exclusion {
     pub reason: String,
 }
 
-fn sample_is_finite(s: &Sample) -> bool {
+/// Whether the log has an IMU: a log read from a bag without one has NaN IMU readings
+/// throughout.
+pub fn has_imu(log: &DriveLog) -> bool {
+    log.samples.iter().any(|s| {
+        let i = &s.m.imu;
+        [i.wz_rad_s, i.ax_m_s2, i.ay_m_s2, i.az_m_s2]
+            .iter()
+            .any(|v| !v.is_nan())
+    })
+}
+
+/// Whether every measurement of `s` is finite; the IMU's only when the log has one.
+fn sample_is_finite(s: &Sample, imu: bool) -> bool {
     let m = &s.m;
+    let i = &m.imu;
     m.cmd.is_finite()
         && m.enc.is_finite()
         && m.pose.is_finite()
-        && [
-            m.imu.wz_rad_s,
-            m.imu.ax_m_s2,
-            m.imu.ay_m_s2,
-            m.imu.az_m_s2,
-            s.t_in_step_s,
-        ]
-        .iter()
-        .all(|v| v.is_finite())
+        && s.t_in_step_s.is_finite()
+        && (!imu
+            || [i.wz_rad_s, i.ax_m_s2, i.ay_m_s2, i.az_m_s2]
+                .iter()
+                .all(|v| v.is_finite()))
 }
 
 /// A gap in the samples of a step: two consecutive samples further apart in time than 2.5
@@ -231,6 +240,7 @@ pub fn segment<'a>(log: &'a DriveLog, rules: &SegmentRules) -> (Vec<StepSegment<
     let mut steps = Vec::new();
     let mut exclusions = Vec::new();
     let samples = &log.samples;
+    let imu = has_imu(log);
     let mut i = 0;
     while i < samples.len() {
         let step = samples[i].step;
@@ -282,7 +292,7 @@ pub fn segment<'a>(log: &'a DriveLog, rules: &SegmentRules) -> (Vec<StepSegment<
             }
         }
         if problem.is_none() {
-            if let Some(bad) = block.iter().find(|s| !sample_is_finite(s)) {
+            if let Some(bad) = block.iter().find(|s| !sample_is_finite(s, imu)) {
                 problem = Some(format!(
                     "non-finite measurement at window {}, sample {}",
                     bad.window, bad.k

@@ -274,6 +274,10 @@ pub struct StepResiduals {
     pub pose: Vec<[f64; 3]>,
 }
 
+/// Index of `imu_wz` in [`STEADY_CHANNELS`]: NaN throughout when the recording has no IMU,
+/// and then left out of the score.
+const IMU_WZ: usize = 5;
+
 /// Number of score channels: 6 steady, then 4 transient.
 pub const SCORE_CHANNELS: usize = 10;
 
@@ -309,10 +313,16 @@ impl StepResiduals {
     /// The score-channel residuals in a fixed order (steady windows, then transient samples),
     /// appended to `values`, with each entry's channel (0..[`SCORE_CHANNELS`]) appended to
     /// `channels`.
+    /// A recording without an IMU leaves its `imu_wz` entries out (they are NaN).
     pub fn flatten_into(&self, values: &mut Vec<f64>, channels: &mut Vec<u8>) {
         for r in &self.steady {
-            values.extend_from_slice(r);
-            channels.extend(0..6u8);
+            for (c, v) in r.iter().enumerate() {
+                if c == IMU_WZ && v.is_nan() {
+                    continue;
+                }
+                values.push(*v);
+                channels.push(c as u8);
+            }
         }
         for r in &self.transient {
             values.extend_from_slice(r);
@@ -381,7 +391,7 @@ pub const MIN_CHANNEL_RATIO: f64 = 1e-2;
 /// lowers it lowers every channel's error *relative to itself*. An arithmetic mean of the
 /// floor-normalised errors would instead let the channels with the tightest floors (the
 /// encoders) decide alone and trade body velocity for wheel speed. Channels with no sample are
-/// left out; no channel at all gives NaN.
+/// left out, as is `imu_wz` of a recording without an IMU (NaN); no channel at all gives NaN.
 pub fn score<'a>(errors: impl IntoIterator<Item = &'a StepErrors>, floor: &NoiseFloor) -> f64 {
     let mut steady = [0.0; 6];
     let mut transient = [0.0; 4];
@@ -404,7 +414,10 @@ pub fn score<'a>(errors: impl IntoIterator<Item = &'a StepErrors>, floor: &Noise
         n += 1;
     };
     if ns > 0 {
-        for (sq, f) in steady.iter().zip(&floor.steady) {
+        for (c, (sq, f)) in steady.iter().zip(&floor.steady).enumerate() {
+            if c == IMU_WZ && sq.is_nan() {
+                continue;
+            }
             add(*sq, ns, *f);
         }
     }

@@ -148,6 +148,9 @@ fn set_up<'a>(input: &LoopInput<'a>) -> Result<SetUp<'a>> {
         &input.robot.idd(),
     );
     let mut notes = Vec::new();
+    if !drive_sim_analysis::segment::has_imu(log) {
+        notes.push("no IMU in the log: the score leaves out the imu_wz channel".into());
+    }
     let train = match opts.max_fit_steps {
         Some(k) if k < split.train.len() => {
             let sub = fit_subset(&split.train, k, opts.seed);

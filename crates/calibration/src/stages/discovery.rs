@@ -488,6 +488,10 @@ fn rows_of(
                 if idx.is_empty() {
                     continue;
                 }
+                // A recording without an IMU has no imu_wz to explain.
+                if (sm[c] - mm[c]).is_nan() {
+                    continue;
+                }
                 let mut x = vec![0.0; features.len()];
                 for &i in &idx {
                     for (acc, v) in x.iter_mut().zip(at(i)) {

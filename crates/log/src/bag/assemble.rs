@@ -39,7 +39,7 @@ pub struct Signals {
     pub right: Vec<(u64, f64)>,
     /// Odometry pose and the source's own twist (vx, vy, wz; NaN when absent).
     pub odom: Vec<(u64, Pose, [f64; 3])>,
-    /// IMU.
+    /// IMU; empty without one (the samples' IMU readings are then NaN).
     pub imu: Vec<(u64, ImuReading)>,
     /// Step index.
     pub step: Vec<(u64, i32)>,
@@ -267,21 +267,23 @@ fn worst_gap(ts: &[u64], start: f64, end: f64, limit: f64, tick_ns: f64) -> Opti
 
 /// Message times of the role topics every step needs, with each topic's gap limit.
 struct RoleTimes {
-    /// Receive times (ns) per role.
-    series: [(Role, Vec<u64>); 5],
+    /// Receive times (ns) per role; a bag without IMU messages has no IMU series.
+    series: Vec<(Role, Vec<u64>)>,
     /// [`gap_limit_s`] of each series, s.
     limits: Vec<f64>,
 }
 
 impl RoleTimes {
     fn of(s: &Signals) -> Self {
-        let series: [(Role, Vec<u64>); 5] = [
+        let mut series: Vec<(Role, Vec<u64>)> = vec![
             (Role::Cmd, s.cmd.iter().map(|x| x.0).collect()),
             (Role::WheelLeft, s.left.iter().map(|x| x.0).collect()),
             (Role::WheelRight, s.right.iter().map(|x| x.0).collect()),
             (Role::Odom, s.odom.iter().map(|x| x.0).collect()),
-            (Role::Imu, s.imu.iter().map(|x| x.0).collect()),
         ];
+        if !s.imu.is_empty() {
+            series.push((Role::Imu, s.imu.iter().map(|x| x.0).collect()));
+        }
         let limits = series
             .iter()
             .map(|(_, ts)| gap_limit_s(median_period(ts)))

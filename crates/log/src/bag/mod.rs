@@ -205,6 +205,9 @@ fn read_opened(bag: &Bag, roles: &RoleMap, opts: &BagOptions) -> Result<BagLog> 
         notes.extend(roles.describe().into_iter().map(|l| format!("  {l}")));
     }
     roles.check_required(path)?;
+    if !roles.roles.contains_key(&Role::Imu) {
+        notes.push("no IMU: IMU readings are NaN, the yaw rate comes from the pose".into());
+    }
     let (robot, nominal, step_s, more) = nominal_for(path, opts, roles)?;
     notes.extend(more);
     let rate_hz = 20.0;
@@ -363,6 +366,16 @@ impl std::fmt::Display for Inspection {
             for l in r.describe() {
                 writeln!(f, "  {l}")?;
             }
+            let name = self
+                .bag
+                .as_ref()
+                .and_then(|b| b.path.file_stem())
+                .map_or_else(|| "bag".to_string(), |s| s.to_string_lossy().into_owned());
+            writeln!(
+                f,
+                "roles file that reads the bag this way (save, edit, pass with --roles FILE):"
+            )?;
+            write!(f, "{}", r.to_toml(&name))?;
         }
         match (&self.read, &self.bag) {
             (Some(r), _) => {

@@ -67,9 +67,10 @@ impl Role {
         }
     }
 
-    /// Whether a log cannot be built without it (steps fall back to command constancy).
+    /// Whether a log cannot be built without it: steps fall back to command constancy, and
+    /// without an IMU the yaw rate comes from the pose.
     pub fn required(self) -> bool {
-        !matches!(self, Role::Step | Role::State)
+        !matches!(self, Role::Step | Role::State | Role::Imu)
     }
 
     fn from_key(k: &str) -> Option<Role> {
@@ -214,6 +215,8 @@ pub struct RoleMap {
     pub roles: BTreeMap<Role, Assigned>,
     /// Roles with no topic in the bag, with what was looked for.
     pub missing: Vec<(Role, String)>,
+    /// Roles guessed as the only topic of their type, their names matching no keyword.
+    pub by_type_alone: Vec<Role>,
 }
 
 impl RoleMap {
@@ -232,11 +235,59 @@ impl RoleMap {
                 bag,
                 "roles",
                 format!(
-                    "missing role(s) [{}] with the roles of {}",
+                    "missing role(s) [{}] {}",
                     missing.join("; "),
-                    self.source
+                    self.source_phrase()
                 ),
             ))
+        }
+    }
+
+    /// A roles TOML (the format of `roles/warthog.toml`) that reads the bag with these roles,
+    /// named `name`, ready to edit and pass with `--roles`; missing roles are commented out.
+    pub fn to_toml(&self, name: &str) -> String {
+        let q = |s: &str| format!("\"{}\"", s.replace('\\', "\\\\").replace('"', "\\\""));
+        let mut out = format!(
+            "# Topic roles of this bag ({}): edit, then pass the file with --roles.\nname = {}\n",
+            self.source,
+            q(name)
+        );
+        match &self.robot {
+            Some(r) => out += &format!("robot = {}\n", q(r)),
+            None => out += "# robot = \"warthog\"\n",
+        }
+        for r in Role::ALL {
+            out.push('\n');
+            match self.roles.get(&r) {
+                Some(a) => {
+                    out += &format!(
+                        "[roles.{}]\ntopic = {}\ntype = {}\n",
+                        r.key(),
+                        q(&a.topic),
+                        q(&a.msg_type)
+                    );
+                    if let Some(j) = &a.joint {
+                        out += &format!("joint = {}\n", q(j));
+                    }
+                }
+                None => {
+                    out += &format!(
+                        "# [roles.{}]\n# topic = \"\"\n# type = {}\n",
+                        r.key(),
+                        q(r.types()[0])
+                    );
+                }
+            }
+        }
+        out
+    }
+
+    /// Where the roles come from, as the end of a sentence.
+    fn source_phrase(&self) -> String {
+        if self.source.starts_with("guessed") {
+            format!("with the roles {}", self.source)
+        } else {
+            format!("with the roles of {}", self.source)
         }
     }
 
@@ -246,6 +297,12 @@ impl RoleMap {
             .iter()
             .map(
                 |r| match (self.roles.get(r), self.missing.iter().find(|(m, _)| m == r)) {
+                    (Some(a), _) if self.by_type_alone.contains(r) => format!(
+                        "{:<11} {} ({}): the only topic of its type",
+                        r.key(),
+                        a.topic,
+                        a.msg_type
+                    ),
                     (Some(a), _) => format!("{:<11} {} ({})", r.key(), a.topic, a.msg_type),
                     (None, Some((_, why))) => format!(
                         "{:<11} MISSING{}: {why}",
@@ -303,6 +360,7 @@ pub fn apply(spec: &RolesSpec, bag: &Bag, source: String) -> Result<RoleMap> {
         robot: spec.robot.clone(),
         roles,
         missing,
+        by_type_alone: Vec::new(),
     })
 }
 
@@ -320,26 +378,45 @@ fn keywords(role: Role) -> (&'static [&'static str], &'static [&'static str]) {
     }
 }
 
-/// Guesses the roles from types and names.
+/// Guesses the roles from types and names: per role, among the topics of its type not ruled
+/// out by name nor taken by an earlier role, the one named most like it; without a name match,
+/// the only such topic.
 pub fn guess(bag: &Bag) -> RoleMap {
-    let mut roles = BTreeMap::new();
-    let mut missing = Vec::new();
+    let mut map = RoleMap {
+        source: "guessed from types and names".into(),
+        robot: None,
+        roles: BTreeMap::new(),
+        missing: Vec::new(),
+        by_type_alone: Vec::new(),
+    };
     for role in Role::ALL {
         let (good, bad) = keywords(role);
-        let best = bag
+        let candidates: Vec<&super::storage::TopicInfo> = bag
             .topics
             .iter()
             .filter(|t| role.types().contains(&t.msg_type.as_str()))
             .filter(|t| !bad.iter().any(|b| t.name.to_lowercase().contains(b)))
+            .filter(|t| !map.roles.values().any(|a| a.topic == t.name))
+            .collect();
+        let by_name = candidates
+            .iter()
             .filter_map(|t| {
                 let name = t.name.to_lowercase();
                 let score = good.iter().position(|g| name.contains(g))?;
-                Some((score, t.name.len(), t))
+                Some((score, t.name.len(), *t))
             })
-            .min_by_key(|(score, len, _)| (*score, *len));
-        match best {
-            Some((_, _, t)) => {
-                roles.insert(
+            .min_by_key(|(score, len, _)| (*score, *len))
+            .map(|(_, _, t)| t);
+        let alone = match candidates.as_slice() {
+            [t] if by_name.is_none() => Some(*t),
+            _ => None,
+        };
+        match by_name.or(alone) {
+            Some(t) => {
+                if alone.is_some() {
+                    map.by_type_alone.push(role);
+                }
+                map.roles.insert(
                     role,
                     Assigned {
                         topic: t.name.clone(),
@@ -348,22 +425,25 @@ pub fn guess(bag: &Bag) -> RoleMap {
                     },
                 );
             }
-            None => missing.push((
-                role,
-                format!(
-                    "no topic of type {} named like {}",
-                    role.types().join(" or "),
-                    good.join("/")
-                ),
-            )),
+            None => {
+                let names: Vec<&str> = candidates.iter().map(|t| t.name.as_str()).collect();
+                let listed = if names.is_empty() {
+                    String::new()
+                } else {
+                    format!("; candidates: {}", names.join(", "))
+                };
+                map.missing.push((
+                    role,
+                    format!(
+                        "no topic of type {} named like {}{listed}",
+                        role.types().join(" or "),
+                        good.join("/")
+                    ),
+                ));
+            }
         }
     }
-    RoleMap {
-        source: "guessed from types and names".into(),
-        robot: None,
-        roles,
-        missing,
-    }
+    map
 }
 
 /// The roles for `bag`: the given preset or file; else the first preset whose required topics

@@ -104,7 +104,18 @@ impl Assembly<'_> {
         let l = interp(&s.left, t, lerp).ok_or_else(|| miss(Role::WheelLeft))?;
         let r = interp(&s.right, t, lerp).ok_or_else(|| miss(Role::WheelRight))?;
         let (pose, tw) = odom_at(&s.odom, t).ok_or_else(|| miss(Role::Odom))?;
-        let imu = interp(&s.imu, t, lerp_imu).ok_or_else(|| miss(Role::Imu))?;
+        // Without an IMU the reading is NaN, as in a CSV without one: the yaw rate then comes
+        // from the pose.
+        let imu = if s.imu.is_empty() {
+            ImuReading {
+                wz_rad_s: f64::NAN,
+                ax_m_s2: f64::NAN,
+                ay_m_s2: f64::NAN,
+                az_m_s2: f64::NAN,
+            }
+        } else {
+            interp(&s.imu, t, lerp_imu).ok_or_else(|| miss(Role::Imu))?
+        };
         let reference = BodyVelocity::new(tw[0], tw[1], tw[2]);
         let spw = self.clock.samples_per_window;
         Ok(Sample {
