@@ -117,7 +117,7 @@ pub struct JointReport {
     pub reproduce: String,
 }
 
-/// Refuses logs of different robots (a [`Error::Log`], bad input), naming both.
+/// Refuses logs of different robots (a [`drive_sim_model::Error::Log`], bad input), naming both.
 pub fn check_one_robot(logs: &[&DriveLog]) -> Result<()> {
     if let Some(first) = logs.first() {
         for l in &logs[1..] {

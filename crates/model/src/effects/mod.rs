@@ -7,7 +7,7 @@
 //! ([`Stage`]) and how a plant applies it (the [`Effect`] hooks, which both the rapier
 //! simulator and the kinematic model call). [`REGISTRY`] lists them in the order a command
 //! meets them on its way to the sensors; adding an effect is adding a file and a line there,
-//! as samplers register in [`drive_sim_protocol::samplers`].
+//! as samplers register in `drive_sim_protocol::samplers`.
 //!
 //! An [`Effects`] value is a set of effects switched on with their parameter values: what
 //! `--inject NAME=VALUE` builds, what a simulator runs with and what calibration fits. It

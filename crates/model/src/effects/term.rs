@@ -1,7 +1,7 @@
 //! Generic model terms: an additive correction `Σ_k c_k φ_k(x)` acting on one quantity of the
 //! model (a wheel target, a body velocity, the IMU), where the features `φ_k` are computed from
 //! what a plant knows while it runs — its command, its own state, the time in the step, the
-//! step index — and never from a measurement. Equation discovery ([`drive_sim_calibration::discovery`]) finds
+//! step index — and never from a measurement. Equation discovery (`drive_sim_calibration::discovery`) finds
 //! such a term in a residual; registered here, it runs in the kinematic model and the
 //! simulator like any catalogue effect, and calibration refits and judges it by the same rules.
 //!
@@ -47,7 +47,7 @@ pub struct TermInput {
     /// from the physics' stream, so switching such an effect on moves no other draw.
     pub run_seed: u64,
     /// The operator is driving the robot between DRIVE steps (a re-orientation after an
-    /// interruption, [`drive_sim_sim::Plant::begin_manoeuvre`]), not the protocol. An operator
+    /// interruption, `drive_sim_sim::Plant::begin_manoeuvre`), not the protocol. An operator
     /// closes the loop on where the robot goes; per-step effects of the protocol's steps do not
     /// act there.
     pub manoeuvre: bool,

@@ -11,7 +11,7 @@ use crate::kinematics::WheelSpeeds;
 /// Why: on the measured Warthog runs the steady wheel speeds of two steps with nearly the same
 /// command (within 1 rad/s) differ by far more than the two steady windows of one step do: on
 /// asphalt 0.48 rad/s per wheel between such steps, 0.25 within a step; gravel 0.46 and 0.23
-/// (`drive-sim analyze`, its "step scatter" line; [`drive_sim_analysis::scatter`]). A
+/// (`drive-sim analyze`, its "step scatter" line; `drive_sim_analysis::scatter`]). A
 /// deterministic model holds one speed per command; the real loop does not (a ground that
 /// differs under each step, a loop whose integrator starts each step from where the last one
 /// left it). Without it the twins' own runs scatter 0.01–0.12 rad/s (`drive-sim compare`, its

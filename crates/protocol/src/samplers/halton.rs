@@ -64,7 +64,7 @@ impl Halton {
 
 /// The textbook (unscrambled) radical inverse of `i` in `base`: the `i`-th coordinate of the
 /// Halton sequence in that base (also the design of a closed-loop search's first points,
-/// [`drive_sim_compare::tune`]).
+/// `drive_sim_compare::tune`]).
 pub fn radical_inverse(i: u64, base: u64) -> f64 {
     let digits = (53.0 / (base as f64).log2()).ceil() as usize;
     let identity: Vec<Vec<u8>> = (0..digits).map(|_| (0..base as u8).collect()).collect();

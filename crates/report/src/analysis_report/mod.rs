@@ -3,7 +3,7 @@
 //! `report.html`. Several logs are compared on the same figures.
 //!
 //! The JSON files are written by `summary`; the HTML page is built section by section by a
-//! [`Report`], whose methods live in `sections` (findings, command spaces, slip, ρ, transfer
+//! `Report`, whose methods live in `sections` (findings, command spaces, slip, ρ, transfer
 //! functions, accelerations, sensor cross-check) and `risk` (the risk map).
 
 mod risk;
