@@ -15,6 +15,7 @@
 //! | [`drive_sim_harness`] | [`harness`] | runs, the analysis command, sampler comparisons, sweeps, the demo |
 //! | [`drive_sim_calibration`] | [`calibration`], [`discovery`] | calibration by replay and equation discovery |
 //! | [`drive_sim_compare`] | [`compare`] | compare a twin with its robot, tune it in closed loop, judge it |
+//! | [`drive_sim_twin`] | [`twin`] | a judged twin from a robot's runs in one call |
 //!
 //! See `docs/architecture.md` in the repository for the design and how to add an effect, a
 //! sampler, a reader or a robot.
@@ -33,3 +34,4 @@ pub use drive_sim_log as log;
 pub use drive_sim_protocol as protocol;
 pub use drive_sim_report as report;
 pub use drive_sim_sim as sim;
+pub use drive_sim_twin as twin;

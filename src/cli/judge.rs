@@ -60,6 +60,11 @@ pub struct JudgeArgs {
     /// `tune --inject`): judge a variant without writing its files.
     #[arg(long = "inject", value_name = "EFFECT=VALUE")]
     pub inject: Vec<String>,
+    /// Another real run of the same robot on the same ground (repeatable): compared with the
+    /// judged steps as each twin run is, its loss is the robot's own difference, the yardstick
+    /// beside the twin's mean loss.
+    #[arg(long = "other-run", value_name = "LOG")]
+    pub other_runs: Vec<PathBuf>,
     /// Output directory.
     #[arg(long, default_value = "out/judge")]
     pub out: PathBuf,
@@ -111,6 +116,15 @@ pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
     } else {
         judge::write::read_twin_files(args.input.robot.as_deref(), args.input.terrain.as_deref())?
     };
+    let others = args
+        .other_runs
+        .iter()
+        .map(|p| super::input::open_log(p, &args.input))
+        .collect::<drive_sim::Result<Vec<_>>>()?;
+    // Another robot or ground is refused before the judgement's minutes.
+    for other in &others {
+        judge::check_same_ground(&log, other)?;
+    }
     let staged = drive_sim::output::StagedDir::begin(&args.out, "--out")?;
     let t0 = std::time::Instant::now();
     let print = |event: &dyn std::fmt::Display| {
@@ -122,6 +136,11 @@ pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
         opts: &opts,
     };
     let mut outcome = judge::judge(&request, &|e| print(e))?;
+    for other in &others {
+        outcome
+            .yardsticks
+            .push(judge::yardstick(&log, other, &opts, outcome.loss.real)?);
+    }
     if !specs.is_empty() {
         outcome.intervals = interval::intervals(
             &IntervalRequest {

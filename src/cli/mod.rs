@@ -11,6 +11,7 @@ pub mod samplers;
 pub mod sweep;
 pub mod sweep_args;
 pub mod tune;
+pub mod twin;
 
 use clap::{Parser, Subcommand};
 use drive_sim::robot::{Robot, BUILTIN_ROBOTS};
@@ -60,6 +61,11 @@ pub enum Command {
     /// Monte Carlo test of whether compare can tell the real run from the twin's; writes
     /// judge.json, judge.md and judge_rates.svg|png.
     Judge(judge::JudgeArgs),
+    /// A twin of the robot from its runs, with no option needed: calibrated by replay, the
+    /// knobs that move it towards the robot measured in closed loop, tuned, checked on fresh
+    /// seeds and judged on steps its choice never saw; writes twin/robot.toml, its terrain
+    /// file(s), twin.json and twin.md.
+    Twin(twin::TwinArgs),
     /// Lists the robots (built-in and ./robots/*.toml).
     Robots,
     /// Lists the terrains (built-in and ./terrains/*.toml).
@@ -184,7 +190,8 @@ fn stage_error<'a>(c: &'a (dyn std::error::Error + 'static)) -> Option<StageErro
         drive_sim::report::Error,
         drive_sim::harness::Error,
         drive_sim::calibration::Error,
-        drive_sim::compare::Error
+        drive_sim::compare::Error,
+        drive_sim::twin::Error
     );
     None
 }
@@ -212,6 +219,8 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         // never committed, so nothing already written is touched.
         Some(Command::Tune(a)) => tune::tune(&a),
         Some(Command::Judge(a)) => judge::judge(&a),
+        // As tune and judge: Ctrl-C ends the process before the staged directory is committed.
+        Some(Command::Twin(a)) => twin::twin(&a),
         Some(Command::Robots) => list_robots(),
         Some(Command::Terrains) => list_terrains(),
         Some(Command::Effects) => list_effects(),

@@ -340,3 +340,38 @@ pub fn drive_log_with(
         robot,
     )
 }
+
+/// [`drive_log_with`], also written to `path` as a drive-sim MCAP log (what the command line
+/// reads), labelled with the ground `terrain`.
+#[allow(dead_code)] // not every test crate that includes this module writes logs
+pub fn write_drive_mcap(
+    path: &std::path::Path,
+    name: &str,
+    terrain: &str,
+    spec: TestRobotSpec,
+    extra: Unmodelled,
+    steps: u32,
+) -> drive_sim::log::DriveLog {
+    use drive_sim::protocol::sampler::UniformWheel;
+    use drive_sim::protocol::{run_drive, ProtocolConfig};
+    let (mut robot, _) = drive_sim::robot::Robot::resolve("warthog").unwrap();
+    robot.effects = Default::default();
+    let cfg = ProtocolConfig {
+        steps,
+        ..ProtocolConfig::default()
+    };
+    let mut plant = TestRobot::with(spec, extra);
+    let mut frames = Vec::new();
+    run_drive(
+        &mut plant,
+        &robot,
+        &mut UniformWheel::new(spec.seed),
+        &cfg,
+        &mut frames,
+    )
+    .unwrap();
+    let mut log = super::undeclared_log(name, &robot, spec.seed, &cfg, &frames);
+    log.meta.terrain = terrain.into();
+    drive_sim::log::mcap::write_mcap(path, &log.meta, &frames).unwrap();
+    log
+}

@@ -55,7 +55,7 @@ pub mod loss;
 mod metrics;
 mod options;
 mod prepared;
-mod real_steps;
+pub mod real_steps;
 mod report;
 pub mod scatter;
 mod sim_comparison;

@@ -9,7 +9,7 @@ use drive_sim_log::{DriveLog, UseSteps};
 
 /// Refuses a twin of another robot than the real log's (bad input on `--robot`); `verb` says
 /// what the twin is for ("tuned", "judged").
-pub(crate) fn check_same_robot(real: &DriveLog, model: &ModelParams, verb: &str) -> Result<()> {
+pub fn check_same_robot(real: &DriveLog, model: &ModelParams, verb: &str) -> Result<()> {
     if real.meta.robot == model.robot.name {
         return Ok(());
     }
@@ -25,7 +25,7 @@ pub(crate) fn check_same_robot(real: &DriveLog, model: &ModelParams, verb: &str)
 
 /// Some of a real log's steps, with how many of them the analysis keeps.
 #[derive(Debug, Clone)]
-pub(crate) struct RealSteps {
+pub struct RealSteps {
     /// Which steps.
     pub steps: UseSteps,
     /// The log holding only them.
@@ -36,7 +36,7 @@ pub(crate) struct RealSteps {
 
 /// The steps `steps` of `real`, refused (bad input on `flag`) when the analysis keeps fewer
 /// than [`MIN_STEPS_FOR_INTERVAL`] of them; `purpose` says what they were for ("tune on").
-pub(crate) fn real_steps(real: &DriveLog, steps: UseSteps, flag: &str, purpose: &str) -> Result<RealSteps> {
+pub fn real_steps(real: &DriveLog, steps: UseSteps, flag: &str, purpose: &str) -> Result<RealSteps> {
     let log = steps.select(real);
     let analysed = crate::analysis_of(&log)?.steps.len();
     if analysed < MIN_STEPS_FOR_INTERVAL {
@@ -54,7 +54,7 @@ pub(crate) fn real_steps(real: &DriveLog, steps: UseSteps, flag: &str, purpose: 
 
 /// Refuses a number of DRIVE steps per simulated run (`--steps`) too small for an interval or
 /// beyond any run's size; `None` (as many as the real steps) passes.
-pub(crate) fn check_run_steps(steps: Option<u32>) -> Result<()> {
+pub fn check_run_steps(steps: Option<u32>) -> Result<()> {
     match steps.filter(|s| (*s as usize) < MIN_STEPS_FOR_INTERVAL || *s > 100_000) {
         Some(s) => Err(Error::config(
             "<command line>",

@@ -39,10 +39,12 @@ pub mod interval;
 mod outcome;
 mod score;
 pub mod write;
+mod yardstick;
 
 pub use event::JudgeEvent;
 pub use outcome::{CandidateScore, CriterionTest, JudgeOutcome, LossTest, RunScore};
 pub use score::{criteria_of, monte_carlo_p};
+pub use yardstick::{check_same_ground, yardstick, Yardstick};
 
 use crate::error::{Error, Result};
 use crate::real_steps::{check_run_steps, check_same_robot, real_steps, RealSteps};
@@ -132,7 +134,7 @@ impl JudgeOptions {
         Ok(())
     }
 
-    fn compare_options(&self) -> CompareOptions {
+    pub(crate) fn compare_options(&self) -> CompareOptions {
         CompareOptions {
             bootstrap: Bootstrap {
                 resamples: self.resamples,
@@ -226,6 +228,7 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&JudgeEvent) + Sync)) -> Res
         references,
         notes,
         intervals: Vec::new(),
+        yardsticks: Vec::new(),
     };
     progress(&JudgeEvent::Decided { outcome: &outcome });
     Ok(outcome)

@@ -11,7 +11,40 @@ use drive_sim_model::provenance::Provenance;
 use drive_sim_report::{bar_chart, AxisLabel, BarChart, BarSeries};
 use std::path::{Path, PathBuf};
 
-/// The table: one row per criterion, the verdict first.
+/// The other real runs' comparisons beside the twin's mean loss (empty without any).
+fn yardsticks_table(o: &JudgeOutcome) -> String {
+    if o.yardsticks.is_empty() {
+        return String::new();
+    }
+    let mut s = String::from(
+        "\nThe robot against itself (another real run of the same robot and ground, compared with the judged steps as each twin run is):\n\n| other real run | its loss | twin's mean loss | twin as close as the robot to itself | verdict on the other run | differs on | ρ difference (p Holm) |\n|---|---|---|---|---|---|---|\n",
+    );
+    for y in &o.yardsticks {
+        let rho = y
+            .medians
+            .iter()
+            .find(|m| m.metric == "median_rho")
+            .map_or("-".to_string(), |m| {
+                format!("{:+.3} ({:.3})", m.difference, m.p_holm)
+            });
+        s.push_str(&format!(
+            "| {} | {} | {:.2} | {} | {} | {} | {rho} |\n",
+            y.other,
+            y.loss.map_or("-".to_string(), |l| format!("{l:.2}")),
+            y.twin_mean_loss,
+            if y.twin_within { "yes" } else { "no" },
+            if y.reproduces { "reproduces" } else { "differs" },
+            if y.differs_on.is_empty() {
+                "-".to_string()
+            } else {
+                y.differs_on.join(", ")
+            },
+        ));
+    }
+    s
+}
+
+/// The table: one row per criterion, the verdict first; then the other real runs, if any.
 pub fn table(o: &JudgeOutcome) -> String {
     let n = o.sim_seeds.len();
     let m = o.references.len();
@@ -71,6 +104,7 @@ pub fn table(o: &JudgeOutcome) -> String {
             o.flagged.join(", ")
         ));
     }
+    s.push_str(&yardsticks_table(o));
     for note in &o.notes {
         s.push_str(&format!("\nNote: {note}\n"));
     }

@@ -42,10 +42,10 @@ pub mod write;
 use choose::{choose, LossRuns, Space};
 pub use event::TuneEvent;
 use judging::Judging;
-pub use outcome::{HeldOut, JudgedRun, PointEvaluation, SeedCheck, TuneOutcome, TunedParam};
+pub use outcome::{check_rule, HeldOut, JudgedRun, PointEvaluation, SeedCheck, TuneOutcome, TunedParam};
 pub use params::{apply_boxes, tuned_specs, BoxOverride};
 use runs::loss_opts;
-pub use runs::twin_run;
+pub use runs::{run_loss, search_compare_options, twin_run};
 pub use write::twin_of;
 
 use crate::error::{Error, Result};

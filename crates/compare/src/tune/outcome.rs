@@ -142,8 +142,10 @@ pub struct TuneOutcome {
     pub model: Option<ModelParams>,
 }
 
-/// The check's rule on paired losses (start, chosen) per seed.
-pub(super) fn check_rule(
+/// The check's rule on paired losses (start, chosen) per seed: the chosen model is accepted
+/// when every one of its runs completes and its mean loss reduction exceeds twice its standard
+/// error (`same_point`: the choice is the start, nothing to accept).
+pub fn check_rule(
     seeds: Vec<u64>,
     start: Vec<Option<f64>>,
     chosen: Vec<Option<f64>>,

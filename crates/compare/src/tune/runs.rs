@@ -47,15 +47,35 @@ pub(super) fn run_against(
 
 /// The loss of one seeded run of `model` against `real` (prepared with [`loss_opts`]).
 pub(super) fn seed_run(real: &PreparedReal, model: &ModelParams, steps: u32, seed: u64) -> SeedRun {
-    let outcome = run_against(real, &[model], steps, seed)
+    SeedRun {
+        outcome: run_loss(real, model, steps, seed),
+    }
+}
+
+/// The loss of one seeded DRIVE run of `model` (`steps` steps) against the real steps
+/// `real` (prepared once with compare's options for a search: no permutation test of the
+/// maps); the error in words when the run or the comparison failed (a model that cannot run
+/// its protocol is a point of the search, not an error of the search).
+pub fn run_loss(
+    real: &PreparedReal,
+    model: &ModelParams,
+    steps: u32,
+    seed: u64,
+) -> std::result::Result<Loss, String> {
+    run_against(real, &[model], steps, seed)
         .map_err(|e| e.to_string())
         .and_then(|r| {
             r.sims[0]
                 .loss
                 .clone()
                 .ok_or_else(|| "compare gave no loss".to_string())
-        });
-    SeedRun { outcome }
+        })
+}
+
+/// Compare's options for a closed-loop search's loss: `resamples` bootstrap draws, the maps
+/// smoothed by `smoother`, no permutation test of the maps.
+pub fn search_compare_options(resamples: usize, smoother: TfSmoother) -> CompareOptions {
+    loss_opts(resamples, smoother)
 }
 
 /// Mean of the seeds' losses; `None` when one failed.

@@ -1,0 +1,268 @@
+//! The logs a twin is made from: opened, checked before any long work, and grouped by ground.
+//!
+//! Runs on the same ground share one terrain: their steps are pooled into one log per ground
+//! (steps renumbered by an even offset, so that each run's odd steps stay odd and a held-out
+//! half of the pool is the same half of every run).
+
+use crate::error::{Error, Result};
+use crate::event::TwinEvent;
+use drive_sim_analysis::bootstrap::MIN_STEPS_FOR_INTERVAL;
+use drive_sim_log::{DriveLog, OpenOptions, UseSteps};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// One log given, as read.
+#[derive(Debug, Clone)]
+pub struct RunLog {
+    /// Its file.
+    pub file: PathBuf,
+    /// The log.
+    pub log: DriveLog,
+    /// Its analysed steps (the steps with steady windows the statistics use).
+    pub analysed: usize,
+}
+
+/// The runs on one ground, pooled.
+#[derive(Debug, Clone)]
+pub struct Ground {
+    /// The ground: the logs' terrain label.
+    pub name: String,
+    /// Indices of its runs among the logs given.
+    pub runs: Vec<usize>,
+    /// Their steps in one log (one run: that run).
+    pub log: DriveLog,
+}
+
+/// A log's line in `twin.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunSummary {
+    /// Dataset name.
+    pub dataset: String,
+    /// Its file.
+    pub file: PathBuf,
+    /// Its ground (terrain label).
+    pub ground: String,
+    /// Steps in the log.
+    pub steps: usize,
+    /// Steps the analysis keeps (steady windows).
+    pub analysed: usize,
+}
+
+impl RunLog {
+    /// The log's line in `twin.json`.
+    pub fn summary(&self) -> RunSummary {
+        RunSummary {
+            dataset: self.log.meta.name.clone(),
+            file: self.file.clone(),
+            ground: self.log.meta.terrain.clone(),
+            steps: self.log.steps().len(),
+            analysed: self.analysed,
+        }
+    }
+}
+
+/// Opens every log and checks what a twin needs before any long work: one robot, and in each
+/// log enough analysed steps in each half for a held-out judgement (bad input naming the log
+/// and what is missing).
+pub fn open_logs(
+    files: &[PathBuf],
+    opts: &OpenOptions,
+    progress: &(dyn Fn(&TwinEvent) + Sync),
+) -> Result<Vec<RunLog>> {
+    if files.is_empty() {
+        return Err(Error::config(
+            "<command line>",
+            "LOG",
+            "no log to make a twin from",
+        ));
+    }
+    let mut runs: Vec<RunLog> = Vec::new();
+    for file in files {
+        progress(&TwinEvent::Reading { path: file });
+        let opened = drive_sim_log::open(file, opts)?;
+        for note in opened.notes.iter().chain(&opened.warnings) {
+            progress(&TwinEvent::Note { note });
+        }
+        let log = opened.log;
+        if let Some(first) = runs.first() {
+            if first.log.meta.robot != log.meta.robot {
+                return Err(Error::log(
+                    file,
+                    "metadata: robot",
+                    format!(
+                        "is of robot `{}`, `{}` of robot `{}`: a twin is of one robot",
+                        log.meta.robot,
+                        first.file.display(),
+                        first.log.meta.robot
+                    ),
+                ));
+            }
+        }
+        if runs.iter().any(|r| r.log.meta.name == log.meta.name) {
+            return Err(Error::log(
+                file,
+                "metadata: name",
+                format!("dataset `{}` is given twice", log.meta.name),
+            ));
+        }
+        let analysed = check_splittable(file, &log)?;
+        runs.push(RunLog {
+            file: file.clone(),
+            log,
+            analysed,
+        });
+    }
+    Ok(runs)
+}
+
+/// The analysed steps of `log`, refused when a half of them (odd or even) has fewer than an
+/// interval needs: the twin is chosen on one half and judged on the other.
+fn check_splittable(file: &Path, log: &DriveLog) -> Result<usize> {
+    let analysed_in = |steps: UseSteps| -> Result<usize> {
+        let selected = steps.select(log);
+        match drive_sim_compare::analysis_of(&selected) {
+            Ok(a) => Ok(a.steps.len()),
+            Err(e) if e.is_bad_input() => Err(e.into()),
+            Err(e) => Err(Error::log(
+                file,
+                format!("{} steps", steps.as_str()),
+                format!("no step with steady windows to analyse ({e})"),
+            )),
+        }
+    };
+    let all = analysed_in(UseSteps::All)?;
+    for half in [UseSteps::Odd, UseSteps::Even] {
+        let n = analysed_in(half)?;
+        if n < MIN_STEPS_FOR_INTERVAL {
+            return Err(Error::log(
+                file,
+                format!("{} steps", half.as_str()),
+                format!(
+                    "{n} of its {all} analysed steps are {}: a twin is chosen on one half of a run and judged on the other, and each half needs at least {MIN_STEPS_FOR_INTERVAL} (a run of at least {} steps with steady windows)",
+                    half.as_str(),
+                    2 * MIN_STEPS_FOR_INTERVAL
+                ),
+            ));
+        }
+    }
+    Ok(all)
+}
+
+/// The runs `which` (indices into `runs`) grouped by ground, in the order the grounds first
+/// appear, each ground's runs pooled.
+pub fn grounds(runs: &[RunLog], which: &[usize]) -> Vec<Ground> {
+    let mut out: Vec<Ground> = Vec::new();
+    for &i in which {
+        let name = &runs[i].log.meta.terrain;
+        match out.iter_mut().find(|g| &g.name == name) {
+            Some(g) => g.runs.push(i),
+            None => out.push(Ground {
+                name: name.clone(),
+                runs: vec![i],
+                log: runs[i].log.clone(),
+            }),
+        }
+    }
+    for g in &mut out {
+        if g.runs.len() > 1 {
+            let logs: Vec<&DriveLog> = g.runs.iter().map(|&i| &runs[i].log).collect();
+            g.log = pool(&logs);
+        }
+    }
+    out
+}
+
+/// The steps of several runs of one robot on one ground as one log: each run's steps follow
+/// the previous run's, offset by an even number (odd steps stay odd), with its interruptions
+/// and duration. The metadata is the first run's, named after all of them.
+pub fn pool(logs: &[&DriveLog]) -> DriveLog {
+    let mut pooled = logs[0].clone();
+    pooled.meta.name = logs
+        .iter()
+        .map(|l| l.meta.name.as_str())
+        .collect::<Vec<_>>()
+        .join("+");
+    let mut next = 0u32;
+    pooled.samples.clear();
+    pooled.interruptions.clear();
+    pooled.duration_s = 0.0;
+    for log in logs {
+        let offset = next;
+        pooled.samples.extend(log.samples.iter().map(|s| {
+            let mut s = *s;
+            s.step += offset;
+            s
+        }));
+        pooled.interruptions.extend(log.interruptions.iter().map(|i| {
+            let mut i = i.clone();
+            i.step += offset;
+            i
+        }));
+        pooled.duration_s += log.duration_s;
+        let last = log.steps().last().copied().unwrap_or(0);
+        // The next run starts on the even step after this one's last.
+        next = offset + last + 1 + (last + 1) % 2;
+    }
+    pooled
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use drive_sim_model::measurement::{LogMeta, Measurement, Nominal, Origin, Sample};
+
+    fn log_of(name: &str, steps: &[u32]) -> DriveLog {
+        let meta = LogMeta {
+            name: name.into(),
+            robot: "warthog".into(),
+            terrain: "asphalt".into(),
+            rate_hz: 20.0,
+            window_s: 2.0,
+            windows_per_step: 3,
+            samples_per_window: 40,
+            nominal: Nominal {
+                wheel_radius_m: 0.3,
+                baseline_m: 1.1,
+                max_wheel_rad_s: 16.0,
+                max_lin_m_s: 5.0,
+                max_ang_rad_s: 4.0,
+                mass_kg: 470.0,
+                width_m: 1.5,
+                length_m: 1.6,
+                height_m: None,
+                max_lin_acc_m_s2: None,
+            },
+            origin: Origin::Measured {
+                file: format!("{name}.csv"),
+            },
+        };
+        let mut log = DriveLog {
+            meta,
+            samples: Vec::new(),
+            interruptions: Vec::new(),
+            duration_s: steps.len() as f64 * 6.0,
+        };
+        for &step in steps {
+            log.samples.push(Sample {
+                step,
+                window: 0,
+                k: 0,
+                t_in_step_s: 0.0,
+                stamp_s: 0.0,
+                m: Measurement::default(),
+            });
+        }
+        log
+    }
+
+    #[test]
+    fn pooled_runs_keep_each_steps_parity_and_follow_each_other() {
+        let a = log_of("a", &[0, 1, 2]);
+        let b = log_of("b", &[0, 1, 3]);
+        let p = pool(&[&a, &b]);
+        assert_eq!(p.meta.name, "a+b");
+        // a ends at step 2: b starts at 4 (even), so b's odd steps 1 and 3 become 5 and 7.
+        assert_eq!(p.steps(), vec![0, 1, 2, 4, 5, 7]);
+        assert_eq!(p.duration_s, 36.0);
+    }
+}

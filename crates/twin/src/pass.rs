@@ -1,0 +1,318 @@
+//! One pass of the twin: from the runs' steps (one half of them, or all) to a tuned and
+//! checked twin.
+//!
+//! 1. **Calibrate** by replay on those steps (`calibrate`'s loop on the simulator model,
+//!    discovery off: its generic terms are not physical knobs and cost minutes): one ground
+//!    alone, several jointly (one robot, a terrain per ground).
+//! 2. **Screen** every knob of the pool in closed loop ([`crate::screen`]).
+//! 3. **Choose** what to tune by the rule ([`crate::rule`]).
+//! 4. **Tune** the chosen knobs and **check** the choice on fresh seeds ([`crate::tune`]).
+//!
+//! Every stage sees only the pass's steps.
+
+use crate::closed::{Closed, ClosedGround, PointScore};
+use crate::error::Result;
+use crate::event::TwinEvent;
+use crate::input::Ground;
+use crate::knobs::{pool, Knob};
+use crate::rule::{Choice, Rule};
+use crate::screen::{screen, ScreenInput, Screening};
+use crate::tune::{tune, TuneInput, Tuning};
+use crate::TwinOptions;
+use drive_sim_calibration::joint::{calibrate_joint, JointInput, JointLog};
+use drive_sim_calibration::to_dir::StartingModels;
+use drive_sim_calibration::{
+    calibrate_timed, twin, CalibrationOptions, FittedParam, ModelParams, SimFactory,
+};
+use drive_sim_compare::real_steps::real_steps;
+use drive_sim_compare::tune::search_compare_options;
+use drive_sim_compare::{Input, PreparedReal, TfSmoother};
+use drive_sim_log::{DriveLog, UseSteps};
+use drive_sim_model::effects::CommandReach;
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// Training steps each fit evaluation of the calibration by replay replays, at most.
+pub const MAX_FIT_STEPS: usize = 30;
+/// Bootstrap resamples of the loss's intervals in the closed loop (`tune`'s default).
+const LOSS_RESAMPLES: usize = 500;
+/// Offset of the check's seeds from the pass's first seed (`tune`'s).
+pub const CHECK_SEED_OFFSET: u64 = drive_sim_compare::tune::CHECK_SEED_OFFSET;
+
+/// One ground's calibration by replay.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GroundCalibration {
+    /// The ground.
+    pub ground: String,
+    /// Its runs (pooled when several).
+    pub dataset: String,
+    /// Steps calibrated on.
+    pub steps: usize,
+    /// Test score of the declared model (1 = noise floor; the calibration's own test steps).
+    pub test_score_declared: f64,
+    /// Test score of the calibrated model.
+    pub test_score_calibrated: f64,
+    /// Every fitted value in the calibrated model, with its standard error and interval
+    /// (clustered sandwich over the training steps).
+    pub fitted: Vec<FittedParam>,
+    /// The calibration's notes.
+    pub notes: Vec<String>,
+}
+
+/// A stage's wall time.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StageTime {
+    /// The stage.
+    pub stage: String,
+    /// Wall time, s.
+    pub seconds: f64,
+}
+
+/// What a pass did (`twin.json` → `held_out.pass`, `final.pass`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PassReport {
+    /// The steps it used: `odd`, `even` or `all`.
+    pub steps: String,
+    /// Each ground's calibration by replay.
+    pub calibration: Vec<GroundCalibration>,
+    /// The closed-loop screening of the pool.
+    pub screening: Screening,
+    /// What the rule chose.
+    pub choice: Choice,
+    /// The tuning (`None` when the rule chose nothing).
+    pub tuning: Option<Tuning>,
+    /// The twin on the check's seeds: its loss and each term (the differences left).
+    pub twin_score: PointScore,
+    /// Each stage's wall time.
+    pub times: Vec<StageTime>,
+}
+
+/// A pass's outcome: the report and the models.
+pub(crate) struct Pass {
+    pub(crate) report: PassReport,
+    /// The calibrated model of each ground.
+    pub(crate) calibrated: Vec<ModelParams>,
+    /// The twin of each ground.
+    pub(crate) twin: Vec<ModelParams>,
+    /// The model each ground's calibration started from.
+    pub(crate) declared: Vec<ModelParams>,
+    /// The knob pool (for what a knob moves, in the report).
+    pub(crate) knobs: Vec<Knob>,
+}
+
+/// What a pass works on.
+pub(crate) struct PassRequest<'a> {
+    pub(crate) grounds: &'a [Ground],
+    pub(crate) steps: UseSteps,
+    /// `--robot`, `--terrain` (the latter with one ground only).
+    pub(crate) robot: Option<&'a str>,
+    pub(crate) terrain: Option<&'a str>,
+    pub(crate) opts: &'a TwinOptions,
+    /// Only these knobs (`None`: the whole pool).
+    pub(crate) knobs: Option<&'a [String]>,
+    /// What the pass is, in the progress lines ("held out", "final", "without RUN").
+    pub(crate) label: &'a str,
+}
+
+/// Runs a pass (see the module doc).
+pub(crate) fn run_pass(req: &PassRequest, progress: &(dyn Fn(&TwinEvent) + Sync)) -> Result<Pass> {
+    let mut times = Vec::new();
+    let mut timed = |stage: &str, t0: Instant| {
+        let seconds = t0.elapsed().as_secs_f64();
+        progress(&TwinEvent::StageDone {
+            pass: req.label,
+            stage,
+            seconds,
+        });
+        times.push(StageTime {
+            stage: stage.to_string(),
+            seconds,
+        });
+    };
+    let names: Vec<String> = req.grounds.iter().map(|g| g.name.clone()).collect();
+    let chosen: Vec<(DriveLog, usize)> = req
+        .grounds
+        .iter()
+        .map(|g| {
+            real_steps(&g.log, req.steps, "LOG", "make a twin from")
+                .map(|r| (r.log, r.analysed))
+                .map_err(Into::into)
+        })
+        .collect::<Result<_>>()?;
+    progress(&TwinEvent::PassStarted {
+        pass: req.label,
+        steps: req.steps,
+    });
+    let t0 = Instant::now();
+    let (calibration, calibrated, declared) = calibrate(req, &chosen, progress)?;
+    timed("calibrate", t0);
+    let prepared: Vec<PreparedReal> = chosen
+        .iter()
+        .map(|(log, _)| {
+            PreparedReal::new(
+                Input { log, file: None },
+                &search_compare_options(LOSS_RESAMPLES, TfSmoother::Kernel),
+            )
+        })
+        .collect::<drive_sim_compare::Result<_>>()?;
+    let closed = Closed {
+        grounds: prepared
+            .into_iter()
+            .zip(&chosen)
+            .map(|(real, (_, n))| ClosedGround {
+                real,
+                steps: *n as u32,
+            })
+            .collect(),
+    };
+    let reach = CommandReach::of_commands(
+        chosen.iter().flat_map(|(l, _)| l.samples.iter().map(|s| s.m.cmd)),
+        &calibrated[0].robot.idd(),
+    );
+    let knobs: Vec<Knob> = pool(&calibrated[0], &reach)
+        .into_iter()
+        .filter(|k| req.knobs.is_none_or(|only| only.contains(&k.name)))
+        .collect();
+    let seed = req.opts.seed;
+    let t0 = Instant::now();
+    let screening = screen(
+        &ScreenInput {
+            closed: &closed,
+            starts: &calibrated,
+            knobs: &knobs,
+            seeds: &[seed, seed + 1],
+            names: &names,
+        },
+        progress,
+    );
+    timed("screen", t0);
+    let choice = Rule::default().choose(&screening, req.grounds.len(), req.opts.budget);
+    progress(&TwinEvent::Chosen { choice: &choice });
+    let check_seeds: Vec<u64> = (0..3).map(|i| seed + CHECK_SEED_OFFSET + i).collect();
+    let t0 = Instant::now();
+    let (tuning, twin) = if choice.chosen.is_empty() {
+        (None, calibrated.clone())
+    } else {
+        let (t, m) = tune(
+            &TuneInput {
+                closed: &closed,
+                starts: &calibrated,
+                knobs: choice
+                    .chosen
+                    .iter()
+                    .filter_map(|n| knobs.iter().find(|k| &k.name == n))
+                    .collect(),
+                screening: &screening,
+                names: &names,
+                seeds: &[seed, seed + 1, seed + 2],
+                check_seeds: &check_seeds,
+                max_evaluations: choice.max_evaluations,
+            },
+            progress,
+        );
+        (Some(t), m)
+    };
+    let twin_score = closed
+        .score(std::slice::from_ref(&twin), &check_seeds, &names)
+        .remove(0);
+    timed("tune", t0);
+    Ok(Pass {
+        report: PassReport {
+            steps: req.steps.as_str().to_string(),
+            calibration,
+            screening,
+            choice,
+            tuning,
+            twin_score,
+            times,
+        },
+        calibrated,
+        twin,
+        declared,
+        knobs,
+    })
+}
+
+/// Each ground's calibration by replay (jointly when several), its calibrated model and the
+/// model it started from.
+fn calibrate(
+    req: &PassRequest,
+    chosen: &[(DriveLog, usize)],
+    progress: &(dyn Fn(&TwinEvent) + Sync),
+) -> Result<(Vec<GroundCalibration>, Vec<ModelParams>, Vec<ModelParams>)> {
+    let opts = CalibrationOptions {
+        seed: req.opts.seed,
+        discover: false,
+        // Each fit evaluation replays at most this many training steps (a seeded subset; the
+        // floor and the command reach still use them all): the closed loop, not the replay,
+        // has the last word on the twin, and a run of 100 steps then calibrates in the time
+        // of one of 60.
+        max_fit_steps: Some(MAX_FIT_STEPS),
+        ..CalibrationOptions::default()
+    };
+    let on_event =
+        |e: &drive_sim_calibration::CalibrationEvent| progress(&TwinEvent::Calibration { event: e });
+    let factory = SimFactory::default();
+    let starts: Vec<StartingModels> = chosen
+        .iter()
+        .map(|(log, _)| StartingModels::resolve(log, req.robot, req.terrain))
+        .collect::<drive_sim_calibration::Result<_>>()?;
+    let declared = starts
+        .iter()
+        .map(|m| twin::lift_effects(&m.robot, &m.terrain))
+        .collect::<drive_sim_calibration::Result<Vec<_>>>()?;
+    if let [(log, n)] = chosen {
+        let m = &starts[0];
+        let (report, _) = calibrate_timed(log, &m.robot, &m.terrain, &factory, &opts, &on_event)?;
+        let cal = GroundCalibration {
+            ground: req.grounds[0].name.clone(),
+            dataset: log.meta.name.clone(),
+            steps: *n,
+            test_score_declared: report.before.score,
+            test_score_calibrated: report.after.score,
+            fitted: twin::fitted_params(&report),
+            notes: report.status.notes.clone(),
+        };
+        return Ok((vec![cal], vec![report.model_after], declared));
+    }
+    let input = JointInput {
+        logs: chosen
+            .iter()
+            .zip(&starts)
+            .map(|((log, _), m)| JointLog {
+                log,
+                terrain: m.terrain.clone(),
+            })
+            .collect(),
+        robot: &starts[0].robot,
+        factory: &factory,
+        opts: &opts,
+    };
+    let report = calibrate_joint(&input, &on_event)?;
+    let cals = report
+        .logs
+        .iter()
+        .zip(req.grounds)
+        .zip(chosen)
+        .map(|((l, g), (_, n))| GroundCalibration {
+            ground: g.name.clone(),
+            dataset: l.dataset.clone(),
+            steps: *n,
+            test_score_declared: report
+                .singles
+                .iter()
+                .find(|s| s.dataset == l.dataset)
+                .map_or(f64::NAN, |s| s.before.score),
+            test_score_calibrated: l.joint.score,
+            fitted: report
+                .robot_params
+                .iter()
+                .chain(&l.terrain_params)
+                .cloned()
+                .collect(),
+            notes: report.notes.clone(),
+        })
+        .collect();
+    let models = report.logs.iter().map(|l| l.model.clone()).collect();
+    Ok((cals, models, declared))
+}

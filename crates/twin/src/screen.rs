@@ -1,0 +1,189 @@
+//! Which knobs move the twin towards the robot: each knob of the pool set at a few points of
+//! its box, the rest of the model as calibrated, every point run in closed loop on the pass's
+//! seeds and scored by compare's loss. What a knob changes in each of the loss's terms (ρ, the
+//! slips, the T/U areas, the maps) is measured here, on this run, for this robot and ground:
+//! no table says in advance which knob moves which statistic.
+
+use crate::closed::{term, Closed, PointScore};
+use crate::event::TwinEvent;
+use crate::knobs::{Knob, KnobInfo};
+use drive_sim_calibration::ModelParams;
+use drive_sim_compare::tune::search::design;
+use serde::{Deserialize, Serialize};
+
+/// Points of a knob's box run by the screening: the Halton design's second and third points
+/// (the quarters of a one-parameter box; its first point, the middle, is often the
+/// calibrated value itself, a neutral offset or scale).
+pub const POINTS_PER_KNOB: usize = 2;
+
+/// One point of a knob's screening.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ScreenPoint {
+    /// The knob's parameters there, in their units.
+    pub values: Vec<f64>,
+    /// Mean loss over the seeds (`None`: a run failed, or the values make no valid model).
+    pub loss: Option<f64>,
+    /// Why it failed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
+/// What moving one knob does.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct KnobScreen {
+    /// The knob.
+    pub knob: KnobInfo,
+    /// Its points.
+    pub points: Vec<ScreenPoint>,
+    /// Its best point (lowest loss), if any ran.
+    pub best: Option<usize>,
+    /// The calibrated model's loss minus the best point's (positive: the knob helps).
+    pub gain: f64,
+    /// At the best point, each loss term's change from the calibrated model (sim − real
+    /// differences in threshold units: a term moving towards 0 is a statistic moving towards
+    /// the robot's).
+    pub term_change: Vec<(String, f64)>,
+}
+
+/// The screening of a pass.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Screening {
+    /// Seeds every point ran with.
+    pub seeds: Vec<u64>,
+    /// The calibrated model on those seeds.
+    pub start: PointScore,
+    /// Every knob, in the pool's order.
+    pub knobs: Vec<KnobScreen>,
+    /// DRIVE runs in all.
+    pub runs: usize,
+}
+
+/// What [`screen`] works on.
+pub(crate) struct ScreenInput<'a> {
+    pub(crate) closed: &'a Closed<'a>,
+    /// The calibrated model of each ground.
+    pub(crate) starts: &'a [ModelParams],
+    pub(crate) knobs: &'a [Knob],
+    pub(crate) seeds: &'a [u64],
+    /// The grounds' names (the loss terms' prefixes when several).
+    pub(crate) names: &'a [String],
+}
+
+/// The models of every ground with `knob` at `values` (an invalid combination: the error).
+pub(crate) fn with_knob(
+    starts: &[ModelParams],
+    knob: &Knob,
+    values: &[f64],
+) -> Result<Vec<ModelParams>, String> {
+    starts
+        .iter()
+        .map(|m| m.with_values(&knob.specs, values).map_err(|e| e.to_string()))
+        .collect()
+}
+
+/// A point of the unit box in the knob's units.
+pub(crate) fn knob_values(knob: &Knob, z: &[f64]) -> Vec<f64> {
+    knob.specs
+        .iter()
+        .zip(z)
+        .map(|(s, z)| s.lower + z * (s.upper - s.lower))
+        .collect()
+}
+
+/// Runs the calibrated model and every knob's points (all in parallel), and measures each
+/// knob's gain and the terms it moves.
+pub(crate) fn screen(input: &ScreenInput, progress: &(dyn Fn(&TwinEvent) + Sync)) -> Screening {
+    let ScreenInput {
+        closed,
+        starts,
+        knobs,
+        seeds,
+        names,
+    } = *input;
+    // Every point's values and models; the calibrated model first.
+    let mut values: Vec<(usize, Vec<f64>)> = Vec::new();
+    let mut points: Vec<Result<Vec<ModelParams>, String>> = vec![Ok(starts.to_vec())];
+    for (k, knob) in knobs.iter().enumerate() {
+        for z in design(knob.specs.len(), POINTS_PER_KNOB + 1).into_iter().skip(1) {
+            let v = knob_values(knob, &z);
+            points.push(with_knob(starts, knob, &v));
+            values.push((k, v));
+        }
+    }
+    let runnable: Vec<Vec<ModelParams>> = points.iter().filter_map(|p| p.as_ref().ok().cloned()).collect();
+    progress(&TwinEvent::Screening {
+        knobs: knobs.len(),
+        runs: runnable.len() * seeds.len(),
+    });
+    let mut scored = closed.score(&runnable, seeds, names).into_iter();
+    let scores: Vec<PointScore> = points
+        .iter()
+        .map(|p| match p {
+            Ok(_) => scored.next().expect("one score per runnable point"),
+            Err(e) => PointScore {
+                loss: None,
+                seed_losses: vec![None; seeds.len()],
+                terms: Vec::new(),
+                error: Some(e.clone()),
+            },
+        })
+        .collect();
+    let start = scores[0].clone();
+    let screens: Vec<KnobScreen> = knobs
+        .iter()
+        .enumerate()
+        .map(|(k, knob)| {
+            let mine: Vec<(&Vec<f64>, &PointScore)> = values
+                .iter()
+                .zip(&scores[1..])
+                .filter(|((kk, _), _)| *kk == k)
+                .map(|((_, v), s)| (v, s))
+                .collect();
+            knob_screen(knob, &mine, &start)
+        })
+        .collect();
+    for s in &screens {
+        progress(&TwinEvent::KnobScreened { screen: s });
+    }
+    Screening {
+        seeds: seeds.to_vec(),
+        start,
+        knobs: screens,
+        runs: runnable.len() * seeds.len(),
+    }
+}
+
+/// One knob's points, its best, its gain and the terms it moves there.
+fn knob_screen(knob: &Knob, mine: &[(&Vec<f64>, &PointScore)], start: &PointScore) -> KnobScreen {
+    let best = mine
+        .iter()
+        .enumerate()
+        .filter_map(|(i, (_, s))| s.loss.map(|l| (i, l)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| i);
+    let gain = match (best, start.loss) {
+        (Some(i), Some(l0)) => l0 - mine[i].1.loss.unwrap_or(f64::INFINITY),
+        _ => f64::NEG_INFINITY,
+    };
+    let term_change = best.map_or_else(Vec::new, |i| {
+        start
+            .terms
+            .iter()
+            .map(|(n, v)| (n.clone(), term(mine[i].1, n) - v))
+            .collect()
+    });
+    KnobScreen {
+        knob: knob.info(),
+        points: mine
+            .iter()
+            .map(|(v, s)| ScreenPoint {
+                values: v.to_vec(),
+                loss: s.loss,
+                error: s.error.clone(),
+            })
+            .collect(),
+        best,
+        gain,
+        term_change,
+    }
+}

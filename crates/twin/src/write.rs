@@ -1,0 +1,187 @@
+//! The twin's files: `twin/robot.toml` and its terrain file(s) with every fitted and tuned
+//! value commented, `twin.json` with its provenance, and `twin.md`.
+
+use crate::error::{Error, Result};
+use crate::pass::Pass;
+use crate::report::{markdown, terrain_file, TwinReport};
+use drive_sim_calibration::twin::{self, check_twin, Provenance, TwinCheck, TWIN_CHECK_STEPS};
+use drive_sim_calibration::ModelParams;
+use drive_sim_model::output::write_atomic;
+use drive_sim_model::provenance::{stamp_json_file, InputFile};
+use std::path::{Path, PathBuf};
+
+/// Each ground's twin run in closed loop for [`TWIN_CHECK_STEPS`] steps: the tuned model, or
+/// the calibrated one when the tuned one does not complete (`true`: the tuned one is written).
+/// Neither completing is an error: no runnable twin.
+pub(crate) fn check_runs(
+    tuned: &[ModelParams],
+    calibrated: &[ModelParams],
+    seed: u64,
+) -> Result<Vec<(TwinCheck, bool)>> {
+    let mut out = Vec::new();
+    for (t, c) in tuned.iter().zip(calibrated) {
+        let run = |m: &ModelParams| -> Result<TwinCheck> {
+            let (robot, terrain) = twin::twin_models(m)?;
+            Ok(check_twin(&robot, &terrain, TWIN_CHECK_STEPS, seed)?)
+        };
+        let first = run(t)?;
+        if first.ran {
+            out.push((first, true));
+            continue;
+        }
+        let second = run(c)?;
+        if !second.ran {
+            return Err(Error::NoRunnableTwin {
+                why: format!(
+                    "the tuned twin: {}; the calibrated one: {}",
+                    first.failure_note().unwrap_or_default(),
+                    second.failure_note().unwrap_or_default()
+                ),
+            });
+        }
+        out.push((second, false));
+    }
+    Ok(out)
+}
+
+/// What [`write_twin`] writes.
+pub(crate) struct Written<'a> {
+    pub(crate) report: &'a TwinReport,
+    /// The final pass (the models written).
+    pub(crate) fin: &'a Pass,
+    /// The log files given (the provenance's inputs).
+    pub(crate) logs: &'a [PathBuf],
+}
+
+/// Writes the twin into `dir`; returns the files' names relative to it.
+pub(crate) fn write_twin(w: &Written, dir: &Path) -> Result<Vec<PathBuf>> {
+    let r = w.report;
+    let n = r.grounds.len();
+    let twin_dir = dir.join("twin");
+    std::fs::create_dir_all(&twin_dir).map_err(|e| Error::io(&twin_dir, e))?;
+    let mut names = Vec::new();
+    for (g, check) in r.twin_checks.iter().enumerate() {
+        let model = if check.written == "tuned" {
+            &w.fin.twin[g]
+        } else {
+            &w.fin.calibrated[g]
+        };
+        let files = twin::twin_files(model, &provenance_of(w, g, check.written == "tuned"))?;
+        if g == 0 {
+            let path = twin_dir.join("robot.toml");
+            write_atomic(&path, files.robot_toml.as_bytes())?;
+            names.push(PathBuf::from("twin/robot.toml"));
+        }
+        let name = terrain_file(&check.ground, n);
+        write_atomic(&twin_dir.join(&name), files.terrain_toml.as_bytes())?;
+        names.push(PathBuf::from("twin").join(name));
+    }
+    let json = dir.join("twin.json");
+    let text = serde_json::to_string_pretty(r).map_err(|e| Error::json(&json, e))?;
+    write_atomic(&json, text.as_bytes())?;
+    let inputs = w.logs.iter().map(|p| InputFile::of_file("log", p)).collect();
+    stamp_json_file(
+        &json,
+        &drive_sim_model::provenance::Provenance::new(
+            inputs,
+            serde_json::to_value(r.options).unwrap_or_default(),
+        ),
+    )?;
+    names.push(PathBuf::from("twin.json"));
+    write_atomic(&dir.join("twin.md"), markdown(r).as_bytes())?;
+    names.push(PathBuf::from("twin.md"));
+    Ok(names)
+}
+
+/// The comments of a ground's twin files: the fitted values with their intervals, the tuned
+/// ones with how they were chosen, and the judgements in the header.
+fn provenance_of(w: &Written, g: usize, tuned: bool) -> Provenance {
+    let r = w.report;
+    let fin = &r.final_twin;
+    let cal = &fin.pass.calibration[g];
+    let mut header = vec![
+        format!(
+            "Twin made by `drive-sim twin` from {} (ground `{}`), seed {}.",
+            r.runs
+                .iter()
+                .map(|x| x.dataset.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+            cal.ground,
+            r.options.seed
+        ),
+        format!(
+            "Reproduce: drive-sim twin {} --seed {} --budget {}",
+            w.logs
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(" "),
+            r.options.seed,
+            r.options.budget
+        ),
+    ];
+    for j in r
+        .held_out
+        .judgements
+        .iter()
+        .chain(&fin.judgements)
+        .filter(|j| j.ground == cal.ground)
+    {
+        header.push(format!(
+            "Judged on the {} steps of {}{}: {} (p {:.3}); see twin.md.",
+            j.steps,
+            j.against,
+            if j.held_out { " (held out)" } else { "" },
+            if j.outcome.indistinguishable {
+                "compare cannot tell it from the robot"
+            } else {
+                "compare tells it from the robot"
+            },
+            j.outcome.loss.p
+        ));
+    }
+    if !tuned {
+        header.push("The tuned model did not complete its closed-loop check: these are the calibrated model's values.".into());
+    }
+    header.push("[fit] comments: calibrated by replay (clustered sandwich over the training steps); [twin] comments: tuned in closed loop.".into());
+    let chosen = match (&fin.pass.tuning, tuned) {
+        (Some(t), true) if t.accepted => t
+            .values
+            .iter()
+            .filter(|v| v.ground.as_deref().is_none_or(|gr| gr == cal.ground))
+            .map(|v| {
+                let name = if v.name.contains('.') {
+                    v.name.clone()
+                } else {
+                    format!("effect.{}", v.name)
+                };
+                (
+                    name,
+                    format!(
+                        "[twin] {:.6} {}, chosen in closed loop in [{}, {}] (calibrated: {}){}; check on fresh seeds: loss reduction {:.3} ± {:.3} (SE)",
+                        v.chosen,
+                        v.unit,
+                        v.lower,
+                        v.upper,
+                        if v.calibrated.is_finite() { format!("{:.6}", v.calibrated) } else { "off".into() },
+                        v.near_best.map_or(String::new(), |[a, b]| format!("; near-best range [{a:.6}, {b:.6}]")),
+                        t.check.mean_reduction,
+                        t.check.se
+                    ),
+                )
+            })
+            .collect(),
+        _ => Vec::new(),
+    };
+    Provenance {
+        header,
+        fitted: cal
+            .fitted
+            .iter()
+            .map(|p| (p.clone(), cal.dataset.clone()))
+            .collect(),
+        before: Some(w.fin.declared[g].clone()),
+        chosen,
+    }
+}

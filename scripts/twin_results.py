@@ -1,0 +1,81 @@
+#!/usr/bin/env python3
+"""`drive-sim twin` alone, no recipe, on each measured run, then each asphalt run's twin judged
+against the other asphalt run (out of run, with the robot's own difference beside it).
+
+    python3 scripts/twin_results.py [--bin target/release/drive-sim] [--out out/twin_results]
+                                    [--datasets warthog_asphalt,...]
+
+Writes OUT/<dataset>/ (the twin command's files), OUT/out_of_run_<a>_on_<b>/ (judge), the table
+to OUT/table.md and every command to OUT/commands.txt; a twin whose twin.json exists is kept
+(delete OUT to start over).
+"""
+import argparse
+import json
+import os
+import time
+
+from script_common import DEFAULT_BIN, MEASURED, Runner, write_table
+
+DATASETS = ["warthog_asphalt", "warthog_asphalt_b", "warthog_gravel", "warthog_ice", "husky_2023"]
+OUT_OF_RUN = [("warthog_asphalt", "warthog_asphalt_b"), ("warthog_asphalt_b", "warthog_asphalt")]
+
+
+def verdict(j):
+    o = j["outcome"]
+    word = "indistinguishable" if o["indistinguishable"] else "**distinguishable**"
+    flagged = ", ".join(o["flagged"]) or "-"
+    return f"{word}, p {o['loss']['p']:.3f}", flagged
+
+
+def criterion_p(outcome, name):
+    return next((c["p"] for c in outcome["criteria"] if c["criterion"] == name), float("nan"))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--bin", default=DEFAULT_BIN)
+    ap.add_argument("--out", default=os.path.join("out", "twin_results"))
+    ap.add_argument("--datasets", default=",".join(DATASETS))
+    args = ap.parse_args()
+    runner = Runner(args.out)
+    rows = []
+    for d in args.datasets.split(","):
+        out = os.path.join(args.out, d)
+        if not os.path.exists(os.path.join(out, "twin.json")):
+            t0 = time.time()
+            runner.run([args.bin, "twin", os.path.join(MEASURED, d + ".csv"), "--out", out])
+            print(f"{d}: {time.time() - t0:.0f} s")
+        with open(os.path.join(out, "twin.json")) as f:
+            r = json.load(f)
+        held, held_flags = verdict(r["held_out"]["judgements"][0])
+        fin, fin_flags = verdict(r["final"]["judgements"][0])
+        tuned = r["final"]["pass"]["tuning"]
+        knobs = ", ".join(r["final"]["pass"]["choice"]["chosen"]) or "-"
+        accepted = "accepted" if tuned and tuned["accepted"] else "not accepted"
+        rows.append(f"| {d} | {held} | {held_flags} | {fin} | {fin_flags} | {knobs} ({accepted}) | {r['seconds']:.0f} s |")
+    write_table(args.out, ["run", "held out (chosen on odd, judged on even)", "flagged", "twin written (all steps, not held out)",
+                           "flagged", "tuned (final)", "wall time"], rows)
+    oor = []
+    for a, b in OUT_OF_RUN:
+        twin = os.path.join(args.out, a, "twin")
+        out = os.path.join(args.out, f"out_of_run_{a}_on_{b}")
+        if not os.path.exists(os.path.join(out, "judge.json")):
+            runner.run([args.bin, "judge", os.path.join(MEASURED, b + ".csv"), "--robot", os.path.join(twin, "robot.toml"),
+                        "--terrain", os.path.join(twin, "terrain.toml"), "--other-run", os.path.join(MEASURED, a + ".csv"),
+                        "--out", out])
+        with open(os.path.join(out, "judge.json")) as f:
+            o = json.load(f)
+        y = o["yardsticks"][0]
+        oor.append(f"| twin of {a} | {b} | {'indistinguishable' if o['indistinguishable'] else '**distinguishable**'}, p {o['loss']['p']:.3f} | "
+                   f"{criterion_p(o, 'median_rho'):.2f} | {criterion_p(o, 'median_slip_vx'):.2f} | {criterion_p(o, 'median_slip_wz'):.2f} | "
+                   f"{o['loss']['real']:.2f} | {y['loss']:.2f} ({'reproduces' if y['reproduces'] else 'differs'}) |")
+    header = ["twin", "judged against", "judge", "p median ρ", "p median slip vx", "p median slip wz",
+              "twin's mean loss", "the robot's own other run: loss (compare's verdict)"]
+    table = ("| " + " | ".join(header) + " |\n|" + "---|" * len(header) + "\n" + "\n".join(oor) + "\n")
+    with open(os.path.join(args.out, "out_of_run.md"), "w") as f:
+        f.write(table)
+    print(table)
+
+
+if __name__ == "__main__":
+    main()

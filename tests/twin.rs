@@ -1,0 +1,230 @@
+//! `drive-sim twin` on the independent generator (`tests/common/generator.rs`, not the
+//! project's plants), whose answer is known:
+//! - a run of a generator robot whose motors clip at 10 rad/s and whose body slips in turns
+//!   gives a twin that `judge` cannot tell from the steps its choice never saw;
+//! - that twin, judged on a run of the same robot on another ground (wider skid track, slower
+//!   wheels, an earlier clip), fails, and so does the robot's own run;
+//! - the command end to end writes the twin's files, which run with no other option, and a
+//!   report that opens on the verdict;
+//! - bad input (logs of two robots, a run too short to split, a run with no steady window, an
+//!   unknown knob) exits with code 2 before any long work, naming the log and what is missing.
+//!
+//! The runs are short (40 steps, 20 per half), the search's budget a quarter of the default and
+//! each judgement 4 runs of the twin against 19 references, so the file runs in about two
+//! minutes; the full budget is `scripts/twin_results.py`'s, on the measured runs.
+
+mod common;
+use common::generator::{write_drive_mcap, TestRobotSpec, Unmodelled};
+use drive_sim::calibration::twin::lift_effects;
+use drive_sim::compare::judge::{judge, yardstick, JudgeRequest};
+use drive_sim::log::UseSteps;
+use drive_sim::robot::Robot;
+use drive_sim::terrain::Terrain;
+use drive_sim::twin::{make_twin, TwinOptions, TwinRequest};
+use std::path::Path;
+use std::process::Command;
+
+/// The generator's ground A: motors clipping at 10 rad/s, a centripetal slip.
+fn ground_a() -> Unmodelled {
+    Unmodelled {
+        wheel_limit_rad_s: 10.0,
+        centripetal_s: -0.20,
+        pose_yaw_noise_rad: 0.01,
+        ..Unmodelled::default()
+    }
+}
+
+fn options() -> TwinOptions {
+    TwinOptions {
+        budget: 0.25,
+        judge_sims: 4,
+        ..TwinOptions::default()
+    }
+}
+
+#[test]
+fn a_twin_of_a_generator_run_passes_its_held_out_steps_and_another_run_but_not_another_ground() {
+    let dir = tempfile::tempdir().unwrap();
+    let run_a = dir.path().join("ground_a.mcap");
+    write_drive_mcap(
+        &run_a,
+        "ground_a",
+        "asphalt",
+        TestRobotSpec::warthog_on_asphalt(3),
+        ground_a(),
+        40,
+    );
+    let out = dir.path().join("twin");
+    let req = TwinRequest {
+        logs: vec![run_a.clone()],
+        out: out.clone(),
+        input: Default::default(),
+        options: options(),
+        knobs: None,
+    };
+    let twin = make_twin(&req, &|e| eprintln!("{e}")).unwrap();
+    let r = &twin.report;
+    eprintln!("{}", r.answer);
+    // Judged on the even steps, which played no part in choosing it.
+    let held = &r.held_out.judgements[0];
+    assert!(held.held_out && held.steps == "even");
+    assert!(
+        held.outcome.indistinguishable,
+        "held out: p {}",
+        held.outcome.loss.p
+    );
+    // The files: written, the report opening on the verdict, and a twin that runs with no
+    // other option.
+    for f in ["twin/robot.toml", "twin/terrain.toml", "twin.json", "twin.md"] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    let md = std::fs::read_to_string(out.join("twin.md")).unwrap();
+    let opening: Vec<&str> = md.lines().filter(|l| !l.trim().is_empty()).take(3).collect();
+    assert!(
+        opening[1].contains("Can compare tell the twin from the robot?"),
+        "{opening:?}"
+    );
+    assert!(
+        opening[2].contains("Held out") && opening[2].contains("tell the twin"),
+        "{opening:?}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("twin.json")).unwrap()).unwrap();
+    assert!(json["provenance"]["version"].is_string());
+    assert!(json["final"]["pass"]["times"].as_array().unwrap().len() >= 3);
+    let robot = Robot::resolve(out.join("twin/robot.toml").to_str().unwrap())
+        .unwrap()
+        .0;
+    let terrain = Terrain::resolve(out.join("twin/terrain.toml").to_str().unwrap())
+        .unwrap()
+        .0;
+    let model = lift_effects(&robot, &terrain).unwrap();
+    let ran = drive_sim::harness::simulate(
+        &robot,
+        &terrain,
+        "uniform-wheel",
+        20,
+        5,
+        drive_sim::sim::SensorNoise::typical(),
+    )
+    .unwrap();
+    assert_eq!(ran.log.steps().len(), 20);
+    // The same robot on another ground (wider skid track, slower wheels, an earlier clip): the
+    // twin is told apart, and so is the robot's own run on ground A.
+    let first = drive_sim::log::read_log(&run_a).unwrap();
+    let opts = options().judge_options(UseSteps::All);
+    let other_ground = Unmodelled {
+        wheel_limit_rad_s: 6.0,
+        centripetal_s: 0.15,
+        ..ground_a()
+    };
+    let spec_b = TestRobotSpec {
+        track_m: 3.2,
+        lag_s: 0.6,
+        ..TestRobotSpec::warthog_on_asphalt(17)
+    };
+    let other = write_drive_mcap(
+        &dir.path().join("ground_b.mcap"),
+        "ground_b",
+        "asphalt",
+        spec_b,
+        other_ground,
+        40,
+    );
+    let differs = judge(
+        &JudgeRequest {
+            real: &other,
+            model: &model,
+            opts: &opts,
+        },
+        &|_| {},
+    )
+    .unwrap();
+    let robot_itself = yardstick(&other, &first, &opts, differs.loss.real).unwrap();
+    eprintln!("{}", drive_sim::compare::judge::write::table(&differs));
+    assert!(!differs.indistinguishable, "another ground: p {}", differs.loss.p);
+    // And there the robot's own run on ground A is far from it too.
+    assert!(!robot_itself.reproduces, "{robot_itself:?}");
+}
+
+/// Runs `drive-sim twin ARGS`, returning the exit code and stderr.
+fn twin_cli(args: &[&str]) -> (i32, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_drive-sim"))
+        .arg("twin")
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn bad_input_exits_with_code_2_before_any_long_work_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name);
+    let s = |path: &Path| path.to_str().unwrap().to_string();
+    let out = s(&p("out"));
+    let warthog = p("warthog.mcap");
+    write_drive_mcap(
+        &warthog,
+        "warthog_run",
+        "asphalt",
+        TestRobotSpec::warthog_on_asphalt(3),
+        ground_a(),
+        24,
+    );
+    let husky = format!(
+        "{}/../shared/data/measured/husky_2023.csv",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    // Two robots.
+    let (code, err) = twin_cli(&[&s(&warthog), &husky, "--out", &out]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("husky_2023") && err.contains("a twin is of one robot"),
+        "{err}"
+    );
+    // Too short to split: 12 steps, 6 a half.
+    let short = p("short.mcap");
+    write_drive_mcap(
+        &short,
+        "short_run",
+        "asphalt",
+        TestRobotSpec::warthog_on_asphalt(4),
+        ground_a(),
+        12,
+    );
+    let (code, err) = twin_cli(&[&s(&short), "--out", &out]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("short.mcap") && err.contains("each half needs at least 10"),
+        "{err}"
+    );
+    // No steady window: a measured run's transient windows only.
+    let gravel = format!(
+        "{}/../shared/data/measured/warthog_gravel",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let csv = std::fs::read_to_string(format!("{gravel}.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header = lines.next().unwrap();
+    let window = header.split(',').position(|c| c == "window").unwrap();
+    let transient: Vec<&str> = std::iter::once(header)
+        .chain(lines.filter(|l| l.split(',').nth(window) == Some("0")))
+        .collect();
+    std::fs::write(p("transient_only.csv"), transient.join("\n") + "\n").unwrap();
+    std::fs::copy(format!("{gravel}.json"), p("transient_only.json")).unwrap();
+    let (code, err) = twin_cli(&[&s(&p("transient_only.csv")), "--out", &out]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("transient_only"), "{err}");
+    // An unknown knob.
+    let (code, err) = twin_cli(&[&s(&warthog), "--knobs", "motor_torque_speeed", "--out", &out]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("motor_torque_speeed") && err.contains("not a knob"),
+        "{err}"
+    );
+    assert!(!p("out").exists(), "bad input wrote {out}");
+}
