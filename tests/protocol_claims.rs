@@ -228,9 +228,9 @@ impl Sampler for Spin {
     fn name(&self) -> &str {
         "spin-in-place"
     }
-    fn next(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
+    fn next(&mut self, ctx: &SamplingContext<'_>) -> drive_sim::Result<WheelSpeeds> {
         let wz = self.wz_rad_s[ctx.step as usize % self.wz_rad_s.len()];
-        self.robot.idd().wheels_from_body(BodyVelocity::new(0.0, 0.0, wz))
+        Ok(self.robot.idd().wheels_from_body(BodyVelocity::new(0.0, 0.0, wz)))
     }
 }
 

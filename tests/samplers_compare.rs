@@ -27,10 +27,10 @@ impl drive_sim::protocol::sampler::Sampler for Recorder {
     fn name(&self) -> &str {
         self.0.name()
     }
-    fn next(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
-        let c = self.0.next(ctx);
+    fn next(&mut self, ctx: &SamplingContext<'_>) -> drive_sim::Result<WheelSpeeds> {
+        let c = self.0.next(ctx)?;
         self.1.push(c);
-        c
+        Ok(c)
     }
 }
 
@@ -135,7 +135,7 @@ fn boundary_aware_reads_the_protocol_it_runs_in() {
     let fast_forward = |cfg: &ProtocolConfig| {
         let mut s = make_sampler_for("boundary-aware", 7, cfg).unwrap();
         (0..200)
-            .map(|_| s.next(&ctx))
+            .map(|_| s.next(&ctx).unwrap())
             .filter(|c| {
                 let b = space.idd.body_from_wheels(*c);
                 b.vx_m_s > 0.7 && b.wz_rad_s.abs() < 0.3

@@ -30,7 +30,7 @@ fn open_loop(sampler: &mut dyn Sampler, space: &CommandSpace, n: usize) -> Vec<W
             pose: Pose::default(),
             safe_half_extents_m: (1e3, 1e3),
         };
-        let c = sampler.next(&ctx);
+        let c = sampler.next(&ctx).unwrap();
         history.push(StepOutcome {
             cmd: c,
             steady_velocity: space.idd.body_from_wheels(c),
@@ -298,7 +298,12 @@ fn active_samples_where_data_is_missing_or_noisy() {
     }
     let mut sampler = make_sampler("active", 1).unwrap();
     let backward = (0..100)
-        .filter(|_| s.idd.body_from_wheels(sampler.next(&ctx(&s, &forward))).vx_m_s < 0.0)
+        .filter(|_| {
+            s.idd
+                .body_from_wheels(sampler.next(&ctx(&s, &forward)).unwrap())
+                .vx_m_s
+                < 0.0
+        })
         .count();
     assert!(backward >= 95, "{backward} of 100 backward");
     // Equal density everywhere, but the slip is noisy for left turns (wz > 0) and constant for
@@ -315,12 +320,22 @@ fn active_samples_where_data_is_missing_or_noisy() {
         noisy.push(o);
     }
     let left = (0..100)
-        .filter(|_| s.idd.body_from_wheels(sampler.next(&ctx(&s, &noisy))).wz_rad_s > 0.0)
+        .filter(|_| {
+            s.idd
+                .body_from_wheels(sampler.next(&ctx(&s, &noisy)).unwrap())
+                .wz_rad_s
+                > 0.0
+        })
         .count();
     assert!(left >= 90, "{left} of 100 left turns");
     // Without history it is a uniform draw: about half forward.
     let fwd = (0..400)
-        .filter(|_| s.idd.body_from_wheels(sampler.next(&ctx(&s, &[]))).vx_m_s > 0.0)
+        .filter(|_| {
+            s.idd
+                .body_from_wheels(sampler.next(&ctx(&s, &[])).unwrap())
+                .vx_m_s
+                > 0.0
+        })
         .count();
     assert!((160..=240).contains(&fwd), "{fwd} of 400 forward");
 }
@@ -332,10 +347,10 @@ impl Sampler for Recorder {
     fn name(&self) -> &str {
         self.0.name()
     }
-    fn next(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
-        let c = self.0.next(ctx);
+    fn next(&mut self, ctx: &SamplingContext<'_>) -> drive_sim::Result<WheelSpeeds> {
+        let c = self.0.next(ctx)?;
         self.1.push(c);
-        c
+        Ok(c)
     }
 }
 

@@ -173,7 +173,7 @@ fn bad_input_exits_with_code_2_before_any_long_work_and_writes_nothing() {
         "asphalt",
         TestRobotSpec::warthog_on_asphalt(3),
         ground_a(),
-        24,
+        40,
     );
     let husky = format!(
         "{}/../shared/data/measured/husky_2023.csv",
@@ -186,7 +186,7 @@ fn bad_input_exits_with_code_2_before_any_long_work_and_writes_nothing() {
         err.contains("husky_2023") && err.contains("a twin is of one robot"),
         "{err}"
     );
-    // Too short to split: 12 steps, 6 a half.
+    // Too short to split: 12 steps, 6 a half (a half needs 15: the calibration's split of it).
     let short = p("short.mcap");
     write_drive_mcap(
         &short,
@@ -199,7 +199,7 @@ fn bad_input_exits_with_code_2_before_any_long_work_and_writes_nothing() {
     let (code, err) = twin_cli(&[&s(&short), "--out", &out]);
     assert_eq!(code, 2, "{err}");
     assert!(
-        err.contains("short.mcap") && err.contains("each half needs at least 10"),
+        err.contains("short.mcap") && err.contains("each half needs at least 15"),
         "{err}"
     );
     // No steady window: a measured run's transient windows only.

@@ -96,6 +96,7 @@ pub fn run(args: &RunArgs) -> Result<RunReport> {
         name: args.name.clone(),
         force: args.force,
         safe_area: args.safe_area.clone(),
+        cancel: None,
     };
     let bar = if args.quiet {
         ProgressBar::hidden()

@@ -82,6 +82,7 @@ pub fn scenario_request(opts: &DemoOptions, robot: &str, terrain: &str) -> RunRe
         out: opts.out.join("logs"),
         name: None,
         safe_area: None,
+        cancel: None,
     }
 }
 

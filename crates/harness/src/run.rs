@@ -9,8 +9,8 @@ use drive_sim_model::output::write_json_atomic as write_json;
 use drive_sim_model::provenance::{InputFile, Provenance};
 use drive_sim_model::robot::{Robot, BUILTIN_ROBOTS};
 use drive_sim_model::terrain::{Terrain, BUILTIN_TERRAINS};
-use drive_sim_protocol::sampler::make_sampler_for;
-use drive_sim_protocol::{run_drive, FrameSink, ProtocolConfig, RunSummary};
+use drive_sim_protocol::sampler::{make_sampler_for, Sampler};
+use drive_sim_protocol::{run_drive_cancellable, CancelToken, FrameSink, ProtocolConfig, RunSummary};
 use drive_sim_sim::{SimConfig, Simulator};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -41,6 +41,8 @@ pub struct RunRequest {
     /// The safe area of this deployment, replacing the robot file's (sites differ: the paper's
     /// Warthog sites were 740 to 1900 m² around the 900 m² minimum).
     pub safe_area: Option<drive_sim_model::robot::SafeArea>,
+    /// Stops this run as SIGINT would the process (polled beside the process-wide flag).
+    pub cancel: Option<CancelToken>,
 }
 
 /// Most steps a run may ask for: 100 000 steps are about 7 simulated days of DRIVE.
@@ -133,31 +135,57 @@ pub enum RunEvent<'a> {
     },
 }
 
-struct Sink<'a> {
-    writer: McapWriter,
+struct Sink<'a, 'b> {
+    /// The log; `None` for a run kept in memory only.
+    writer: Option<McapWriter>,
     /// Frames also kept in memory, for a caller that analyses the run without reading the log
     /// back.
     kept: Option<Vec<Frame>>,
+    /// The caller's own sink, after the log.
+    also: Option<&'b mut dyn FrameSink>,
     progress: &'a mut dyn FnMut(RunEvent),
 }
 
-impl FrameSink for Sink<'_> {
+impl FrameSink for Sink<'_, '_> {
     fn frame(&mut self, frame: &Frame) -> drive_sim_model::Result<()> {
         if let Some(k) = &mut self.kept {
             k.push(*frame);
         }
-        self.writer.write_frame(frame)
+        if let Some(w) = &mut self.writer {
+            w.write_frame(frame)?;
+        }
+        match self.also.as_deref_mut() {
+            Some(a) => a.frame(frame),
+            None => Ok(()),
+        }
     }
     fn step_done(&mut self, completed: u32) {
+        if let Some(a) = self.also.as_deref_mut() {
+            a.step_done(completed);
+        }
         (self.progress)(RunEvent::StepDone(completed));
     }
+}
+
+/// What a library caller adds to a [`RunRequest`] that the command line does not set.
+#[derive(Default)]
+pub struct RunHooks<'a> {
+    /// Draws the commands instead of the registered sampler `req.sampler` names; that name
+    /// then only labels the run (the log's origin, the options in its provenance).
+    pub sampler: Option<&'a mut dyn Sampler>,
+    /// Hears every frame and every completed step too, as they come (after the log).
+    pub also: Option<&'a mut dyn FrameSink>,
+    /// Writes nothing (no log, no `run.json`; `req.out`, `req.name` and `req.force` are not
+    /// used): the report names no log (an empty path, no bytes, no messages) and the run's log
+    /// is returned in memory only.
+    pub in_memory: bool,
 }
 
 /// Runs DRIVE as `req` says and writes `<out>/<name>.mcap` and `<out>/<name>.run.json`.
 /// Everything is checked before the first physics step; `progress` hears of each completed
 /// step, and of a failure with the partial log it leaves (never a complete-looking one).
 pub fn record_run(req: &RunRequest, progress: &mut dyn FnMut(RunEvent)) -> Result<RunReport> {
-    record(req, false, progress).map(|(r, _)| r)
+    record(req, RunHooks::default(), false, progress).map(|(r, _)| r)
 }
 
 /// [`record_run`], also returning the run's log as written (built from the same frames), for
@@ -166,16 +194,41 @@ pub fn record_run_with_log(
     req: &RunRequest,
     progress: &mut dyn FnMut(RunEvent),
 ) -> Result<(RunReport, DriveLog)> {
-    let (r, log) = record(req, true, progress)?;
+    let (r, log) = record(req, RunHooks::default(), true, progress)?;
     Ok((r, log.expect("frames were kept")))
 }
 
-fn record(
+/// [`record_run_with_log`] with a library caller's [`RunHooks`]: its own sampler, its own
+/// frame sink, or nothing written.
+pub fn record_run_with(
     req: &RunRequest,
-    keep_frames: bool,
+    hooks: RunHooks<'_>,
     progress: &mut dyn FnMut(RunEvent),
-) -> Result<(RunReport, Option<DriveLog>)> {
-    // The validation pass first: nothing is loaded, created or simulated on bad input.
+) -> Result<(RunReport, DriveLog)> {
+    let (r, log) = record(req, hooks, true, progress)?;
+    Ok((r, log.expect("frames were kept")))
+}
+
+/// A run's inputs loaded and checked, and its outputs named, before the first physics step.
+struct Prepared {
+    robot: Robot,
+    robot_file: PathBuf,
+    terrain: Terrain,
+    terrain_file: PathBuf,
+    protocol: ProtocolConfig,
+    /// The registered sampler, unless the caller brought its own.
+    registered: Option<Box<dyn Sampler>>,
+    sim: Simulator,
+    provenance: Provenance,
+    meta: LogMeta,
+    mcap_path: PathBuf,
+    json_path: PathBuf,
+}
+
+/// The validation pass and the loading of a run: nothing is loaded, created or simulated on
+/// bad input; with `write`, the output folder exists and a log of the same name made with
+/// other options is refused.
+fn prepare(req: &RunRequest, own_sampler: bool, write: bool) -> Result<Prepared> {
     req.validate()?;
     let (mut robot, robot_file) = Robot::resolve(&req.robot)?;
     if let Some(a) = &req.safe_area {
@@ -187,16 +240,23 @@ fn record(
     let (terrain, terrain_file) = Terrain::resolve(&req.terrain)?;
     let seed = req.sim.seed;
     let protocol = ProtocolConfig::for_run(&robot, &terrain, req.steps);
-    let mut sampler = make_sampler_for(&req.sampler, seed, &protocol)
-        .ok_or_else(|| super::unknown_sampler(&req.sampler))?;
-    let mut sim = Simulator::new(&robot, &terrain, req.sim.clone())?;
+    let registered = match own_sampler {
+        true => None,
+        false => Some(
+            make_sampler_for(&req.sampler, seed, &protocol)
+                .ok_or_else(|| super::unknown_sampler(&req.sampler))?,
+        ),
+    };
+    let sim = Simulator::new(&robot, &terrain, req.sim.clone())?;
 
     let name = req
         .name
         .clone()
         .unwrap_or_else(|| format!("{}_{}_s{}", robot.name, terrain.name, seed));
     drive_sim_model::output::check_file_name("--name", &name)?;
-    drive_sim_model::output::ensure_dir(&req.out, "--out")?;
+    if write {
+        drive_sim_model::output::ensure_dir(&req.out, "--out")?;
+    }
     let provenance = Provenance::new(
         vec![
             InputFile::of_model("robot", &robot_file, BUILTIN_ROBOTS),
@@ -206,11 +266,11 @@ fn record(
     );
     let mcap_path = req.out.join(format!("{name}.mcap"));
     let json_path = req.out.join(format!("{name}.run.json"));
-    if !req.force {
+    if write && !req.force {
         refuse_other_options(&mcap_path, &json_path, &provenance.options)?;
     }
     let meta = LogMeta {
-        name: name.clone(),
+        name,
         robot: robot.name.clone(),
         terrain: terrain.name.clone(),
         rate_hz: protocol.rate_hz,
@@ -226,60 +286,117 @@ fn record(
             injected: req.injected.clone(),
         },
     };
-    let mut sink = Sink {
-        writer: McapWriter::create_with_provenance(
-            &mcap_path,
-            &meta,
+    Ok(Prepared {
+        robot,
+        robot_file,
+        terrain,
+        terrain_file,
+        protocol,
+        registered,
+        sim,
+        provenance,
+        meta,
+        mcap_path,
+        json_path,
+    })
+}
+
+fn record(
+    req: &RunRequest,
+    hooks: RunHooks<'_>,
+    keep_frames: bool,
+    progress: &mut dyn FnMut(RunEvent),
+) -> Result<(RunReport, Option<DriveLog>)> {
+    let write = !hooks.in_memory;
+    let mut p = prepare(req, hooks.sampler.is_some(), write)?;
+    let writer = match write {
+        true => Some(McapWriter::create_with_provenance(
+            &p.mcap_path,
+            &p.meta,
             Some(&Provenance {
                 command: Vec::new(),
-                ..provenance.clone()
+                ..p.provenance.clone()
             }),
-        )?,
+        )?),
+        false => None,
+    };
+    let mut sink = Sink {
+        writer,
         kept: keep_frames.then(Vec::new),
+        also: hooks.also,
         progress,
     };
+    let log_path = if write {
+        p.mcap_path.clone()
+    } else {
+        PathBuf::new()
+    };
     (sink.progress)(RunEvent::Started {
-        robot: &robot.name,
-        terrain: &terrain.name,
-        log: &mcap_path,
+        robot: &p.robot.name,
+        terrain: &p.terrain.name,
+        log: &log_path,
     });
+    let sampler: &mut dyn Sampler = match (hooks.sampler, p.registered.as_deref_mut()) {
+        (Some(s), _) => s,
+        (None, Some(s)) => s,
+        (None, None) => unreachable!("prepare builds the registered sampler when the caller brings none"),
+    };
     let t0 = Instant::now();
-    let summary = match run_drive(&mut sim, &robot, sampler.as_mut(), &protocol, &mut sink) {
-        Ok(s) => s,
-        Err(e @ drive_sim_model::Error::Interrupted { .. }) => {
-            let closed = sink.writer.finish_interrupted()?;
+    let run = run_drive_cancellable(
+        &mut p.sim,
+        &p.robot,
+        sampler,
+        &p.protocol,
+        &mut sink,
+        req.cancel.as_ref(),
+    );
+    let (summary, writer) = match (run, sink.writer.take()) {
+        (Ok(s), writer) => (s, writer),
+        (Err(e @ drive_sim_model::Error::Interrupted { .. }), Some(writer)) => {
+            let closed = writer.finish_interrupted()?;
             (sink.progress)(RunEvent::Interrupted { log: &closed.path });
             return Err(e.into());
         }
-        Err(e) => {
-            let partial = sink.writer.partial_path().to_path_buf();
+        (Err(e), Some(writer)) => {
+            let partial = writer.partial_path().to_path_buf();
             (sink.progress)(RunEvent::Failed { partial: &partial });
             return Err(e.into());
         }
+        (Err(e), None) => return Err(e.into()),
     };
     let McapSummary {
         path,
         bytes,
         messages_per_topic,
         ..
-    } = sink.writer.finish()?;
-    let log = sink.kept.map(|frames| DriveLog::from_frames(meta, &frames));
+    } = match writer {
+        Some(w) => w.finish()?,
+        None => McapSummary {
+            path: PathBuf::new(),
+            frames: 0,
+            messages_per_topic: Default::default(),
+            bytes: 0,
+        },
+    };
+    let log = sink.kept.map(|frames| DriveLog::from_frames(p.meta, &frames));
     let wall_s = t0.elapsed().as_secs_f64();
     let report = RunReport {
         mcap: path,
         mcap_bytes: bytes,
         messages_per_topic,
-        robot_file: robot_file.display().to_string(),
-        terrain_file: terrain_file.display().to_string(),
+        robot_file: p.robot_file.display().to_string(),
+        terrain_file: p.terrain_file.display().to_string(),
         sim: req.sim.clone(),
-        protocol,
+        protocol: p.protocol,
         sampler: req.sampler.clone(),
         real_time_factor: summary.total_time_s / wall_s.max(1e-9),
         summary,
         wall_s,
-        provenance,
+        provenance: p.provenance,
     };
-    write_json(&json_path, &report)?;
+    if write {
+        write_json(&p.json_path, &report)?;
+    }
     Ok((report, log))
 }
 

@@ -49,6 +49,17 @@ pub enum Error {
         /// What diverged.
         message: String,
     },
+    /// A sampler could not draw the command of a step: it failed, or drew a command that is
+    /// not finite or lies outside the robot's command space U.
+    #[error("sampler `{sampler}` failed at step {step}: {message}")]
+    Sampler {
+        /// The sampler's name.
+        sampler: String,
+        /// Protocol step index the command was for.
+        step: u32,
+        /// What went wrong.
+        message: String,
+    },
     /// The user stopped the command (SIGINT / SIGTERM); what was written is kept and named.
     #[error("interrupted at step {step}, t = {time_s:.3} s")]
     Interrupted {
@@ -99,7 +110,7 @@ impl Error {
     /// is bad input; other I/O failures are not.
     pub fn is_bad_input(&self) -> bool {
         match self {
-            Error::Config { .. } | Error::Unknown { .. } | Error::Log { .. } => true,
+            Error::Config { .. } | Error::Unknown { .. } | Error::Log { .. } | Error::Sampler { .. } => true,
             Error::Io { source, .. } => source.kind() == std::io::ErrorKind::NotFound,
             Error::Diverged { .. } | Error::Interrupted { .. } | Error::Json { .. } => false,
         }

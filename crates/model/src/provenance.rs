@@ -77,11 +77,33 @@ impl Provenance {
         Self {
             version: env!("CARGO_PKG_VERSION").to_string(),
             schema_version: SCHEMA_VERSION,
-            command: std::env::args().collect(),
+            command: COMMAND
+                .with_borrow(|c| c.clone())
+                .unwrap_or_else(|| std::env::args().collect()),
             inputs,
             options,
         }
     }
+}
+
+std::thread_local! {
+    /// The command that [`with_command`] names instead of the process's arguments.
+    static COMMAND: std::cell::RefCell<Option<Vec<String>>> = const { std::cell::RefCell::new(None) };
+}
+
+/// Runs `f` with `command` recorded as the command of every [`Provenance`] made on this
+/// thread meanwhile, instead of the process's arguments: a library caller (the Python package)
+/// names its own call, which the interpreter's arguments do not show.
+pub fn with_command<R>(command: Vec<String>, f: impl FnOnce() -> R) -> R {
+    struct Restore(Option<Vec<String>>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            let before = self.0.take();
+            COMMAND.with_borrow_mut(|c| *c = before);
+        }
+    }
+    let _restore = Restore(COMMAND.with_borrow_mut(|c| c.replace(command)));
+    f()
 }
 
 /// Adds `provenance` as a top-level field `provenance` of the JSON object in the file at

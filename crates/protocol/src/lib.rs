@@ -25,6 +25,7 @@
 //! ```
 #![warn(missing_docs, unreachable_pub)]
 
+mod cancel;
 mod operator;
 pub mod sampler;
 pub mod samplers;
@@ -37,6 +38,8 @@ use drive_sim_model::robot::Robot;
 use drive_sim_sim::plant::Plant;
 use sampler::{Sampler, SamplingContext, StepOutcome};
 use serde::{Deserialize, Serialize};
+
+pub use cancel::CancelToken;
 
 /// Interrupted attempts of one step (over all the commands drawn for it) after which the run
 /// stops: the safe area is too small for the commands, or the robot cannot move.
@@ -184,12 +187,26 @@ pub fn run_drive(
     cfg: &ProtocolConfig,
     sink: &mut dyn FrameSink,
 ) -> Result<RunSummary> {
+    run_drive_cancellable(plant, robot, sampler, cfg, sink, None)
+}
+
+/// [`run_drive`] that also stops, as on SIGINT, once `cancel` is cancelled: the run ends with
+/// [`Error::Interrupted`] between two frames.
+pub fn run_drive_cancellable(
+    plant: &mut dyn Plant,
+    robot: &Robot,
+    sampler: &mut dyn Sampler,
+    cfg: &ProtocolConfig,
+    sink: &mut dyn FrameSink,
+    cancel: Option<&CancelToken>,
+) -> Result<RunSummary> {
     Runner {
         plant,
         robot,
         space: robot.command_space(),
         cfg,
         sink,
+        cancel,
         t0: 0.0,
         summary: RunSummary::default(),
     }
@@ -202,6 +219,7 @@ struct Runner<'a> {
     space: CommandSpace,
     cfg: &'a ProtocolConfig,
     sink: &'a mut dyn FrameSink,
+    cancel: Option<&'a CancelToken>,
     t0: f64,
     summary: RunSummary,
 }
@@ -230,7 +248,7 @@ impl Runner<'_> {
         m.cmd = cmd;
         let stamp_s = self.plant.time_s() - self.t0;
         // A signal (Ctrl-C) stops the run between two frames: the log so far stays consistent.
-        if drive_sim_model::interrupt::requested() {
+        if drive_sim_model::interrupt::requested() || self.cancel.is_some_and(CancelToken::is_cancelled) {
             return Err(Error::Interrupted {
                 step: self.summary.steps_completed,
                 time_s: stamp_s,
@@ -267,7 +285,7 @@ impl Runner<'_> {
         for step in 0..self.cfg.steps {
             let mut attempt = 0;
             let mut attempts_of_cmd = 0;
-            let mut cmd = self.draw(sampler, step, previous, &history);
+            let mut cmd = self.draw(sampler, step, previous, &history)?;
             loop {
                 let t_attempt = self.plant.time_s();
                 self.plant.begin_step(drive_sim_model::effects::StepContext {
@@ -312,7 +330,7 @@ impl Runner<'_> {
                         if attempts_of_cmd >= self.cfg.max_attempts {
                             self.summary.abandoned_commands += 1;
                             attempts_of_cmd = 0;
-                            cmd = self.draw(sampler, step, WheelSpeeds::default(), &history);
+                            cmd = self.draw(sampler, step, WheelSpeeds::default(), &history)?;
                         }
                     }
                 }
@@ -337,13 +355,15 @@ impl Runner<'_> {
         Ok(self.summary)
     }
 
+    /// The sampler's command for `step`, checked: a failure of the sampler, or a command that
+    /// is not finite or lies outside U, stops the run naming the step.
     fn draw(
         &mut self,
         sampler: &mut dyn Sampler,
         step: u32,
         previous: WheelSpeeds,
         history: &[StepOutcome],
-    ) -> WheelSpeeds {
+    ) -> Result<WheelSpeeds> {
         let ctx = SamplingContext {
             space: &self.space,
             step,
@@ -352,13 +372,37 @@ impl Runner<'_> {
             pose: self.plant.true_pose(),
             safe_half_extents_m: self.half_extents(),
         };
-        let c = sampler.next(&ctx);
-        debug_assert!(
-            self.space.contains_wheels(c),
-            "sampler {} left U: {c:?}",
-            sampler.name()
-        );
-        c
+        let drawn = sampler.next(&ctx);
+        let failed = |message: String| Error::Sampler {
+            sampler: sampler.name().to_string(),
+            step,
+            message,
+        };
+        let c = match drawn {
+            Ok(c) => c,
+            // A stop asked for while the sampler ran (Ctrl-C in a Python sampler) is a stop.
+            Err(e @ Error::Interrupted { .. }) => return Err(e),
+            Err(Error::Sampler { message, .. }) => return Err(failed(message)),
+            Err(e) => return Err(failed(e.to_string())),
+        };
+        if !(c.left_rad_s.is_finite() && c.right_rad_s.is_finite()) {
+            return Err(failed(format!(
+                "the command ({}, {}) rad/s is not finite",
+                c.left_rad_s, c.right_rad_s
+            )));
+        }
+        if !self.space.contains_wheels(c) {
+            return Err(failed(format!(
+                "the command ({}, {}) rad/s lies outside the robot's command space U \
+                 (wheels within ±{} rad/s, |vx| <= {} m/s, |wz| <= {} rad/s)",
+                c.left_rad_s,
+                c.right_rad_s,
+                self.space.max_wheel_rad_s,
+                self.space.max_lin_m_s,
+                self.space.max_ang_rad_s
+            )));
+        }
+        Ok(c)
     }
 
     fn attempt(&mut self, step: u32, attempt: u32, cmd: WheelSpeeds) -> Result<AttemptEnd> {

@@ -5,6 +5,7 @@
 //! [`crate::samplers`], which also holds the registry that [`make_sampler`] and
 //! [`SAMPLERS`] read.
 
+use drive_sim_model::error::Result;
 use drive_sim_model::kinematics::{BodyVelocity, CommandSpace, WheelSpeeds};
 use drive_sim_model::measurement::Pose;
 use rand::RngExt;
@@ -44,8 +45,11 @@ pub struct StepOutcome {
 pub trait Sampler {
     /// Short name used on the command line and in reports.
     fn name(&self) -> &str;
-    /// Draws the next command; it must lie in `ctx.space`.
-    fn next(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds;
+    /// Draws the next command; it must be finite and lie in `ctx.space`. An error stops the
+    /// run ([`crate::run_drive`] reports it as [`Error::Sampler`](drive_sim_model::Error::Sampler) naming the step, as it does a
+    /// command that is not finite or lies outside U). The built-in strategies never fail; a
+    /// strategy that calls out (to Python, to a planner) may.
+    fn next(&mut self, ctx: &SamplingContext<'_>) -> Result<WheelSpeeds>;
 }
 
 /// Draws a command uniformly in U, in the wheel frame, by rejection from the wheel-limit square.

@@ -7,6 +7,8 @@
 use crate::error::{Error, Result};
 use crate::event::TwinEvent;
 use drive_sim_analysis::bootstrap::MIN_STEPS_FOR_INTERVAL;
+use drive_sim_calibration::data::MIN_STEPS_PER_SET;
+use drive_sim_calibration::CalibrationOptions;
 use drive_sim_log::{DriveLog, OpenOptions, UseSteps};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -115,8 +117,21 @@ pub fn open_logs(
     Ok(runs)
 }
 
-/// The analysed steps of `log`, refused when a half of them (odd or even) has fewer than an
-/// interval needs: the twin is chosen on one half and judged on the other.
+/// Fewest analysed steps in each half of a run: enough for compare's intervals and for the
+/// calibration's train / validation / test split of that half (its smallest set needs
+/// [`MIN_STEPS_PER_SET`] steps).
+pub fn min_steps_per_half() -> usize {
+    let o = CalibrationOptions::default();
+    let smallest = o
+        .train_fraction
+        .min(o.validation_fraction)
+        .min(1.0 - o.train_fraction - o.validation_fraction);
+    let split = (MIN_STEPS_PER_SET as f64 / smallest).ceil() as usize;
+    split.max(MIN_STEPS_FOR_INTERVAL)
+}
+
+/// The analysed steps of `log`, refused when a half of them (odd or even) has fewer than
+/// [`min_steps_per_half`]: the twin is chosen on one half and judged on the other.
 fn check_splittable(file: &Path, log: &DriveLog) -> Result<usize> {
     let analysed_in = |steps: UseSteps| -> Result<usize> {
         let selected = steps.select(log);
@@ -131,16 +146,17 @@ fn check_splittable(file: &Path, log: &DriveLog) -> Result<usize> {
         }
     };
     let all = analysed_in(UseSteps::All)?;
+    let need = min_steps_per_half();
     for half in [UseSteps::Odd, UseSteps::Even] {
         let n = analysed_in(half)?;
-        if n < MIN_STEPS_FOR_INTERVAL {
+        if n < need {
             return Err(Error::log(
                 file,
                 format!("{} steps", half.as_str()),
                 format!(
-                    "{n} of its {all} analysed steps are {}: a twin is chosen on one half of a run and judged on the other, and each half needs at least {MIN_STEPS_FOR_INTERVAL} (a run of at least {} steps with steady windows)",
+                    "{n} of its {all} analysed steps are {}: a twin is chosen on one half of a run and judged on the other, and each half needs at least {need} (a run of at least {} steps with steady windows)",
                     half.as_str(),
-                    2 * MIN_STEPS_FOR_INTERVAL
+                    2 * need
                 ),
             ));
         }

@@ -15,8 +15,9 @@
 
 use super::geometry::body_bounds;
 use super::SamplerEntry;
-use drive_sim_model::kinematics::{CommandSpace, WheelSpeeds};
 use crate::sampler::{uniform_in_wheel_space, Sampler, SamplingContext, StepOutcome};
+use drive_sim_model::kinematics::{CommandSpace, WheelSpeeds};
+use drive_sim_model::Result;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -99,7 +100,14 @@ impl Sampler for Active {
     fn name(&self) -> &str {
         ENTRY.name
     }
-    fn next(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
+    fn next(&mut self, ctx: &SamplingContext<'_>) -> Result<WheelSpeeds> {
+        Ok(self.draw(ctx))
+    }
+}
+
+impl Active {
+    /// The next command of this strategy: it cannot fail.
+    fn draw(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
         let mut best: Option<(f64, WheelSpeeds)> = None;
         for _ in 0..self.candidates.max(1) {
             let c = uniform_in_wheel_space(ctx.space, &mut self.rng);

@@ -17,10 +17,11 @@
 
 use super::uniform_wheel::UniformWheel;
 use super::SamplerEntry;
-use drive_sim_model::kinematics::{CommandSpace, WheelSpeeds};
-use drive_sim_model::measurement::Pose;
 use crate::sampler::{Sampler, SamplingContext};
 use crate::ProtocolConfig;
+use drive_sim_model::kinematics::{CommandSpace, WheelSpeeds};
+use drive_sim_model::measurement::Pose;
+use drive_sim_model::Result;
 
 /// Registry entry.
 pub const ENTRY: SamplerEntry = SamplerEntry {
@@ -132,19 +133,19 @@ impl Sampler for BoundaryAware {
     fn name(&self) -> &str {
         &self.name
     }
-    fn next(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
+    fn next(&mut self, ctx: &SamplingContext<'_>) -> Result<WheelSpeeds> {
         let mut best: Option<(f64, WheelSpeeds)> = None;
         for _ in 0..self.candidates.max(1) {
-            let c = self.proposals.next(ctx);
+            let c = self.proposals.next(ctx)?;
             let e = self.excursion_m(ctx.space, ctx.pose, ctx.previous, c, ctx.safe_half_extents_m);
             if e <= 0.0 {
-                return c;
+                return Ok(c);
             }
             if best.is_none_or(|(b, _)| e < b) {
                 best = Some((e, c));
             }
         }
-        best.map(|(_, c)| c).unwrap_or_default()
+        Ok(best.map(|(_, c)| c).unwrap_or_default())
     }
 }
 

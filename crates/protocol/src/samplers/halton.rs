@@ -9,8 +9,9 @@
 //! deterministic; the skipped subsequence keeps its low discrepancy over U.
 
 use super::SamplerEntry;
-use drive_sim_model::kinematics::WheelSpeeds;
 use crate::sampler::{Sampler, SamplingContext};
+use drive_sim_model::kinematics::WheelSpeeds;
+use drive_sim_model::Result;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -89,7 +90,14 @@ impl Sampler for Halton {
     fn name(&self) -> &str {
         ENTRY.name
     }
-    fn next(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
+    fn next(&mut self, ctx: &SamplingContext<'_>) -> Result<WheelSpeeds> {
+        Ok(self.draw(ctx))
+    }
+}
+
+impl Halton {
+    /// The next command of this strategy: it cannot fail.
+    fn draw(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
         let w = ctx.space.max_wheel_rad_s;
         loop {
             let (a, b) = self.point(self.index);

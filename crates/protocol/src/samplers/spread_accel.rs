@@ -9,8 +9,9 @@
 
 use super::geometry::body_bounds;
 use super::SamplerEntry;
-use drive_sim_model::kinematics::{CommandSpace, WheelSpeeds};
 use crate::sampler::{uniform_in_wheel_space, Sampler, SamplingContext};
+use drive_sim_model::kinematics::{CommandSpace, WheelSpeeds};
+use drive_sim_model::Result;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -58,7 +59,14 @@ impl Sampler for SpreadAccel {
     fn name(&self) -> &str {
         ENTRY.name
     }
-    fn next(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
+    fn next(&mut self, ctx: &SamplingContext<'_>) -> Result<WheelSpeeds> {
+        Ok(self.draw(ctx))
+    }
+}
+
+impl SpreadAccel {
+    /// The next command of this strategy: it cannot fail.
+    fn draw(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
         let bins = self.bins.max(1);
         let mut lin = vec![0u32; bins];
         let mut ang = vec![0u32; bins];

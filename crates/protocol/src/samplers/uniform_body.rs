@@ -7,8 +7,9 @@
 
 use super::geometry::body_bounds;
 use super::SamplerEntry;
-use drive_sim_model::kinematics::{BodyVelocity, WheelSpeeds};
 use crate::sampler::{Sampler, SamplingContext};
+use drive_sim_model::kinematics::{BodyVelocity, WheelSpeeds};
+use drive_sim_model::Result;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -38,7 +39,14 @@ impl Sampler for UniformBody {
     fn name(&self) -> &str {
         ENTRY.name
     }
-    fn next(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
+    fn next(&mut self, ctx: &SamplingContext<'_>) -> Result<WheelSpeeds> {
+        Ok(self.draw(ctx))
+    }
+}
+
+impl UniformBody {
+    /// The next command of this strategy: it cannot fail.
+    fn draw(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
         let (vm, wm) = body_bounds(ctx.space);
         loop {
             let v = BodyVelocity::new(

@@ -16,9 +16,10 @@
 
 use super::geometry::shifted_overlap_area;
 use super::SamplerEntry;
+use crate::sampler::{uniform_in_wheel_space, Sampler, SamplingContext};
 use drive_sim_model::geometry::polygon_area;
 use drive_sim_model::kinematics::WheelSpeeds;
-use crate::sampler::{uniform_in_wheel_space, Sampler, SamplingContext};
+use drive_sim_model::Result;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -54,7 +55,14 @@ impl Sampler for UniformStep {
     fn name(&self) -> &str {
         ENTRY.name
     }
-    fn next(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
+    fn next(&mut self, ctx: &SamplingContext<'_>) -> Result<WheelSpeeds> {
+        Ok(self.draw(ctx))
+    }
+}
+
+impl UniformStep {
+    /// The next command of this strategy: it cannot fail.
+    fn draw(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
         let poly = ctx.space.polygon_wheels();
         let area = polygon_area(&poly);
         let p = ctx.previous;

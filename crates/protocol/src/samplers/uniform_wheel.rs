@@ -1,8 +1,9 @@
 //! `uniform-wheel`: the paper's strategy.
 
 use super::SamplerEntry;
-use drive_sim_model::kinematics::WheelSpeeds;
 use crate::sampler::{uniform_in_wheel_space, Sampler, SamplingContext};
+use drive_sim_model::kinematics::WheelSpeeds;
+use drive_sim_model::Result;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -33,7 +34,14 @@ impl Sampler for UniformWheel {
     fn name(&self) -> &str {
         ENTRY.name
     }
-    fn next(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
+    fn next(&mut self, ctx: &SamplingContext<'_>) -> Result<WheelSpeeds> {
+        Ok(self.draw(ctx))
+    }
+}
+
+impl UniformWheel {
+    /// The next command of this strategy: it cannot fail.
+    pub(crate) fn draw(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
         uniform_in_wheel_space(ctx.space, &mut self.rng)
     }
 }
@@ -70,11 +78,11 @@ mod tests {
         let mut a = UniformWheel::new(3);
         let mut b = UniformWheel::new(3);
         let n = 20_000;
-        let draws: Vec<WheelSpeeds> = (0..n).map(|_| a.next(&ctx)).collect();
+        let draws: Vec<WheelSpeeds> = (0..n).map(|_| a.draw(&ctx)).collect();
         assert!(draws.iter().all(|c| s.contains_wheels(*c)));
         assert!(draws
             .iter()
-            .zip((0..n).map(|_| b.next(&ctx)))
+            .zip((0..n).map(|_| b.draw(&ctx)))
             .all(|(x, y)| *x == y));
         // Uniform in W: the share of draws with wl > 0 is 1/2 by symmetry of U, and the share
         // inside the inner square |w| < w_max/2 is its area in U over the area of U in W.
