@@ -2,8 +2,11 @@
 //! search's budget. It sees only the screening, which ran on the choosing steps.
 //!
 //! 1. A knob is a candidate when its best screening point lowers the loss by at least
-//!    [`Rule::min_gain_fraction`] of the calibrated model's loss: a smaller gain is within
-//!    what a few seeds' paths move the loss by.
+//!    [`Rule::min_gain_fraction`] of the calibrated model's loss, or by
+//!    [`Rule::min_gain_absolute`] (one criterion's threshold: the loss is a sum of squared
+//!    terms, each 1 at its verdict's threshold) where that is less: a smaller gain is within
+//!    what a few seeds' paths move the loss by, and a twin far from its robot (a loss of tens)
+//!    must not hide every knob but the largest behind a tenth of it.
 //! 2. Candidates are taken by gain, largest first, up to [`Rule::max_knobs`] knobs and
 //!    [`Rule::max_coordinates`] coordinates of the search (a ground's knob counts once per
 //!    ground). A knob whose term changes are nearly parallel to a knob already taken (cosine
@@ -18,8 +21,10 @@ use serde::{Deserialize, Serialize};
 /// The rule's settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Rule {
-    /// Smallest gain a candidate knob shows, as a fraction of the calibrated model's loss.
+    /// Smallest gain a candidate knob shows, as a fraction of the calibrated model's loss...
     pub min_gain_fraction: f64,
+    /// ... or in loss units, where that is less.
+    pub min_gain_absolute: f64,
     /// Most knobs tuned.
     pub max_knobs: usize,
     /// Most coordinates of the search (the design has one Halton base per coordinate).
@@ -36,6 +41,7 @@ impl Default for Rule {
     fn default() -> Self {
         Self {
             min_gain_fraction: 0.10,
+            min_gain_absolute: 1.0,
             max_knobs: 4,
             max_coordinates: 5,
             max_cosine: 0.95,
@@ -81,8 +87,9 @@ impl Rule {
     /// The rule in words (`twin.json`, the report).
     pub fn text(&self) -> String {
         format!(
-            "knobs whose best screening point lowers the loss by at least {:.0} % of the calibrated model's, largest gain first, at most {} knobs and {} search coordinates (a ground's knob once per ground), none whose term changes are parallel (cosine > {}) to one taken; {} search points per coordinate plus {}, times the budget factor",
+            "knobs whose best screening point lowers the loss by at least {:.0} % of the calibrated model's or by {} where that is less, largest gain first, at most {} knobs and {} search coordinates (a ground's knob once per ground), none whose term changes are parallel (cosine > {}) to one taken; {} search points per coordinate plus {}, times the budget factor",
             100.0 * self.min_gain_fraction,
+            self.min_gain_absolute,
             self.max_knobs,
             self.max_coordinates,
             self.max_cosine,
@@ -94,6 +101,7 @@ impl Rule {
     /// Applies the rule to `screening` for `grounds` grounds with the budget factor `budget`.
     pub fn choose(&self, screening: &Screening, grounds: usize, budget: f64) -> Choice {
         let l0 = screening.start.loss.unwrap_or(f64::NAN);
+        let min_gain = (self.min_gain_fraction * l0).min(self.min_gain_absolute);
         let mut order: Vec<&KnobScreen> = screening.knobs.iter().filter(|k| k.gain > 0.0).collect();
         order.sort_by(|a, b| b.gain.total_cmp(&a.gain));
         let mut taken: Vec<&KnobScreen> = Vec::new();
@@ -106,11 +114,11 @@ impl Rule {
                 .iter()
                 .find(|t| cosine(&t.term_change, &k.term_change) > self.max_cosine);
             // A NaN gain (no calibrated loss) is below any threshold.
-            let why = if relative.is_nan() || relative < self.min_gain_fraction {
+            let why = if relative.is_nan() || k.gain < min_gain {
                 format!(
-                    "gain {:.1} % of the loss, below {:.0} %",
-                    100.0 * relative,
-                    100.0 * self.min_gain_fraction
+                    "gain {:.2} ({:.1} % of the loss), below {min_gain:.2}",
+                    k.gain,
+                    100.0 * relative
                 )
             } else if taken.len() >= self.max_knobs {
                 format!("{} knobs taken already", self.max_knobs)
@@ -209,29 +217,54 @@ mod tests {
     #[test]
     fn takes_large_gains_first_and_leaves_out_small_parallel_and_excess_knobs() {
         let s = screening(vec![
-            knob("small", 1, false, 1.0, &[("a", -1.0)]),
+            knob("small", 1, false, 0.5, &[("a", -1.0)]),
             knob("line", 2, false, 10.0, &[("a", -3.0), ("b", 0.5)]),
             knob("twin_of_line", 1, false, 8.0, &[("a", -6.0), ("b", 1.0)]),
             knob("lateral", 1, true, 6.0, &[("c", -2.0)]),
             knob("droop", 1, false, 5.0, &[("b", -2.0)]),
             knob("lag", 1, false, 4.0, &[("d", -2.0)]),
+            knob("fifth", 1, false, 3.0, &[("e", -2.0)]),
         ]);
         let c = Rule::default().choose(&s, 1, 1.0);
-        assert_eq!(c.chosen, vec!["line", "lateral", "droop"], "{:#?}", c.considered);
-        let why = |n: &str| c.considered.iter().find(|k| k.knob == n).unwrap().why.clone();
-        assert!(
-            why("twin_of_line").contains("as `line` does"),
-            "{}",
-            why("twin_of_line")
+        assert_eq!(
+            c.chosen,
+            vec!["line", "lateral", "droop", "lag"],
+            "{:#?}",
+            c.considered
         );
-        assert!(why("lag").contains("exceed 5"), "{}", why("lag"));
-        assert!(why("small").contains("below 10 %"), "{}", why("small"));
-        assert_eq!(c.coordinates, 4);
-        assert_eq!(c.max_evaluations, 60);
+        let why = |c: &Choice, n: &str| c.considered.iter().find(|k| k.knob == n).unwrap().why.clone();
+        assert!(
+            why(&c, "twin_of_line").contains("as `line` does"),
+            "{}",
+            why(&c, "twin_of_line")
+        );
+        assert!(why(&c, "fifth").contains("4 knobs taken"), "{}", why(&c, "fifth"));
+        assert!(why(&c, "small").contains("below 1.00"), "{}", why(&c, "small"));
+        assert_eq!(c.coordinates, 5);
+        assert_eq!(c.max_evaluations, 70);
         // Two grounds: the ground's knob counts twice, the budget scales.
         let c2 = Rule::default().choose(&s, 2, 2.0);
-        assert_eq!(c2.chosen, vec!["line", "lateral"], "{:#?}", c2.considered);
-        assert_eq!(c2.max_evaluations, 2 * (10 * 4 + 20));
+        assert_eq!(
+            c2.chosen,
+            vec!["line", "lateral", "droop"],
+            "{:#?}",
+            c2.considered
+        );
+        assert!(why(&c2, "lag").contains("exceed 5"), "{}", why(&c2, "lag"));
+        assert_eq!(c2.max_evaluations, 2 * (10 * 5 + 20));
+    }
+
+    #[test]
+    fn far_from_its_robot_a_gain_of_one_threshold_is_enough() {
+        // A loss of 80: a tenth of it (8) would leave every knob but the first out.
+        let mut s = screening(vec![
+            knob("scatter", 1, false, 45.0, &[("a", -6.0)]),
+            knob("radius", 1, false, 4.0, &[("b", -2.0)]),
+            knob("limit", 1, false, 0.8, &[("c", -1.0)]),
+        ]);
+        s.start.loss = Some(80.0);
+        let c = Rule::default().choose(&s, 1, 1.0);
+        assert_eq!(c.chosen, vec!["scatter", "radius"], "{:#?}", c.considered);
     }
 
     #[test]
