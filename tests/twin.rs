@@ -43,7 +43,7 @@ fn options() -> TwinOptions {
 }
 
 #[test]
-fn a_twin_of_a_generator_run_passes_its_held_out_steps_and_another_run_but_not_another_ground() {
+fn a_twin_of_a_generator_run_passes_its_held_out_steps_and_is_told_from_another_ground() {
     let dir = tempfile::tempdir().unwrap();
     let run_a = dir.path().join("ground_a.mcap");
     write_drive_mcap(
