@@ -9,14 +9,16 @@ judged on the even ones, else every step for both):
    "T/U wheels beyond 5 pp" (against the real run, and the mean over the twin's own runs);
 2. `drive-sim tune` from the twin with the speed loop's integral switched on
    (`--inject speed_droop_rad_s_per_knm=D --inject droop_recovery_s=T`, by default 3 rad/s per
-   kN·m and 2 s, the values whose run shows the asphalt run's memory, README "A speed loop that
-   remembers"), re-choosing the motor line, the droop, its recovery time and the turning
-   resistance (80 evaluations, the tune's own check on fresh seeds decides whether the choice
+   kN·m and 2 s, the values whose run shows the asphalt run's memory, docs/results/twins.md "A
+   speed loop that remembers"), re-choosing the motor line, the droop, its recovery time and
+   the turning resistance (80 evaluations, the tune's own check on fresh seeds decides whether the choice
    is kept: a twin it does not accept is the start, integral included);
 3. `drive-sim judge` of that twin, as in 1.
 
     python3 scripts/memory_twins.py --out out/memory_twins \\
-        warthog_asphalt=out/tune_table_droop/warthog_asphalt/tune_all/twin ...
+        warthog_asphalt=out/twin_results/warthog_asphalt/twin ...
+
+(the twins `drive-sim twin` writes: `python3 scripts/twin_results.py`).
 
 Prints a markdown table and writes it to OUT/table.md; every command run is in OUT/commands.txt.
 """

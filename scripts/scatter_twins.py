@@ -16,7 +16,9 @@ The scatter is estimated on every step: the halves of the measured runs hold 1-6
 steps within 1 rad/s, too few for an estimate, so held-out twins are not done here.
 
     python3 scripts/scatter_twins.py --out out/scatter_twins \\
-        warthog_asphalt=out/tune_table_droop/warthog_asphalt/tune_all/twin ...
+        warthog_asphalt=out/twin_results/warthog_asphalt/twin ...
+
+(the twins `drive-sim twin` writes: `python3 scripts/twin_results.py`).
 
 Prints a markdown table and writes it to OUT/table.md; every command run is in OUT/commands.txt.
 """

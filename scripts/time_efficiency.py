@@ -10,7 +10,9 @@ gathering" (run.json summary.data_gathering_fraction), the interruptions per ste
 re-orientation breakdown.
 
     python3 scripts/time_efficiency.py [--robot warthog] --terrain asphalt --site 50x25 \\
-        [--twin out/tune_table/warthog_asphalt/tune_all/twin] [--bin target/release/drive-sim] [--out out/time_efficiency]
+        [--twin out/twin_results/warthog_asphalt/twin] [--bin target/release/drive-sim] [--out out/time_efficiency]
+
+(--twin: e.g. a twin `drive-sim twin` writes, `python3 scripts/twin_results.py`.)
 
 Writes OUT/table.md and every command to OUT/commands.txt; runs whose log exists are reused.
 """
