@@ -2,6 +2,7 @@
 and the errors of bad samplers and bad names."""
 
 import math
+import signal
 import threading
 import _thread
 import time
@@ -167,6 +168,10 @@ def test_bad_input_raises_value_error_with_the_command_lines_message(tmp_path, k
 
 
 def test_ctrl_c_interrupts_a_run(tmp_path):
+    # Python's own SIGINT handler, whatever the test runner inherited: a shell starts background
+    # jobs with SIGINT ignored, and Python then installs no handler, so `interrupt_main` (like a
+    # real Ctrl-C) would do nothing.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(0.5, _thread.interrupt_main)
     timer.start()
     t0 = time.monotonic()
@@ -175,6 +180,7 @@ def test_ctrl_c_interrupts_a_run(tmp_path):
             drive_sim.run(ROBOT, TERRAIN, steps=2000, seed=1, out=tmp_path)
     finally:
         timer.cancel()
+        signal.signal(signal.SIGINT, previous)
     assert time.monotonic() - t0 < 30
     # As on the command line, what was simulated is closed as a valid interrupted log.
     assert [p.name for p in tmp_path.iterdir() if p.name.endswith(".interrupted.mcap")]
