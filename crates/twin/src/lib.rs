@@ -213,7 +213,7 @@ pub fn make_twin(req: &TwinRequest, progress: &(dyn Fn(&TwinEvent) + Sync)) -> R
                 &req.options.judge_options(UseSteps::Even),
                 progress,
             );
-            (j, stage_time("held out: judge", t0, "held out", progress))
+            (j, stage_time("judge", t0, "held out", progress))
         },
         || pass_of(&grounds, UseSteps::All, "final"),
     );
@@ -228,7 +228,7 @@ pub fn make_twin(req: &TwinRequest, progress: &(dyn Fn(&TwinEvent) + Sync)) -> R
         &req.options.judge_options(UseSteps::All),
         progress,
     )?;
-    times.push(stage_time("final: judge", t0, "final", progress));
+    times.push(stage_time("judge", t0, "final", progress));
     let checks = write::check_runs(&fin.twin, &fin.calibrated, seed)?;
     // 3. Each run left out.
     let left_out = if req.options.leave_one_out && runs.len() > 1 {
@@ -295,12 +295,12 @@ fn check_knobs(only: &[String], first: &RunLog, input: &OpenOptions) -> Result<(
     }
 }
 
-/// A stage's time, told and recorded.
+/// A stage's time, told and recorded as `PASS: STAGE`.
 fn stage_time(stage: &str, t0: Instant, pass: &str, progress: &(dyn Fn(&TwinEvent) + Sync)) -> StageTime {
     let seconds = t0.elapsed().as_secs_f64();
     progress(&TwinEvent::StageDone { pass, stage, seconds });
     StageTime {
-        stage: stage.to_string(),
+        stage: format!("{pass}: {stage}"),
         seconds,
     }
 }
