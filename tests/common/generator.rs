@@ -315,6 +315,21 @@ pub fn drive_log_with(
     extra: Unmodelled,
     steps: u32,
 ) -> (drive_sim::log::DriveLog, drive_sim::robot::Robot) {
+    let (log, robot, _) = drive_run(name, spec, extra, steps);
+    (log, robot)
+}
+
+/// The generator's DRIVE run: the log, the robot it declares and the frames it came from.
+fn drive_run(
+    name: &str,
+    spec: TestRobotSpec,
+    extra: Unmodelled,
+    steps: u32,
+) -> (
+    drive_sim::log::DriveLog,
+    drive_sim::robot::Robot,
+    Vec<drive_sim::log::Frame>,
+) {
     use drive_sim::protocol::sampler::UniformWheel;
     use drive_sim::protocol::{run_drive, ProtocolConfig};
     // The Warthog's geometry and command space; its file's declared effects (the measured
@@ -335,10 +350,8 @@ pub fn drive_log_with(
         &mut frames,
     )
     .unwrap();
-    (
-        super::undeclared_log(name, &robot, spec.seed, &cfg, &frames),
-        robot,
-    )
+    let log = super::undeclared_log(name, &robot, spec.seed, &cfg, &frames);
+    (log, robot, frames)
 }
 
 /// [`drive_log_with`], also written to `path` as a drive-sim MCAP log (what the command line
@@ -352,25 +365,7 @@ pub fn write_drive_mcap(
     extra: Unmodelled,
     steps: u32,
 ) -> drive_sim::log::DriveLog {
-    use drive_sim::protocol::sampler::UniformWheel;
-    use drive_sim::protocol::{run_drive, ProtocolConfig};
-    let (mut robot, _) = drive_sim::robot::Robot::resolve("warthog").unwrap();
-    robot.effects = Default::default();
-    let cfg = ProtocolConfig {
-        steps,
-        ..ProtocolConfig::default()
-    };
-    let mut plant = TestRobot::with(spec, extra);
-    let mut frames = Vec::new();
-    run_drive(
-        &mut plant,
-        &robot,
-        &mut UniformWheel::new(spec.seed),
-        &cfg,
-        &mut frames,
-    )
-    .unwrap();
-    let mut log = super::undeclared_log(name, &robot, spec.seed, &cfg, &frames);
+    let (mut log, _, frames) = drive_run(name, spec, extra, steps);
     log.meta.terrain = terrain.into();
     drive_sim::log::mcap::write_mcap(path, &log.meta, &frames).unwrap();
     log
