@@ -228,3 +228,64 @@ fn bad_input_exits_with_code_2_before_any_long_work_and_writes_nothing() {
     );
     assert!(!p("out").exists(), "bad input wrote {out}");
 }
+
+/// The start of a twin from a run whose commands leave the configured command space U: the
+/// generator's motors clip at 10 rad/s while the robot file says U is 8 rad/s per wheel (the
+/// Warthog's commands reach 16). The start widens U to the commands, and reads the
+/// clipping off the encoders: the saturation declared lies at the generator's limit. A run
+/// whose wheels follow their commands declares none; a robot that already declares one keeps
+/// it.
+#[test]
+fn a_start_covers_the_commands_and_declares_the_saturation_the_encoders_show() {
+    use drive_sim::log::DriveLog;
+    use drive_sim::twin::input::starting_models;
+    let narrowed = |extra: Unmodelled| -> DriveLog {
+        let (mut log, _) =
+            common::generator::drive_log_with("narrow_u", TestRobotSpec::warthog_on_asphalt(5), extra, 30);
+        log.meta.nominal.max_wheel_rad_s = 8.0;
+        log
+    };
+    // The Warthog's file with U at 8 rad/s per wheel and without its declared saturation (the
+    // generator's truth is its own).
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("warthog_bare.toml");
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("robots/warthog.toml")).unwrap();
+    let bare: String = text[..text.find("[effects]").unwrap()]
+        .lines()
+        .map(|l| {
+            if l.starts_with("max_wheel_rad_s") {
+                "max_wheel_rad_s = 8.0"
+            } else {
+                l
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(&file, bare).unwrap();
+    let bare_file = file.to_str().unwrap();
+    let clipped = narrowed(ground_a());
+    let (starts, notes) = starting_models(&[&clipped], Some(bare_file), None).unwrap();
+    let robot = &starts[0].robot;
+    assert!(robot.powertrain.max_wheel_rad_s > 15.0, "{notes:?}");
+    let at = robot.effects.get("wheel_speed_saturation_rad_s").unwrap();
+    assert!((9.5..=10.6).contains(&at), "saturation {at}; {notes:?}");
+    assert!(notes.iter().any(|n| n.contains("widened")) && notes.iter().any(|n| n.contains("declared")));
+
+    let free = narrowed(Unmodelled::default());
+    let (starts, notes) = starting_models(&[&free], Some(bare_file), None).unwrap();
+    assert_eq!(
+        starts[0].robot.effects.get("wheel_speed_saturation_rad_s"),
+        Some(f64::INFINITY),
+        "{notes:?}"
+    );
+    assert!(notes.iter().all(|n| !n.contains("declared")), "{notes:?}");
+
+    // The Warthog's own file declares 12.7 rad/s: kept, U widened all the same.
+    let (starts, notes) = starting_models(&[&clipped], None, None).unwrap();
+    assert_eq!(
+        starts[0].robot.effects.get("wheel_speed_saturation_rad_s"),
+        Some(12.7)
+    );
+    assert!(notes.iter().all(|n| !n.contains("declared")), "{notes:?}");
+}

@@ -150,6 +150,43 @@ impl Robot {
             max_ang_rad_s: self.limits.max_ang_rad_s,
         }
     }
+    /// Widens the command space U to hold every command of a run (`reach`): a robot's
+    /// configured U (a log's nominal limits, a robot file) can be narrower than what its
+    /// operators commanded, and a simulated DRIVE run inside the narrower U samples other
+    /// commands than the run it is compared with. Each limit below the reach is raised to the
+    /// reach rounded up to 0.1; what changed is returned, one line per limit.
+    pub fn cover_commands(&mut self, reach: &crate::effects::CommandReach) -> Vec<String> {
+        let up = |x: f64| (x * 10.0).ceil() / 10.0;
+        let mut changed = Vec::new();
+        let mut widen = |name: &str, limit: &mut f64, reached: f64, unit: &str| {
+            if reached > *limit {
+                let to = up(reached);
+                changed.push(format!(
+                    "{name} widened from {limit} to {to} {unit}: the run commanded up to {reached:.3} {unit}"
+                ));
+                *limit = to;
+            }
+        };
+        widen(
+            "powertrain.max_wheel_rad_s",
+            &mut self.powertrain.max_wheel_rad_s,
+            reach.wheel_rad_s,
+            "rad/s",
+        );
+        widen(
+            "limits.max_lin_m_s",
+            &mut self.limits.max_lin_m_s,
+            reach.speed_m_s,
+            "m/s",
+        );
+        widen(
+            "limits.max_ang_rad_s",
+            &mut self.limits.max_ang_rad_s,
+            reach.yaw_rate_rad_s,
+            "rad/s",
+        );
+        changed
+    }
     /// Yaw inertia of the uniform box, `m (d² + b²) / 12`, kg·m² (the paper's I_zz).
     pub fn yaw_inertia_kg_m2(&self) -> f64 {
         let b = &self.body;
@@ -354,6 +391,31 @@ mod tests {
         let err = crate::config::parse_toml::<Robot>(&text, "bad.toml".as_ref()).unwrap_err();
         let msg = err.to_string();
         assert!(msg.contains("wheels") && msg.contains("radius_m"), "{msg}");
+    }
+
+    /// The Husky run's commands (14.33 rad/s at a wheel, 8.27 rad/s of yaw rate through the
+    /// nominal IDD) widen the metadata's U (6.06 rad/s, 2.0 rad/s); what U already holds stays.
+    #[test]
+    fn a_run_commanding_beyond_u_widens_it_and_only_it() {
+        let (mut r, _) = Robot::resolve("husky").unwrap();
+        let reach = crate::effects::CommandReach {
+            wheel_rad_s: 14.33,
+            speed_m_s: 0.946,
+            yaw_rate_rad_s: 8.27,
+        };
+        let changed = r.cover_commands(&reach);
+        assert_eq!(r.powertrain.max_wheel_rad_s, 14.4);
+        assert_eq!(r.limits.max_ang_rad_s, 8.3);
+        assert_eq!(r.limits.max_lin_m_s, 1.0);
+        assert_eq!(changed.len(), 2, "{changed:?}");
+        assert!(
+            changed[0].contains("6.06") && changed[0].contains("14.330"),
+            "{changed:?}"
+        );
+        assert!(
+            r.cover_commands(&reach).is_empty(),
+            "widening twice changes nothing"
+        );
     }
 
     #[test]

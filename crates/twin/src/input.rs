@@ -8,8 +8,10 @@ use crate::error::{Error, Result};
 use crate::event::TwinEvent;
 use drive_sim_analysis::bootstrap::MIN_STEPS_FOR_INTERVAL;
 use drive_sim_calibration::data::MIN_STEPS_PER_SET;
+use drive_sim_calibration::to_dir::StartingModels;
 use drive_sim_calibration::CalibrationOptions;
 use drive_sim_log::{DriveLog, OpenOptions, UseSteps};
+use drive_sim_model::effects::CommandReach;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -162,6 +164,108 @@ fn check_splittable(file: &Path, log: &DriveLog) -> Result<usize> {
         }
     }
     Ok(all)
+}
+
+/// The models each log's calibration starts from (`robot` / `terrain`, names or files, or the
+/// log's own), with one command space for all: the robot's U widened to hold every command of
+/// the logs (`Robot::cover_commands`, one note per limit widened). A twin's own DRIVE samples
+/// U; a U narrower than what the operators commanded (the Husky run's metadata says 6.06 rad/s,
+/// its commands reach 14.33) would make it sample other commands than the run it is judged on.
+pub fn starting_models(
+    logs: &[&DriveLog],
+    robot: Option<&str>,
+    terrain: Option<&str>,
+) -> Result<(Vec<StartingModels>, Vec<String>)> {
+    let mut starts = logs
+        .iter()
+        .map(|log| StartingModels::resolve(log, robot, terrain))
+        .collect::<drive_sim_calibration::Result<Vec<_>>>()?;
+    let Some(first) = starts.first() else {
+        return Ok((starts, Vec::new()));
+    };
+    let reach = CommandReach::of_commands(
+        logs.iter().flat_map(|l| l.samples.iter().map(|s| s.m.cmd)),
+        &first.robot.idd(),
+    );
+    let configured_u = first.robot.powertrain.max_wheel_rad_s;
+    let declared = first.robot.effects.get(SATURATION).is_some_and(f64::is_finite);
+    let mut notes = Vec::new();
+    for (i, m) in starts.iter_mut().enumerate() {
+        let changed = m.robot.cover_commands(&reach);
+        if i == 0 {
+            notes = changed;
+        }
+    }
+    // Commands beyond the configured U: the configured limit may be the motor driver's, which
+    // clips them. The encoders tell: when the wheels never turn much faster than some ceiling
+    // whatever the command beyond it, the robot starts with that saturation declared (the
+    // calibration refits it and judges it on its validation steps like any declared effect).
+    if reach.wheel_rad_s > configured_u && !declared {
+        if let Some(ceiling) = WheelCeiling::of(logs) {
+            if ceiling.clips(reach.wheel_rad_s) {
+                let at = (ceiling.rad_s * 10.0).ceil() / 10.0;
+                for m in &mut starts {
+                    m.robot.effects.set(SATURATION, at)?;
+                }
+                notes.push(format!(
+                    "{SATURATION} = {at} rad/s declared: the steady wheels never exceed {:.2} rad/s while {} of {} commanded wheel speeds are above {:.2} (up to {:.2})",
+                    ceiling.rad_s,
+                    ceiling.beyond,
+                    ceiling.sides,
+                    CLIPPED_ABOVE * ceiling.rad_s,
+                    reach.wheel_rad_s
+                ));
+            }
+        }
+    }
+    Ok((starts, notes))
+}
+
+/// The registry's wheel-speed saturation.
+const SATURATION: &str = "wheel_speed_saturation_rad_s";
+/// A commanded wheel speed counts as clipped above this multiple of the wheels' ceiling.
+const CLIPPED_ABOVE: f64 = 1.2;
+/// Share of the steady commanded wheel speeds that must be clipped for the ceiling to be a
+/// saturation (a few fast commands that the wheels did not reach may be a slow response).
+const MIN_CLIPPED_SHARE: f64 = 0.1;
+
+/// The fastest steady wheel speed of some runs (the encoders, averaged over each analysed
+/// step's steady windows), and how many steady commands lie beyond it.
+struct WheelCeiling {
+    rad_s: f64,
+    beyond: usize,
+    sides: usize,
+}
+
+impl WheelCeiling {
+    fn of(logs: &[&DriveLog]) -> Option<Self> {
+        let mut pairs: Vec<(f64, f64)> = Vec::new();
+        for log in logs {
+            let a = drive_sim_compare::analysis_of(log).ok()?;
+            for s in &a.steps {
+                let (c, r) = (s.steady.cmd_wheels, s.steady.realized_wheels);
+                pairs.push((c.left_rad_s.abs(), r.left_rad_s.abs()));
+                pairs.push((c.right_rad_s.abs(), r.right_rad_s.abs()));
+            }
+        }
+        let rad_s = pairs
+            .iter()
+            .map(|p| p.1)
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        let beyond = pairs.iter().filter(|p| p.0 > CLIPPED_ABOVE * rad_s).count();
+        (rad_s > 0.0).then_some(Self {
+            rad_s,
+            beyond,
+            sides: pairs.len(),
+        })
+    }
+
+    /// The wheels are clipped: commands reach well past the ceiling, on a share of the steps.
+    fn clips(&self, commanded_rad_s: f64) -> bool {
+        commanded_rad_s > CLIPPED_ABOVE * self.rad_s
+            && self.beyond as f64 >= MIN_CLIPPED_SHARE * self.sides as f64
+    }
 }
 
 /// The runs `which` (indices into `runs`) grouped by ground, in the order the grounds first

@@ -44,8 +44,8 @@ pub(crate) fn judge_grounds(
     let mut out = Vec::new();
     for (ground, log, model, others) in grounds {
         let what = format!(
-            "the {ground} twin against the {} steps of {}{}",
-            steps.as_str(),
+            "the {ground} twin against {} of {}{}",
+            steps_text(steps),
             log.meta.name,
             if held_out {
                 " (never used to choose it)"
@@ -263,5 +263,13 @@ fn explain(
             "{side}; moved the right way by {}, which the search traded against the other terms",
             moved_by.join(", ")
         )
+    }
+}
+
+/// Which steps, in words: "the odd steps", "every step".
+pub(crate) fn steps_text(steps: UseSteps) -> String {
+    match steps {
+        UseSteps::All => "every step".into(),
+        s => format!("the {} steps", s.as_str()),
     }
 }

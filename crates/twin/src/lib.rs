@@ -56,7 +56,7 @@ pub use event::TwinEvent;
 pub use report::TwinReport;
 
 use drive_sim_compare::judge::JudgeOptions;
-use drive_sim_log::{OpenOptions, UseSteps};
+use drive_sim_log::{DriveLog, OpenOptions, UseSteps};
 use drive_sim_model::output::StagedDir;
 use input::{grounds, open_logs, Ground, RunLog};
 use judging::{judge_left_out, judge_own_grounds, LeftOut};
@@ -180,6 +180,12 @@ pub fn make_twin(req: &TwinRequest, progress: &(dyn Fn(&TwinEvent) + Sync)) -> R
         })
         .collect();
     progress(&TwinEvent::Grounds { grounds: &listed });
+    let logs: Vec<&DriveLog> = runs.iter().map(|r| &r.log).collect();
+    let (_, widened) =
+        input::starting_models(&logs, req.input.robot.as_deref(), req.input.terrain.as_deref())?;
+    for note in &widened {
+        progress(&TwinEvent::Note { note });
+    }
     if let Some(only) = &req.knobs {
         check_knobs(only, &runs[0], &req.input)?;
     }
@@ -267,11 +273,9 @@ pub fn make_twin(req: &TwinRequest, progress: &(dyn Fn(&TwinEvent) + Sync)) -> R
 
 /// Refuses knob names the pool does not hold (bad input naming the first, with the pool).
 fn check_knobs(only: &[String], first: &RunLog, input: &OpenOptions) -> Result<()> {
-    let m = drive_sim_calibration::to_dir::StartingModels::resolve(
-        &first.log,
-        input.robot.as_deref(),
-        input.terrain.as_deref(),
-    )?;
+    let (starts, _) =
+        input::starting_models(&[&first.log], input.robot.as_deref(), input.terrain.as_deref())?;
+    let m = &starts[0];
     let start = drive_sim_calibration::twin::lift_effects(&m.robot, &m.terrain)?;
     let reach = drive_sim_model::effects::CommandReach::of_commands(
         first.log.samples.iter().map(|s| s.m.cmd),

@@ -13,14 +13,13 @@
 use crate::closed::{Closed, ClosedGround, PointScore};
 use crate::error::Result;
 use crate::event::TwinEvent;
-use crate::input::Ground;
+use crate::input::{starting_models, Ground};
 use crate::knobs::{pool, Knob};
 use crate::rule::{Choice, Rule};
 use crate::screen::{screen, ScreenInput, Screening};
 use crate::tune::{tune, TuneInput, Tuning};
 use crate::TwinOptions;
 use drive_sim_calibration::joint::{calibrate_joint, JointInput, JointLog};
-use drive_sim_calibration::to_dir::StartingModels;
 use drive_sim_calibration::{
     calibrate_timed, twin, CalibrationOptions, FittedParam, ModelParams, SimFactory,
 };
@@ -73,6 +72,10 @@ pub struct StageTime {
 pub struct PassReport {
     /// The steps it used: `odd`, `even` or `all`.
     pub steps: String,
+    /// What the start model changed from the robot file or the logs' metadata, one line each
+    /// (a command space widened to the run's commands, a saturation the encoders show).
+    #[serde(default)]
+    pub start: Vec<String>,
     /// Each ground's calibration by replay.
     pub calibration: Vec<GroundCalibration>,
     /// The closed-loop screening of the pool.
@@ -144,7 +147,7 @@ pub(crate) fn run_pass(req: &PassRequest, progress: &(dyn Fn(&TwinEvent) + Sync)
         steps: req.steps,
     });
     let t0 = Instant::now();
-    let (calibration, calibrated, declared) = calibrate(req, &chosen, progress)?;
+    let (start, calibration, calibrated, declared) = calibrate(req, &chosen, progress)?;
     timed("calibrate", t0);
     let prepared: Vec<PreparedReal> = chosen
         .iter()
@@ -219,6 +222,7 @@ pub(crate) fn run_pass(req: &PassRequest, progress: &(dyn Fn(&TwinEvent) + Sync)
     Ok(Pass {
         report: PassReport {
             steps: req.steps.as_str().to_string(),
+            start,
             calibration,
             screening,
             choice,
@@ -233,13 +237,22 @@ pub(crate) fn run_pass(req: &PassRequest, progress: &(dyn Fn(&TwinEvent) + Sync)
     })
 }
 
+/// What [`calibrate`] gives: the start model's changes, each ground's calibration, its
+/// calibrated model and the model it started from.
+type Calibrated = (
+    Vec<String>,
+    Vec<GroundCalibration>,
+    Vec<ModelParams>,
+    Vec<ModelParams>,
+);
+
 /// Each ground's calibration by replay (jointly when several), its calibrated model and the
 /// model it started from.
 fn calibrate(
     req: &PassRequest,
     chosen: &[(DriveLog, usize)],
     progress: &(dyn Fn(&TwinEvent) + Sync),
-) -> Result<(Vec<GroundCalibration>, Vec<ModelParams>, Vec<ModelParams>)> {
+) -> Result<Calibrated> {
     let opts = CalibrationOptions {
         seed: req.opts.seed,
         discover: false,
@@ -253,10 +266,8 @@ fn calibrate(
     let on_event =
         |e: &drive_sim_calibration::CalibrationEvent| progress(&TwinEvent::Calibration { event: e });
     let factory = SimFactory::default();
-    let starts: Vec<StartingModels> = chosen
-        .iter()
-        .map(|(log, _)| StartingModels::resolve(log, req.robot, req.terrain))
-        .collect::<drive_sim_calibration::Result<_>>()?;
+    let logs: Vec<&DriveLog> = chosen.iter().map(|(log, _)| log).collect();
+    let (starts, widened) = starting_models(&logs, req.robot, req.terrain)?;
     let declared = starts
         .iter()
         .map(|m| twin::lift_effects(&m.robot, &m.terrain))
@@ -273,7 +284,7 @@ fn calibrate(
             fitted: twin::fitted_params(&report),
             notes: report.status.notes.clone(),
         };
-        return Ok((vec![cal], vec![report.model_after], declared));
+        return Ok((widened, vec![cal], vec![report.model_after], declared));
     }
     let input = JointInput {
         logs: chosen
@@ -314,5 +325,5 @@ fn calibrate(
         })
         .collect();
     let models = report.logs.iter().map(|l| l.model.clone()).collect();
-    Ok((cals, models, declared))
+    Ok((widened, cals, models, declared))
 }

@@ -354,6 +354,13 @@ fn criteria_table(s: &mut String, r: &TwinReport) {
 fn changed(s: &mut String, r: &TwinReport) {
     let p = &r.final_twin.pass;
     s.push_str("\n## What was changed to get there (the twin written)\n\n");
+    if !p.start.is_empty() {
+        s.push_str("The start model, from the robot's file and the logs' metadata:\n\n");
+        for line in &p.start {
+            let _ = writeln!(s, "- {line}");
+        }
+        s.push('\n');
+    }
     for c in &p.calibration {
         let _ = writeln!(
             s,
@@ -415,8 +422,9 @@ fn choice(s: &mut String, r: &TwinReport) {
     let sc = &r.final_twin.pass.screening;
     let _ = writeln!(
         s,
-        "\n## How the knobs were chosen (the twin written)\n\nEach of the {} knobs of the model was set at 3 points of its box and run in closed loop on seeds {:?} ({} DRIVE runs); the calibrated model's loss there: {}. The rule: {}.\n",
+        "\n## How the knobs were chosen (the twin written)\n\nEach of the {} knobs of the model was set at {} points of its box and run in closed loop on seeds {:?} ({} DRIVE runs); the calibrated model's loss there: {}. The rule: {}.\n",
         sc.knobs.len(),
+        crate::screen::POINTS_PER_KNOB,
         sc.seeds,
         sc.runs,
         sc.start.loss.map_or("-".into(), |l| format!("{l:.2}")),

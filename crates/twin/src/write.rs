@@ -129,8 +129,12 @@ fn provenance_of(w: &Written, g: usize, tuned: bool) -> Provenance {
         .filter(|j| j.ground == cal.ground)
     {
         header.push(format!(
-            "Judged on the {} steps of {}{}: {} (p {:.3}); see twin.md.",
-            j.steps,
+            "Judged on {} of {}{}: {} (p {:.3}); see twin.md.",
+            if j.steps == "all" {
+                "every step".to_string()
+            } else {
+                format!("the {} steps", j.steps)
+            },
             j.against,
             if j.held_out { " (held out)" } else { "" },
             if j.outcome.indistinguishable {
