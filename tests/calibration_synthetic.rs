@@ -245,20 +245,20 @@ fn a_declared_limit_is_refit_and_judged() {
     assert!(r.after.score < 2.0, "{}", r.after.score);
 }
 
-/// Every kinematic effect, injected alone and undeclared, over three seeds (60 steps, 18 held
-/// out; two seeds of the saturation: see the ignored test below). Each
-/// must be ranked first, its value recovered within the stated absolute tolerance,
-/// and the held-out score brought below the stated multiple of the noise floor (1 = at the
-/// floor; the floor is itself estimated from 60 steps).
-#[test]
-fn each_effect_over_three_seeds() {
+/// Every kinematic effect, injected alone and undeclared (60 steps, 18 held out). Each must be
+/// ranked first, its value recovered within the stated absolute tolerance, and the held-out
+/// score brought below the stated multiple of the noise floor (1 = at the floor; the floor is
+/// itself estimated from 60 steps). CI runs one seed (22) of each; the three seeds 21–23 (two
+/// of the saturation: see the ignored regression below) are
+/// `cargo test --test calibration_synthetic each_effect_over_three_seeds -- --ignored`.
+fn every_effect_cases() -> &'static [(&'static str, f64, &'static str, f64, f64)] {
     // The saturation on seeds 21 and 23 is in `open_regressions_of_the_least_squares_pipeline`
     // below.
     // The command yaw-rate limit was there too until limits got a multi-start
     // (`calibration::fit`): started mid-box, above every commanded yaw rate, its fit stayed in
     // the flat region and the controller's kinematics won as a stand-in.
     // (effect, injected value, candidate name, tolerance on the value, score bound)
-    let cases: &[(&str, f64, &str, f64, f64)] = &[
+    &[
         (
             "wheel_speed_saturation_rad_s",
             10.0,
@@ -299,18 +299,28 @@ fn each_effect_over_three_seeds() {
             0.02,
             1.5,
         ),
-    ];
-    check_cases(cases, |name, seed| {
+    ]
+}
+
+#[test]
+fn each_effect_on_one_seed() {
+    check_cases(every_effect_cases(), &[22], |_, _| true);
+}
+
+#[test]
+#[ignore = "three seeds of each effect, 28 calibrations (about a minute): CI runs one"]
+fn each_effect_over_three_seeds() {
+    check_cases(every_effect_cases(), &[21, 22, 23], |name, seed| {
         !(name == "wheel_speed_saturation_rad_s" && (seed == 21 || seed == 23))
     });
 }
 
-/// Each case over seeds 21–23 (those `keep` accepts): ranked first, value within tolerance, test
+/// Each case over `seeds` (those `keep` accepts): ranked first, value within tolerance, test
 /// score below the bound.
-fn check_cases(cases: &[(&str, f64, &str, f64, f64)], keep: impl Fn(&str, u64) -> bool) {
+fn check_cases(cases: &[(&str, f64, &str, f64, f64)], seeds: &[u64], keep: impl Fn(&str, u64) -> bool) {
     let mut failures = Vec::new();
     for &(name, value, candidate, tol, score_bound) in cases {
-        for seed in [21, 22, 23] {
+        for &seed in seeds {
             if !keep(name, seed) {
                 continue;
             }
@@ -351,6 +361,7 @@ fn open_regressions_of_the_least_squares_pipeline() {
             0.1,
             1.5,
         )],
-        |_, seed| seed == 21 || seed == 23,
+        &[21, 23],
+        |_, _| true,
     );
 }

@@ -60,11 +60,11 @@ fn judged(real: &DriveLog, model: &drive_sim::calibration::ModelParams) -> Judge
 #[test]
 fn runs_of_the_model_itself_are_rejected_at_about_the_tests_level() {
     let (_, model) = generator_and_model(10.0);
-    // The null case five times: the model's own run (seeds the runs and references do not
+    // The null case three times: the model's own run (seeds the runs and references do not
     // use) in the real run's place. At level 0.1 a run is rejected with probability 0.1 at
-    // most: 3 or more rejections of 5 has probability 0.0086.
+    // most: 2 or more rejections of 3 has probability 0.028.
     let mut rejected = Vec::new();
-    for seed in [777, 778, 779, 780, 781] {
+    for seed in [777, 778, 779] {
         let own = drive_sim::compare::tune::twin_run(&model, 100, seed).unwrap();
         let null = judged(&own, &model);
         assert_eq!(null.criteria[0].criterion, DIFFERS);
@@ -76,7 +76,7 @@ fn runs_of_the_model_itself_are_rejected_at_about_the_tests_level() {
             rejected.push(seed);
         }
     }
-    assert!(rejected.len() <= 2, "rejected for seeds {rejected:?}");
+    assert!(rejected.len() <= 1, "rejected for seeds {rejected:?}");
 }
 
 #[test]
