@@ -8,6 +8,10 @@ use drive_sim::sim::Plant;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use std::collections::VecDeque;
+
+/// The generator's integration step, s (1 kHz): its delays are whole numbers of these.
+const STEP_S: f64 = 1e-3;
 
 /// The generator's physics and sensors.
 #[derive(Debug, Clone, Copy)]
@@ -94,6 +98,104 @@ pub struct Unmodelled {
     pub turn_memory_rad_s: f64,
     /// Time constant of the learnt turn, s.
     pub turn_memory_s: f64,
+
+    // The benchmark's families (`tests/common/random_cases.rs`): each off at its default (0,
+    // or 0 for every side). The command maps act on each side's command `u` on its way to the
+    // wheel-speed loop, in the order of the fields (the dead time first, the reverse gain
+    // last), before the motor gains, the gain drift and the wheel limit above.
+    /// Pure actuation dead time, s: the wheel loop acts on the command of `τ` ago (a bus
+    /// latency, a slow control loop), a FIFO of the 1 kHz steps, so it is a whole number of
+    /// milliseconds. 0: none.
+    pub dead_time_s: f64,
+    /// Command cross-coupling: `u_l' = u_l + c_l · u_r`, `u_r' = u_r + c_r · u_l` (a motor
+    /// driver whose mixer leaks a share of one side's command into the other's), `[c_l, c_r]`,
+    /// dimensionless. 0: none.
+    pub cross_coupling: [f64; 2],
+    /// Deadband θ, rad/s: `|u| ≤ θ → 0`, else `sign(u) · (|u| − θ)` (a driver that ignores
+    /// small commands, static friction its feed-forward does not cover, so every command
+    /// loses θ). 0: none.
+    pub deadband_rad_s: f64,
+    /// Hinge θ, rad/s, of [`Unmodelled::hinge_gain_change`]: above it the loop's gain changes
+    /// (a motor past its base speed, field weakening).
+    pub hinge_rad_s: f64,
+    /// Gain change k above the hinge: `|u| > θ → sign(u) · (θ + (1 + k) · (|u| − θ))`,
+    /// dimensionless. 0: none.
+    pub hinge_gain_change: f64,
+    /// Gain curve per side, s/rad: `u · max(0, 1 + a · |u|)` (the driver's voltage-to-speed
+    /// map is not linear: a > 0 over-delivers at speed, a < 0 falls short, softly
+    /// saturating), `[a_l, a_r]`. 0: none.
+    pub gain_curve_s_rad: [f64; 2],
+    /// Soft speed limit S, rad/s: `S · tanh(u / S)` (the voltage headroom shrinks as the motor
+    /// speeds up: no hard clip, a gradual one). 0: none.
+    pub soft_limit_rad_s: f64,
+    /// Reverse gain change δ: a side told a negative speed gets `(1 + δ) · u` (a driver or
+    /// gearbox that is not symmetric), dimensionless. 0: none.
+    pub reverse_gain_change: f64,
+    /// Backlash, rad at the wheel: slack in the chain between the motor (which the encoder
+    /// reads) and the wheel (which moves the body); the gap `g = motor angle − wheel angle`
+    /// stays in `[−b/2, b/2]`, so after a reversal the motor turns through the slack before
+    /// the wheel follows. 0: none.
+    pub backlash_rad: f64,
+    /// Yaw damping k, s/m: the body turns at `w · max(0, 1 − k · |v|)` of what its wheels say
+    /// (lateral tyre forces that grow with speed resist the skid: understeer). 0: none.
+    pub yaw_damping_s_m: f64,
+    /// Gyro bias drifting over the run, rad/s per step: the IMU reads `d · k` more at step `k`
+    /// (the gyro warming up). 0: none.
+    pub imu_bias_drift_rad_s_per_step: f64,
+    /// Gyro scale error e: the IMU reads `(1 + e) · wz`. 0: none.
+    pub imu_scale_error: f64,
+    /// Constant gyro bias, rad/s. 0: none.
+    pub imu_bias_rad_s: f64,
+    /// Encoder scale error per side: each encoder reads `(1 + e) · ω` (a wrong count per
+    /// revolution configured on that side), `[e_l, e_r]`. 0: none.
+    pub encoder_scale_error: [f64; 2],
+    /// Probability that an encoder reading is lost and reported as 0 (a dropped frame the
+    /// driver fills with zero), per reading and side. 0: none.
+    pub encoder_dropout: f64,
+    /// Counts per wheel revolution of an incremental encoder whose speed is the count
+    /// difference over the sampling period: readings are multiples of `2π / (N · Δt)` (zero
+    /// mean error, only noise). 0: an ideal encoder.
+    pub encoder_counts_per_rev: u32,
+    /// The localisation reports the pose of this long ago, s (a slow scan matcher). 0: none.
+    pub pose_latency_s: f64,
+}
+
+impl Unmodelled {
+    /// Each side's command after the command maps (cross-coupling, deadband, hinge, gain
+    /// curve, soft limit, reverse gain); exactly `cmd` when they are all off.
+    fn command_map(&self, cmd: WheelSpeeds) -> [f64; 2] {
+        let mut u = [cmd.left_rad_s, cmd.right_rad_s];
+        if self.cross_coupling != [0.0; 2] {
+            let c = self.cross_coupling;
+            u = [u[0] + c[0] * u[1], u[1] + c[1] * u[0]];
+        }
+        for (side, x) in u.iter_mut().enumerate() {
+            if self.deadband_rad_s > 0.0 {
+                let t = self.deadband_rad_s;
+                *x = if x.abs() <= t {
+                    0.0
+                } else {
+                    x.signum() * (x.abs() - t)
+                };
+            }
+            if self.hinge_gain_change != 0.0 && x.abs() > self.hinge_rad_s {
+                let t = self.hinge_rad_s;
+                *x = x.signum() * (t + (1.0 + self.hinge_gain_change) * (x.abs() - t));
+            }
+            let a = self.gain_curve_s_rad[side];
+            if a != 0.0 {
+                *x *= (1.0 + a * x.abs()).max(0.0);
+            }
+            if self.soft_limit_rad_s > 0.0 {
+                let s = self.soft_limit_rad_s;
+                *x = s * (*x / s).tanh();
+            }
+            if self.reverse_gain_change != 0.0 && *x < 0.0 {
+                *x *= 1.0 + self.reverse_gain_change;
+            }
+        }
+        u
+    }
 }
 
 /// The generator as a [`Plant`] the protocol runner can drive.
@@ -105,6 +207,21 @@ pub struct TestRobot {
     offset: [f64; 2],
     /// The learnt turn load ([`Unmodelled::turn_memory_rad_s`]), between -1 and 1.
     learnt_turn: f64,
+    /// Commands on their way through the dead time, one per 1 kHz step, oldest first.
+    in_flight: VecDeque<WheelSpeeds>,
+    /// What the dead time releases before any command went in (the command at rest or at
+    /// the last reset).
+    in_flight_fill: WheelSpeeds,
+    /// The backlash gap per side, rad ([`Unmodelled::backlash_rad`]).
+    gap: [f64; 2],
+    /// The wheels' speeds behind the backlash, rad/s (the motors' when there is none).
+    driven: [f64; 2],
+    /// Motor angle per side, rad (what a counting encoder counts).
+    angle: [f64; 2],
+    /// Counts and time of the previous encoder reading ([`Unmodelled::encoder_counts_per_rev`]).
+    last_count: Option<([f64; 2], f64)>,
+    /// True poses of the last [`Unmodelled::pose_latency_s`] (time, x, y, yaw), oldest first.
+    past_poses: VecDeque<(f64, f64, f64, f64)>,
     body_v: f64,
     body_w: f64,
     rng: ChaCha8Rng,
@@ -130,6 +247,13 @@ impl TestRobot {
             step: 0,
             offset: [0.0; 2],
             learnt_turn: 0.0,
+            in_flight: VecDeque::new(),
+            in_flight_fill: WheelSpeeds::default(),
+            gap: [0.0; 2],
+            driven: [0.0; 2],
+            angle: [0.0; 2],
+            last_count: None,
+            past_poses: VecDeque::new(),
             body_v: 0.0,
             body_w: 0.0,
             rng: ChaCha8Rng::seed_from_u64(spec.seed),
@@ -150,9 +274,106 @@ impl TestRobot {
             Some(t) if reverse => t,
             _ => s.track_m,
         };
-        let v = s.radius_m * (self.wheels[0] + self.wheels[1]) / 2.0;
-        let w = s.radius_m * (self.wheels[1] - self.wheels[0]) / track;
+        let wheels = self.driven_wheels();
+        let v = s.radius_m * (wheels[0] + wheels[1]) / 2.0;
+        let mut w = s.radius_m * (wheels[1] - wheels[0]) / track;
+        if self.extra.yaw_damping_s_m > 0.0 {
+            w *= (1.0 - self.extra.yaw_damping_s_m * v.abs()).max(0.0);
+        }
         (v, w)
+    }
+
+    /// The speeds of the wheels that move the body: the motors' behind the backlash.
+    fn driven_wheels(&self) -> [f64; 2] {
+        if self.extra.backlash_rad > 0.0 {
+            self.driven
+        } else {
+            self.wheels
+        }
+    }
+
+    /// The wheel-speed targets for the command `cmd` (after the dead time) and the turn the
+    /// turn memory reads from it.
+    fn targets(&self, cmd: WheelSpeeds) -> ([f64; 2], f64) {
+        let u = self.extra.command_map(cmd);
+        let drift = 1.0 + self.extra.gain_drift_per_step * self.step as f64;
+        let mut target = [drift * self.spec.gain[0] * u[0], drift * self.spec.gain[1] * u[1]];
+        if cmd != WheelSpeeds::default() {
+            target = [target[0] + self.offset[0], target[1] + self.offset[1]];
+        }
+        if self.extra.wheel_limit_rad_s > 0.0 {
+            let l = self.extra.wheel_limit_rad_s;
+            target = target.map(|t| t.clamp(-l, l));
+        }
+        let turn = ((cmd.left_rad_s - cmd.right_rad_s) / 2.0).tanh();
+        (target, turn)
+    }
+
+    /// The command the dead time releases at this 1 kHz step (the current one goes in).
+    fn delayed_command(&mut self) -> WheelSpeeds {
+        let delay = (self.extra.dead_time_s / STEP_S).round() as usize;
+        if self.in_flight.is_empty() {
+            self.in_flight
+                .extend(std::iter::repeat_n(self.in_flight_fill, delay));
+        }
+        self.in_flight.push_back(self.cmd);
+        self.in_flight.pop_front().unwrap_or(self.cmd)
+    }
+
+    /// Moves each wheel behind its motor through the backlash over `h` seconds: the motor
+    /// first takes up the slack, the wheel moves with what goes beyond it.
+    fn take_up_backlash(&mut self, h: f64) {
+        let half = self.extra.backlash_rad / 2.0;
+        for i in 0..2 {
+            let g = self.gap[i] + h * self.wheels[i];
+            let clamped = g.clamp(-half, half);
+            self.driven[i] = (g - clamped) / h;
+            self.gap[i] = clamped;
+        }
+    }
+
+    /// The encoder reading of side `i` before noise: the motor's speed, counted when the
+    /// encoder counts (the count difference since the previous reading over its time), and
+    /// scaled by the side's scale error.
+    fn encoder(&self, i: usize, counted: Option<[f64; 2]>) -> f64 {
+        let w = counted.map_or(self.wheels[i], |c| c[i]);
+        let e = self.extra.encoder_scale_error[i];
+        if e != 0.0 {
+            (1.0 + e) * w
+        } else {
+            w
+        }
+    }
+
+    /// Both counting encoders' speeds now, updating the previous counts
+    /// ([`Unmodelled::encoder_counts_per_rev`]); `None` for ideal encoders.
+    fn count_encoders(&mut self) -> Option<[f64; 2]> {
+        let n = self.extra.encoder_counts_per_rev;
+        if n == 0 {
+            return None;
+        }
+        let q = std::f64::consts::TAU / n as f64;
+        let counts = self.angle.map(|a| (a / q).floor());
+        let speeds = match self.last_count {
+            Some((prev, t)) if self.t > t => [0, 1].map(|i| (counts[i] - prev[i]) * q / (self.t - t)),
+            // No earlier reading (or none since the last reset): the motors' speed.
+            _ => self.wheels,
+        };
+        self.last_count = Some((counts, self.t));
+        Some(speeds)
+    }
+
+    /// The true pose (x, y, yaw) the localisation reports now: that of
+    /// [`Unmodelled::pose_latency_s`] ago (the oldest kept until the run is that old).
+    fn reported_pose(&self) -> (f64, f64, f64) {
+        if self.extra.pose_latency_s > 0.0 {
+            let at = self.t - self.extra.pose_latency_s;
+            let past = self.past_poses.iter().rev().find(|p| p.0 <= at + 0.5 * STEP_S);
+            if let Some(&(_, x, y, yaw)) = past.or(self.past_poses.front()) {
+                return (x, y, yaw);
+            }
+        }
+        (self.x, self.y, self.yaw)
     }
 
     fn body(&self) -> (f64, f64) {
@@ -186,23 +407,18 @@ impl Plant for TestRobot {
         self.cmd = cmd;
     }
     fn advance(&mut self, dt_s: f64) -> drive_sim::Result<()> {
-        let n = (dt_s / 1e-3).round().max(1.0) as usize;
+        let n = (dt_s / STEP_S).round().max(1.0) as usize;
         let h = dt_s / n as f64;
-        let drift = 1.0 + self.extra.gain_drift_per_step * self.step as f64;
-        let mut target = [
-            drift * self.spec.gain[0] * self.cmd.left_rad_s,
-            drift * self.spec.gain[1] * self.cmd.right_rad_s,
-        ];
-        if self.cmd != WheelSpeeds::default() {
-            target = [target[0] + self.offset[0], target[1] + self.offset[1]];
-        }
-        if self.extra.wheel_limit_rad_s > 0.0 {
-            let l = self.extra.wheel_limit_rad_s;
-            target = target.map(|t| t.clamp(-l, l));
-        }
-        let turn = ((self.cmd.left_rad_s - self.cmd.right_rad_s) / 2.0).tanh();
+        // Without a dead time the command, and so the targets, hold over the whole tick.
+        let delayed = self.extra.dead_time_s > 0.0;
+        let held = self.targets(self.cmd);
         for _ in 0..n {
-            let mut target = target;
+            let (mut target, turn) = if delayed {
+                let cmd = self.delayed_command();
+                self.targets(cmd)
+            } else {
+                held
+            };
             if self.extra.turn_memory_rad_s > 0.0 {
                 let give = self.extra.turn_memory_rad_s * (turn - self.learnt_turn);
                 target = [target[0] - give, target[1] + give];
@@ -210,6 +426,12 @@ impl Plant for TestRobot {
             }
             for (w, t) in self.wheels.iter_mut().zip(target) {
                 *w += h / self.spec.lag_s * (t - *w);
+            }
+            for (a, w) in self.angle.iter_mut().zip(self.wheels) {
+                *a += h * w;
+            }
+            if self.extra.backlash_rad > 0.0 {
+                self.take_up_backlash(h);
             }
             if self.extra.body_lag_s > 0.0 {
                 let (v, w) = self.wheel_body_velocity();
@@ -222,6 +444,15 @@ impl Plant for TestRobot {
             self.y += h * (v * self.yaw.sin() + vy * self.yaw.cos());
             self.yaw = drive_sim::geometry::wrap_angle(self.yaw + h * w);
             self.t += h;
+            if self.extra.pose_latency_s > 0.0 {
+                self.past_poses.push_back((self.t, self.x, self.y, self.yaw));
+                // Keep what the latency reaches back to, and one older.
+                while self.past_poses.len() > 2
+                    && self.past_poses[1].0 <= self.t - self.extra.pose_latency_s - STEP_S
+                {
+                    self.past_poses.pop_front();
+                }
+            }
         }
         Ok(())
     }
@@ -235,14 +466,37 @@ impl Plant for TestRobot {
         };
         let (pn, en, imn) = (self.spec.pose_noise, self.spec.enc_noise, self.spec.imu_noise);
         let d = self.extra.lidar_ahead_m;
+        let (x, y, yaw) = self.reported_pose();
         let pose = Pose {
-            x_m: self.x + d * self.yaw.cos() + self.noise(pn),
-            y_m: self.y + d * self.yaw.sin() + self.noise(pn),
-            yaw_rad: self.yaw + self.extra.lidar_yaw_rad + self.noise(self.extra.pose_yaw_noise_rad),
+            x_m: x + d * yaw.cos() + self.noise(pn),
+            y_m: y + d * yaw.sin() + self.noise(pn),
+            yaw_rad: yaw + self.extra.lidar_yaw_rad + self.noise(self.extra.pose_yaw_noise_rad),
             ..Pose::default()
         };
-        let enc = WheelSpeeds::new(self.wheels[0] + self.noise(en), self.wheels[1] + self.noise(en));
-        let wz = w + self.noise(imn);
+        let counted = self.count_encoders();
+        let mut enc = WheelSpeeds::new(
+            self.encoder(0, counted) + self.noise(en),
+            self.encoder(1, counted) + self.noise(en),
+        );
+        let mut wz = w;
+        let e = &self.extra;
+        if e.imu_scale_error != 0.0 || e.imu_bias_rad_s != 0.0 || e.imu_bias_drift_rad_s_per_step != 0.0 {
+            wz = (1.0 + e.imu_scale_error) * w
+                + e.imu_bias_rad_s
+                + e.imu_bias_drift_rad_s_per_step * self.step as f64;
+        }
+        let wz = wz + self.noise(imn);
+        // Drawn last, and only when dropouts are on: a run without them draws its noise as before.
+        if self.extra.encoder_dropout > 0.0 {
+            use rand::RngExt;
+            let p = self.extra.encoder_dropout;
+            if self.rng.random_bool(p) {
+                enc.left_rad_s = 0.0;
+            }
+            if self.rng.random_bool(p) {
+                enc.right_rad_s = 0.0;
+            }
+        }
         Measurement {
             cmd: self.cmd,
             enc,
@@ -281,7 +535,12 @@ impl Plant for TestRobot {
         self.y = pose.y_m;
         self.yaw = pose.yaw_rad;
         self.wheels = [wheels.left_rad_s, wheels.right_rad_s];
+        self.driven = self.wheels;
         self.cmd = wheels;
+        self.in_flight.clear();
+        self.in_flight_fill = wheels;
+        self.last_count = None;
+        self.past_poses.clear();
         let (v, w) = self.wheel_body_velocity();
         self.body_v = v;
         self.body_w = w;
