@@ -340,6 +340,37 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
                     seed: ctx.opts.rule.seed.wrapping_add(7000 + round as u64 * 100),
                 },
             )?;
+            // A term whose fit leaves some coefficients confounded (with the base parameters or
+            // an effect refit beside it) is tried once more with only its identifiable
+            // coefficients: the regression chose the features on the residual, the replay's
+            // fit is what tells which of them the data pin down.
+            let pruned: Vec<Candidate> = ev
+                .ranked
+                .iter()
+                .filter(|(e, _)| !e.significant && e.identifiable == Some(false) && e.reduction > 0.0)
+                .filter_map(|(e, _)| {
+                    let c = candidates[structural..].iter().find(|c| c.name == e.effect)?;
+                    pruned_term(c, e)
+                })
+                .filter(|p| !candidates.iter().any(|c| c.name == p.name))
+                .collect();
+            let mut ev = ev;
+            if !pruned.is_empty() {
+                let more = evaluate(
+                    ctx,
+                    factory,
+                    EvaluateInput {
+                        current: &out.current,
+                        current_validation: &out.current_validation,
+                        candidates: &pruned,
+                        refit: &refit,
+                        seed: ctx.opts.rule.seed.wrapping_add(7050 + round as u64 * 100),
+                    },
+                )?;
+                ev.ranked.extend(more.ranked);
+                ev.ranked.sort_by(|a, b| b.0.reduction.total_cmp(&a.0.reduction));
+                candidates.extend(pruned);
+            }
             this.tried = ev.ranked.iter().map(|(e, _)| e.clone()).collect();
             let Some(best) = ev.ranked.iter().find(|(e, _)| e.significant) else {
                 this.why = "no candidate lowered the validation score with bootstrap evidence".into();
@@ -425,6 +456,55 @@ fn named_together(candidates: &[Candidate], groups: &[Vec<String>]) -> Vec<Candi
         }
     }
     out
+}
+
+/// `c`, a discovered term (or several taken together), with only the coefficients its fit
+/// found identifiable; `None` when none is, or all are.
+fn pruned_term(c: &Candidate, ev: &CandidateEvidence) -> Option<Candidate> {
+    let keep = |s: &ParamSpec| {
+        ev.params
+            .iter()
+            .find(|p| p.name == s.param.name())
+            .is_some_and(|p| p.identifiable == Some(true) && !p.confounded)
+    };
+    let params: Vec<ParamSpec> = c.params.iter().copied().filter(|s| keep(s)).collect();
+    if params.is_empty() || params.len() == c.params.len() {
+        return None;
+    }
+    // Each target with a coefficient left, and its features.
+    let mut parts: Vec<(TermTarget, Vec<&'static str>)> = Vec::new();
+    for s in &params {
+        let name = s.param.name();
+        let Some((target, feature)) = TermTarget::ALL.iter().find_map(|t| {
+            let f = name.strip_prefix(&format!("effect.term_{}__", t.name()))?;
+            Some((*t, Feature::from_name(f)?))
+        }) else {
+            continue;
+        };
+        match parts.iter_mut().find(|(t, _)| *t == target) {
+            Some((_, fs)) => fs.push(feature.symbol()),
+            None => parts.push((target, vec![feature.symbol()])),
+        }
+    }
+    let effects = c
+        .effects
+        .iter()
+        .copied()
+        .filter(|&i| {
+            parts
+                .iter()
+                .any(|(t, _)| effects::REGISTRY[i].name() == t.effect_name())
+        })
+        .collect();
+    Some(Candidate {
+        name: parts
+            .iter()
+            .map(|(t, fs)| format!("term {} = {}", t.name(), fs.join(" + ")))
+            .collect::<Vec<_>>()
+            .join("+"),
+        effects,
+        params,
+    })
 }
 
 /// The library of a target: every feature it has, the intercept first.

@@ -118,11 +118,33 @@ pub enum Feature {
     Ax,
     /// Model yaw acceleration, rad/s².
     Alpha,
+    /// The side's own command times its magnitude, ω_cmd·|ω_cmd| (an odd gain curve: a motor
+    /// that gains or loses gain with speed), rad²/s².
+    CmdWheelOdd,
+    /// The side's own command cubed (a soft saturation's first term), rad³/s³.
+    CmdWheelCube,
+    /// The sign of the side's own command (a deadband or a Coulomb loss: a constant offset
+    /// against the direction the wheel is told to turn).
+    SignCmdWheel,
+    /// The side's own command when it is negative, 0 otherwise (a wheel with another gain
+    /// backwards, whatever the body does), rad/s.
+    ReverseWheel,
+    /// A hinge of the side's own command, sign(ω_cmd)·max(|ω_cmd| − θ, 0), with θ the
+    /// [`HINGES_RAD_S`] entry of this index (a gain that changes above a speed: a piecewise
+    /// linear map), rad/s.
+    Hinge(u8),
+    /// |vx|·wz (yaw rate lost or gained with speed, the same in both directions), m/s².
+    AbsVxWz,
 }
+
+/// The knees θ of the [`Feature::Hinge`] features, rad/s of wheel command: a grid over the
+/// wheel speeds of the catalogue's robots (the Husky's U is 6 rad/s per wheel, the Warthog's
+/// 16.7); a knee beyond a log's commands gives a column of zeros, which discovery leaves out.
+pub const HINGES_RAD_S: [f64; 7] = [2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 14.0];
 
 impl Feature {
     /// Every feature, in a fixed order (the order of the term parameters).
-    pub const ALL: [Feature; 25] = [
+    pub const ALL: [Feature; 37] = [
         Feature::One,
         Feature::Vx,
         Feature::Wz,
@@ -148,6 +170,18 @@ impl Feature {
         Feature::ReverseCmdWheel,
         Feature::Ax,
         Feature::Alpha,
+        Feature::CmdWheelOdd,
+        Feature::CmdWheelCube,
+        Feature::SignCmdWheel,
+        Feature::ReverseWheel,
+        Feature::Hinge(0),
+        Feature::Hinge(1),
+        Feature::Hinge(2),
+        Feature::Hinge(3),
+        Feature::Hinge(4),
+        Feature::Hinge(5),
+        Feature::Hinge(6),
+        Feature::AbsVxWz,
     ];
 
     /// Short name, used in parameter keys and equations.
@@ -178,6 +212,12 @@ impl Feature {
             Self::ReverseCmdWheel => "rev_cmd_wheel",
             Self::Ax => "ax",
             Self::Alpha => "alpha",
+            Self::CmdWheelOdd => "cmd_wheel_odd",
+            Self::CmdWheelCube => "cmd_wheel_cube",
+            Self::SignCmdWheel => "sign_cmd_wheel",
+            Self::ReverseWheel => "rev_wheel",
+            Self::Hinge(i) => HINGE_NAMES[(i as usize).min(HINGES_RAD_S.len() - 1)],
+            Self::AbsVxWz => "abs_vx_wz",
         }
     }
 
@@ -209,6 +249,12 @@ impl Feature {
             Self::ReverseCmdWheel => "[reverse]·ω_cmd",
             Self::Ax => "dvx/dt",
             Self::Alpha => "dwz/dt",
+            Self::CmdWheelOdd => "ω_cmd·|ω_cmd|",
+            Self::CmdWheelCube => "ω_cmd³",
+            Self::SignCmdWheel => "sign(ω_cmd)",
+            Self::ReverseWheel => "[ω_cmd<0]·ω_cmd",
+            Self::Hinge(i) => HINGE_SYMBOLS[(i as usize).min(HINGES_RAD_S.len() - 1)],
+            Self::AbsVxWz => "|vx|·wz",
         }
     }
 
@@ -221,7 +267,11 @@ impl Feature {
             Self::Wz | Self::CmdWz | Self::AbsWz | Self::DeltaCmdWz | Self::PrevCmdWz => "rad/s",
             Self::ReverseWz => "rad/s",
             Self::CmdWheel | Self::StepCmdWheel | Self::ReverseCmdWheel => "rad/s",
-            Self::VxWz | Self::Ax => "m/s²",
+            Self::ReverseWheel | Self::Hinge(_) => "rad/s",
+            Self::SignCmdWheel => "1",
+            Self::CmdWheelOdd => "rad²/s²",
+            Self::CmdWheelCube => "rad³/s³",
+            Self::VxWz | Self::Ax | Self::AbsVxWz => "m/s²",
             Self::VxSq => "m²/s²",
             Self::WzSq => "rad²/s²",
             Self::TimeInStep => "s",
@@ -231,7 +281,17 @@ impl Feature {
 
     /// Whether the feature reads the side's own wheel command (only wheel targets have one).
     pub fn needs_side(self) -> bool {
-        matches!(self, Self::CmdWheel | Self::StepCmdWheel | Self::ReverseCmdWheel)
+        matches!(
+            self,
+            Self::CmdWheel
+                | Self::StepCmdWheel
+                | Self::ReverseCmdWheel
+                | Self::CmdWheelOdd
+                | Self::CmdWheelCube
+                | Self::SignCmdWheel
+                | Self::ReverseWheel
+                | Self::Hinge(_)
+        )
     }
 
     /// The value at `x`; `side_cmd` is the side's own wheel command (wheel targets).
@@ -273,6 +333,23 @@ impl Feature {
             Self::ReverseCmdWheel => reverse * side_cmd,
             Self::Ax => x.accel[0],
             Self::Alpha => x.accel[1],
+            Self::CmdWheelOdd => side_cmd * side_cmd.abs(),
+            Self::CmdWheelCube => side_cmd.powi(3),
+            Self::SignCmdWheel => {
+                if side_cmd > 0.0 {
+                    1.0
+                } else if side_cmd < 0.0 {
+                    -1.0
+                } else {
+                    0.0
+                }
+            }
+            Self::ReverseWheel => side_cmd.min(0.0),
+            Self::Hinge(i) => {
+                let knee = HINGES_RAD_S[(i as usize).min(HINGES_RAD_S.len() - 1)];
+                side_cmd.signum() * (side_cmd.abs() - knee).max(0.0)
+            }
+            Self::AbsVxWz => vx.abs() * wz,
         }
     }
 
@@ -281,6 +358,21 @@ impl Feature {
         Self::ALL.into_iter().find(|f| f.name() == name)
     }
 }
+
+/// [`Feature::Hinge`]'s names, one per knee of [`HINGES_RAD_S`].
+const HINGE_NAMES: [&str; 7] = [
+    "hinge_2", "hinge_4", "hinge_6", "hinge_8", "hinge_10", "hinge_12", "hinge_14",
+];
+/// [`Feature::Hinge`]'s symbols.
+const HINGE_SYMBOLS: [&str; 7] = [
+    "sign(ω_cmd)·(|ω_cmd|−2)₊",
+    "sign(ω_cmd)·(|ω_cmd|−4)₊",
+    "sign(ω_cmd)·(|ω_cmd|−6)₊",
+    "sign(ω_cmd)·(|ω_cmd|−8)₊",
+    "sign(ω_cmd)·(|ω_cmd|−10)₊",
+    "sign(ω_cmd)·(|ω_cmd|−12)₊",
+    "sign(ω_cmd)·(|ω_cmd|−14)₊",
+];
 
 /// The model quantity a term corrects.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
