@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Decodes every message of a drive-sim MCAP log with the official readers and prints a JSON
-summary, so that tests/mcap_python.rs can check the Rust writer against an independent decoder.
+summary, so that tests/quick/mcap_python.rs can check the Rust writer against an independent decoder.
 
 Needs: pip install mcap mcap-ros2-support
 

@@ -10,7 +10,7 @@
 //! statistics, chunk and metadata indexes, summary offsets and CRCs the crate writes with our
 //! options) and leaves the layout to the MCAP specification (<https://mcap.dev/spec>); the crate
 //! stays the reader, which checks every CRC, and the reference this writer is tested against
-//! (`Container::Crate` with the `oracle` feature, `tests/mcap_roundtrip.rs`).
+//! (`Container::Crate` with the `oracle` feature, `tests/quick/mcap_roundtrip.rs`).
 
 use mcap::records::{op, ChunkIndex, MessageHeader, Metadata, MetadataIndex, Statistics};
 use mcap::{McapError, McapResult};

@@ -45,7 +45,7 @@
 //! dependency), with chunk and message indexes, CRCs and a summary, so readers can seek and
 //! check. [`container`] writes the records (one zstd call per chunk instead of the crate's
 //! seven streaming calls per message); they are the records the crate's writer produces,
-//! which `tests/mcap_roundtrip.rs` checks record by record. Output is a
+//! which `tests/quick/mcap_roundtrip.rs` checks record by record. Output is a
 //! deterministic function of the frames: no clock, no hash ordering, single-threaded zstd.
 //! The writer writes `<path>.partial` and renames it to `<path>` only in
 //! [`McapWriter::finish`]: a crashed or failed run leaves no complete-looking log behind.

@@ -8,7 +8,7 @@
 //! the tent at its step: among `candidates` uniform draws it picks one with probability
 //! proportional to `1 / max(area(U ∩ (U + Δ)), floor · area(U))` (sampling-importance-
 //! resampling). On the Warthog the histogram of |Δvx| becomes flat (within 15 %) over the first
-//! 60 % of its range, where independent draws fall off linearly (tests/samplers_properties.rs);
+//! 60 % of its range, where independent draws fall off linearly (tests/quick/samplers_properties.rs);
 //! the very largest steps stay rarer, since they need the previous command at an extreme. The
 //! price is that commands lean towards the border of U, and more kinetic energy per step. The
 //! floor keeps the weight finite for steps at the edge of U − U.

@@ -271,7 +271,7 @@ fn terrain_ratio_of_medians() {
 }
 
 /// Prints every figure of the report; run with
-/// `cargo test --release --test analysis_measured -- --ignored --nocapture report`.
+/// `cargo test --release --test quick analysis_measured::report -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn report() {

@@ -12,7 +12,7 @@ const TICK_S: f64 = 0.05;
 
 /// The robot file's geometry and physics without the effects it declares (the Warthog's
 /// measured 12.7 rad/s wheel-speed limit): the numbers here are derived by hand for the tyres
-/// and the protocol, with every command in U reachable; the effects have `tests/sim_effects.rs`.
+/// and the protocol, with every command in U reachable; the effects have `tests/quick/sim_effects.rs`.
 fn robot(name: &str) -> Robot {
     let mut r = Robot::resolve(name).unwrap().0;
     r.effects = Default::default();

@@ -1,5 +1,5 @@
 //! Compares every registered sampler on the ideal plant with the comparison metrics, prints
-//! the table (`cargo test --test samplers_compare -- --nocapture`), and checks the relations
+//! the table (`cargo test --test quick samplers_compare:: -- --nocapture`), and checks the relations
 //! each strategy is designed for.
 
 use drive_sim::kinematics::WheelSpeeds;

@@ -4,7 +4,7 @@
 //!
 //! Each property runs a fixed budget of cases (`DRIVE_SIM_FUZZ_CASES`, default 64), so CI
 //! time stays bounded; raise it locally for a longer fuzzing session, e.g.
-//! `DRIVE_SIM_FUZZ_CASES=5000 cargo test --release --test readers_fuzz`.
+//! `DRIVE_SIM_FUZZ_CASES=5000 cargo test --release --test quick readers_fuzz::`.
 
 use drive_sim::config::parse_toml;
 use drive_sim::harness::sweep::SweepMatrix;
