@@ -3,8 +3,6 @@
 
 #[allow(dead_code)] // not every test crate that includes this module generates data
 pub mod generator;
-#[allow(dead_code)] // the discovery benchmark's cases; test crates need not use them
-pub mod random_cases;
 
 use drive_sim::calibration::CalibrationReport;
 

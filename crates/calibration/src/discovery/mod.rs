@@ -12,12 +12,14 @@
 //!    non-finite or almost collinear with an earlier one (|r| > [`MAX_COLUMN_CORRELATION`]) is
 //!    left out with the reason; the others are scaled to unit root mean square, so the
 //!    threshold reads in the response's units (after weighting: in noise floors).
-//! 3. **The threshold is chosen on validation rows.** Each threshold of a grid gives a sparse
-//!    fit on the training rows; the validation loss picks the largest threshold whose loss is
-//!    within one standard error (over validation groups) of the smallest — the one-standard-
-//!    error rule, which prefers the sparser of two equally good equations — or, when larger,
-//!    within [`DiscoveryOptions::good_enough_rms`] of the response's noise: below the noise
-//!    floor, a smaller threshold buys terms that only fit it.
+//! 3. **The threshold is chosen twice, and the sparser choice kept.** Each threshold of a grid
+//!    gives a sparse fit on the training rows. The validation loss picks the largest threshold
+//!    whose loss is within one standard error (over validation groups) of the smallest — the
+//!    one-standard-error rule, which prefers the sparser of two equally good equations — or,
+//!    when larger, within [`DiscoveryOptions::good_enough_rms`] of the response's noise: below
+//!    the noise floor, a smaller threshold buys terms that only fit it. The Bayesian
+//!    information criterion on the training fit ([`bic`], the likelihood clustered by step:
+//!    each coefficient costs ln(steps)) picks its own; the larger of the two thresholds wins.
 //! 4. **A term is kept only if it is stable** (stability selection; Meinshausen and Bühlmann
 //!    2010): STLSQ on bootstrap resamples of the training groups, and a term is kept if
 //!    chosen in at least [`STABILITY_THRESHOLD`] of them. The resamples use half the chosen
@@ -185,7 +187,7 @@ pub fn discover(
         train: columns.design(train),
         validation: columns.design(validation),
     };
-    let threshold = choose_threshold(&design, validation, opts)?;
+    let threshold = choose_threshold(&design, train, validation, opts)?;
     let stable = Stability::resample(&design, train, threshold, opts);
     let freq = &stable.freq;
     let kept: Vec<usize> = (0..columns.cols.len())
@@ -365,10 +367,17 @@ struct Design {
     validation: (DMatrix<f64>, DVector<f64>),
 }
 
-/// The STLSQ threshold by validation loss, with the one-standard-error rule over validation
-/// groups (see the module doc).
-fn choose_threshold(design: &Design, validation: &Rows, opts: &DiscoveryOptions) -> Result<f64, Skipped> {
+/// The STLSQ threshold: the sparser of the one-standard-error rule's on the validation loss
+/// and the Bayesian information criterion's on the training fit (see the module doc).
+fn choose_threshold(
+    design: &Design,
+    train: &Rows,
+    validation: &Rows,
+    opts: &DiscoveryOptions,
+) -> Result<f64, Skipped> {
     let ((a, b), (av, bv)) = (&design.train, &design.validation);
+    let train_groups = train.groups().len();
+    let mut bics: Vec<(f64, f64)> = Vec::new();
     let val_groups = validation.groups();
     let group_index: Vec<usize> = validation
         .group
@@ -378,6 +387,11 @@ fn choose_threshold(design: &Design, validation: &Rows, opts: &DiscoveryOptions)
     let mut losses = Vec::new();
     for &lambda in &THRESHOLDS {
         let xi = stlsq(a, b, lambda, opts.max_iter);
+        let terms = xi.iter().filter(|c| **c != 0.0).count();
+        bics.push((
+            lambda,
+            bic((b - a * &xi).norm_squared(), b.len(), train_groups, terms),
+        ));
         let r = bv - av * &xi;
         let mut per_group = vec![0.0; val_groups.len()];
         for (i, v) in r.iter().enumerate() {
@@ -397,11 +411,27 @@ fn choose_threshold(design: &Design, validation: &Rows, opts: &DiscoveryOptions)
     // An equation that already brings the response to `good_enough_rms` is as good as any:
     // terms below the noise floor only fit it.
     let enough = opts.good_enough_rms.powi(2) * validation.len() as f64;
-    Ok(losses
+    let one_se = losses
         .iter()
         .filter(|l| l.1 <= (best.1 + best.2).max(enough))
         .map(|l| l.0)
-        .fold(best.0, f64::max))
+        .fold(best.0, f64::max);
+    // The criterion's least value; on a tie, the larger threshold (the sparser equation).
+    let by_bic = bics
+        .iter()
+        .copied()
+        .reduce(|m, x| if x.1 <= m.1 { x } else { m })
+        .map_or(one_se, |(lambda, _)| lambda);
+    Ok(one_se.max(by_bic))
+}
+
+/// The Bayesian information criterion of a least-squares fit with `terms` coefficients whose
+/// residual sum of squares over `rows` rows is `rss`, on the step-clustered likelihood: the
+/// rows of a step share its errors, so the sample counts `groups` steps, not rows (a Gaussian
+/// log-likelihood scaled from rows to steps), and each coefficient costs ln(steps).
+pub fn bic(rss: f64, rows: usize, groups: usize, terms: usize) -> f64 {
+    let g = groups.max(1) as f64;
+    g * (rss / rows.max(1) as f64).max(f64::MIN_POSITIVE).ln() + terms as f64 * g.ln()
 }
 
 /// Stability selection over bootstrap resamples of the training groups.

@@ -104,3 +104,14 @@ fn bad_designs_are_skipped_with_a_reason() {
     let a = DMatrix::from_row_slice(3, 2, &[1.0, 2.0, 2.0, 4.0, 3.0, 6.0]);
     assert!(least_squares(&a, &DVector::from_vec(vec![1.0, 2.0, 3.0])).is_none());
 }
+
+/// The criterion by hand: 10 steps of 40 rows with a mean square of 1 cost only their
+/// coefficients, ln 10 each; halving the mean square is worth 10 ln 2 = 6.93, more than three
+/// coefficients (6.91) and less than four (9.21).
+#[test]
+fn bic_counts_steps_not_rows_and_charges_each_coefficient_ln_steps() {
+    assert!((bic(400.0, 400, 10, 2) - 2.0 * 10f64.ln()).abs() < 1e-12);
+    let base = bic(400.0, 400, 10, 1);
+    assert!(bic(200.0, 400, 10, 4) < base);
+    assert!(bic(200.0, 400, 10, 5) > base);
+}

@@ -378,13 +378,23 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
                 continue;
             };
             let best_ev = &best.0;
-            // A structural effect within one standard error of the best is kept instead.
+            // Of the explanations within one standard error of the best, the one with the
+            // fewest parameters is kept (a dead time beats a dozen terms that fit the same
+            // residual), a structural effect before a generic term of as many, then the larger
+            // reduction.
             let is_structural = |name: &str| candidates[..structural].iter().any(|c| c.name == name);
             let (chosen_ev, model) = ev
                 .ranked
                 .iter()
-                .filter(|(e, _)| e.significant && is_structural(&e.effect))
-                .find(|(e, _)| e.reduction >= best_ev.reduction - best_ev.reduction_se)
+                .filter(|(e, _)| e.significant)
+                .filter(|(e, _)| e.reduction >= best_ev.reduction - best_ev.reduction_se)
+                .min_by(|(a, _), (b, _)| {
+                    a.params
+                        .len()
+                        .cmp(&b.params.len())
+                        .then(is_structural(&b.effect).cmp(&is_structural(&a.effect)))
+                        .then(b.reduction.total_cmp(&a.reduction))
+                })
                 .unwrap_or(best);
             this.why = if chosen_ev.effect == best_ev.effect {
                 format!(
@@ -393,8 +403,15 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
                 )
             } else {
                 format!(
-                    "{} (structural) scores within one standard error of {} ({:.3} vs {:.3} ± {:.3}): the physical effect is kept",
-                    chosen_ev.effect, best_ev.effect, chosen_ev.reduction, best_ev.reduction, best_ev.reduction_se
+                    "{} ({} parameters{}) scores within one standard error of {} ({} parameters; {:.3} vs {:.3} ± {:.3}): the explanation with fewer parameters is kept",
+                    chosen_ev.effect,
+                    chosen_ev.params.len(),
+                    if is_structural(&chosen_ev.effect) { ", a physical effect" } else { "" },
+                    best_ev.effect,
+                    best_ev.params.len(),
+                    chosen_ev.reduction,
+                    best_ev.reduction,
+                    best_ev.reduction_se
                 )
             };
             this.added = Some(chosen_ev.effect.clone());

@@ -1,12 +1,12 @@
 //! Random cases for the discovery benchmark (`benches/discovery_benchmark.rs`): effects drawn
-//! from families of the independent generator ([`super::generator`]), with random magnitudes
+//! from families of the independent generator ([`crate::common::generator`]), with random magnitudes
 //! in physically plausible ranges that stand above the noise, each with its truth: where it
 //! acts, which catalogue effect (if any) is its exact explanation and with which value.
 //!
 //! The noise is that of `tests/discovery.rs` (encoders 0.1 rad/s, pose 0.01 m and 0.003 rad,
 //! gyro 0.02 rad/s), the robot the Warthog's geometry with the generator's lag of 0.15 s.
 
-use super::generator::{TestRobotSpec, Unmodelled};
+use crate::common::generator::{TestRobotSpec, Unmodelled};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
