@@ -26,7 +26,8 @@ use clap::{Parser, ValueEnum};
 mod bench_cases;
 
 use bench_cases::benchmark::{calibrate_case, score, Record};
-use bench_cases::random_cases::{cases, Case, Family, CATALOGUE_WITHOUT_STRUCTURAL};
+use bench_cases::random_cases::{cases, Case, Family};
+use common::CATALOGUE_WITHOUT_STRUCTURAL;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;

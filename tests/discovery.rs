@@ -8,25 +8,9 @@
 
 mod common;
 use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};
+use common::CATALOGUE_WITHOUT_STRUCTURAL;
 use drive_sim::calibration::{calibrate, CalibrationOptions, CalibrationReport, KinematicFactory};
 use drive_sim::terrain::Terrain;
-
-const CATALOGUE_WITHOUT_STRUCTURAL: [&str; 14] = [
-    "dead_time_s",
-    "command_speed_limit_m_s",
-    "command_yaw_rate_limit_rad_s",
-    "controller_kinematics",
-    "controller_wheel_limit_rad_s",
-    "motor_gain",
-    "wheel_speed_saturation_rad_s",
-    "time_constant_scale",
-    "wheel_radius_scale",
-    "imu_yaw_rate_sign_flip",
-    "imu_yaw_rate_scale",
-    "imu_yaw_rate_bias_rad_s",
-    "pose_latency_s",
-    "encoder_scale",
-];
 
 fn spec(seed: u64) -> TestRobotSpec {
     TestRobotSpec {

@@ -18,7 +18,8 @@
 mod bench_cases;
 mod common;
 use bench_cases::benchmark::{calibrate_case, score, Record};
-use bench_cases::random_cases::{cases, Case, Family, CATALOGUE_WITHOUT_STRUCTURAL};
+use bench_cases::random_cases::{cases, Case, Family};
+use common::CATALOGUE_WITHOUT_STRUCTURAL;
 
 /// The benchmark's draw: its first case of `family`.
 fn first_of(family: Family) -> Case {

@@ -11,26 +11,6 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-/// The catalogue without the structural effects discovery points to (`body_lag`,
-/// `centripetal_slip`, `motor_gain_drift`, ...): the candidates of `tests/discovery.rs`, so that
-/// such an effect can only come in through an equation.
-pub const CATALOGUE_WITHOUT_STRUCTURAL: [&str; 14] = [
-    "dead_time_s",
-    "command_speed_limit_m_s",
-    "command_yaw_rate_limit_rad_s",
-    "controller_kinematics",
-    "controller_wheel_limit_rad_s",
-    "motor_gain",
-    "wheel_speed_saturation_rad_s",
-    "time_constant_scale",
-    "wheel_radius_scale",
-    "imu_yaw_rate_sign_flip",
-    "imu_yaw_rate_scale",
-    "imu_yaw_rate_bias_rad_s",
-    "pose_latency_s",
-    "encoder_scale",
-];
-
 /// A family of effects the generator can carry.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "snake_case")]

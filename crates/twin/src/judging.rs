@@ -45,7 +45,7 @@ pub(crate) fn judge_grounds(
     for (ground, log, model, others) in grounds {
         let what = format!(
             "the {ground} twin against {} of {}{}",
-            steps_text(steps),
+            steps_text(steps.as_str()),
             log.meta.name,
             if held_out {
                 " (never used to choose it)"
@@ -266,10 +266,11 @@ fn explain(
     }
 }
 
-/// Which steps, in words: "the odd steps", "every step".
-pub(crate) fn steps_text(steps: UseSteps) -> String {
-    match steps {
-        UseSteps::All => "every step".into(),
-        s => format!("the {} steps", s.as_str()),
+/// Which steps (`odd`, `even`, `all`), in words: "the odd steps", "every step".
+pub(crate) fn steps_text(steps: &str) -> String {
+    if steps == UseSteps::All.as_str() {
+        "every step".into()
+    } else {
+        format!("the {steps} steps")
     }
 }

@@ -130,11 +130,7 @@ fn provenance_of(w: &Written, g: usize, tuned: bool) -> Provenance {
     {
         header.push(format!(
             "Judged on {} of {}{}: {} (p {:.3}); see twin.md.",
-            if j.steps == "all" {
-                "every step".to_string()
-            } else {
-                format!("the {} steps", j.steps)
-            },
+            crate::judging::steps_text(&j.steps),
             j.against,
             if j.held_out { " (held out)" } else { "" },
             if j.outcome.indistinguishable {

@@ -217,3 +217,16 @@ fn structural_effects_and_terms_by_hand() {
     assert!(param_owner("term_wheel_left__step_cmd_wheel").is_some());
     assert!(param_owner("term_body_vy__cmd_wheel").is_none());
 }
+
+/// The hinges' names and symbols are written out (the registry's keys are 'static): each must
+/// name its own knee.
+#[test]
+fn every_hinge_is_named_after_its_knee() {
+    for (i, knee) in term::HINGES_RAD_S.iter().enumerate() {
+        let f = Feature::Hinge(i as u8);
+        let k = format!("{knee}");
+        assert_eq!(f.name(), format!("hinge_{k}"));
+        assert!(f.symbol().ends_with(&format!("−{k})₊")), "{}", f.symbol());
+        assert_eq!(Feature::from_name(f.name()), Some(f));
+    }
+}
