@@ -45,6 +45,9 @@ enum Catalogue {
     WithoutStructural,
     /// Every effect the kinematic model can run (the calibration's default).
     Full,
+    /// No catalogue effect: discovery alone on the base model (what its terms and the
+    /// effects its equations name explain without the catalogue's stand-ins).
+    None,
 }
 
 /// The command line.
@@ -112,6 +115,7 @@ fn run_case(case: &Case, steps: u32, catalogue: Catalogue, reports: Option<&Path
                     .collect(),
             ),
             Catalogue::Full => None,
+            Catalogue::None => Some(Vec::new()),
         };
         calibrate_case(case, steps, candidates)
     });
@@ -310,6 +314,7 @@ fn table_md(s: &Summary) -> String {
         match s.catalogue {
             Catalogue::WithoutStructural => "without-structural",
             Catalogue::Full => "full",
+            Catalogue::None => "none",
         },
         s.family.map(|f| format!(" --family {}", f.name())).unwrap_or_default(),
         s.jobs,

@@ -14,7 +14,7 @@ import subprocess
 import sys
 import time
 
-DATASETS = ["warthog_asphalt", "warthog_ice", "warthog_gravel", "husky_2023"]
+DATASETS = ["warthog_asphalt", "warthog_asphalt_b", "warthog_ice", "warthog_gravel", "husky_2023"]
 
 
 def calibrate(bin_path, data, dataset, model, out):
@@ -41,6 +41,16 @@ def ratios(diagnosis):
 def added(report):
     rounds = (report.get("discovery") or {}).get("rounds", [])
     return [r["added"] for r in rounds if r.get("added")]
+
+
+def competition(report):
+    c = (report.get("discovery") or {}).get("competition")
+    if not c:
+        return "not run"
+    first = c["discovery_first"]
+    return (f"{c['kept']} kept (from the base model: {', '.join(first['effects']) or 'nothing'}, "
+            f"{first['parameters']} parameters, validation {first['validation_score']:.2f} against "
+            f"{c['catalogue_first']['validation_score']:.2f} ± {c['se']:.2f})")
 
 
 def main():
@@ -79,6 +89,7 @@ def main():
         f"{r['before']['score']:.3g} → {r['after']['score']:.3g}" if isinstance(r.get("before"), dict) else "—"
         for _, _, r in runs) + " |")
     print("| added by discovery | " + " | ".join(", ".join(added(r)) or "—" for _, _, r in runs) + " |")
+    print("| competition | " + " | ".join(competition(r) for _, _, r in runs) + " |")
     print("| effects | " + " | ".join(
         ", ".join(e["name"].removeprefix("effect.") for e in r.get("effects", [])) or "—"
         for _, _, r in runs) + " |")

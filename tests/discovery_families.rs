@@ -6,11 +6,16 @@
 //!   and pose), and the structure is recovered (the exact catalogue effect, its value within
 //!   10 % or 3 standard errors; else a discovered term where the effect acts and nowhere else);
 //! - the dead time alone is picked within 10 %, and nothing else is kept;
+//! - a gain curve ω·(1 + a·|ω|) is explained in one competition: the catalogue's stand-in (a
+//!   controller's kinematics) loses to discovery from the base model, whose term in the
+//!   command's odd square has the curve's coefficient within 10 %;
+//! - a deadband is the catalogue's `wheel_deadband_rad_s`, which discovery brings in from the
+//!   wheel equations' negative term in sign(ω_cmd), its width within 10 %;
 //! - noise alone proposes nothing.
 //!
 //! The cases are the first of each family in the benchmark's draw (`--cases 30 --nulls 10
-//! --seed 1`). The families discovery does not explain yet (gain curves, the soft saturation,
-//! the deadband and the hinge, the reverse gain, the body lag, the turn memory, the backlash,
+//! --seed 1`). The families discovery does not explain yet (the soft saturation and the
+//! hinge, the reverse gain, the body lag, the turn memory, the backlash,
 //! the yaw damping's structure, one encoder's scale, dropouts and quantization, the pose
 //! latency) are measured by the benchmark, whose table is in docs/results/discovery.md.
 
@@ -20,6 +25,7 @@ mod common;
 use bench_cases::benchmark::{calibrate_case, score, Record};
 use bench_cases::random_cases::{cases, Case, Family};
 use common::CATALOGUE_WITHOUT_STRUCTURAL;
+use drive_sim::calibration::CalibrationReport;
 
 /// The benchmark's draw: its first case of `family`.
 fn first_of(family: Family) -> Case {
@@ -31,6 +37,11 @@ fn first_of(family: Family) -> Case {
 
 /// The case calibrated and scored as the benchmark scores it (90 steps).
 fn run(case: &Case) -> Record {
+    run_with_report(case).0
+}
+
+/// [`run`], with the calibration's report.
+fn run_with_report(case: &Case) -> (Record, CalibrationReport) {
     let candidates = CATALOGUE_WITHOUT_STRUCTURAL
         .iter()
         .map(|s| s.to_string())
@@ -49,7 +60,7 @@ fn run(case: &Case) -> Record {
         rec.structure,
         rec.seconds
     );
-    rec
+    (rec, r)
 }
 
 fn assert_explained(rec: &Record) {
@@ -113,6 +124,52 @@ fn a_centripetal_slip_is_the_catalogue_slip() {
 }
 
 #[test]
+fn a_deadband_is_the_catalogue_deadband_the_wheel_equations_point_to() {
+    let rec = run(&first_of(Family::Deadband));
+    assert_explained(&rec);
+    assert_eq!(rec.values.len(), 1, "{:?}", rec.values);
+}
+
+#[test]
 fn a_gyro_fault_is_the_catalogue_fault() {
     assert_explained(&run(&first_of(Family::ImuFault)));
+}
+
+#[test]
+fn a_gain_curve_is_one_term_in_the_command_found_from_the_base_model() {
+    let case = first_of(Family::GainCurve);
+    let (rec, r) = run_with_report(&case);
+    assert_explained(&rec);
+    let competition = r
+        .discovery
+        .as_ref()
+        .and_then(|d| d.competition.as_ref())
+        .expect("the catalogue's order leaves the curve flagged: the competition runs");
+    assert_eq!(competition.kept, "discovery first", "{competition:#?}");
+    let truth = |side: &str| {
+        case.magnitudes
+            .iter()
+            .find(|(k, _)| *k == "a_s_rad" || *k == format!("a_{side}_s_rad"))
+            .map(|(_, v)| *v)
+    };
+    let mut checked = 0;
+    for side in ["left", "right"] {
+        let key = format!("term_wheel_{side}__cmd_wheel_odd");
+        match truth(side) {
+            Some(a) => {
+                let fitted = r.model_after.effects.get(&key).unwrap();
+                assert!(
+                    (fitted - a).abs() <= 0.1 * a.abs(),
+                    "{key}: {fitted} against the curve's {a}"
+                );
+                checked += 1;
+            }
+            None => assert_eq!(
+                r.model_after.effects.get(&key),
+                Some(0.0),
+                "{key} on the straight side"
+            ),
+        }
+    }
+    assert!(checked > 0, "{:?}", case.magnitudes);
 }

@@ -374,7 +374,10 @@ pub fn draw(family: Family, seed: u64) -> Case {
                     ..base
                 },
                 vec![("theta_rad_s", theta)],
-                truth(wheels.clone(), wheels),
+                Truth {
+                    exact: exact("wheel_deadband_rad_s", vec![("wheel_deadband_rad_s", theta)]),
+                    ..truth(wheels.clone(), wheels)
+                },
             )
         }
         Family::Hinge => {

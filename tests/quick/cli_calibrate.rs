@@ -66,12 +66,12 @@ fn injected_dead_time_is_found_by_the_cli() {
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("cal/calibration.json")).unwrap())
             .unwrap();
     let ranking = json["rounds"][0]["ranking"].as_array().unwrap();
-    // Every candidate the kinematic model can represent was screened (20 of the registry's
-    // 23 catalogue effects: the generic terms are discovery's, and the wheel-speed limit the
+    // Every candidate the kinematic model can represent was screened (21 of the registry's
+    // 24 catalogue effects: the generic terms are discovery's, and the wheel-speed limit the
     // Warthog file declares is refit and judged, not a candidate), the shortlist and the 2
     // contact effects went to the simulator, and the dead time came first there.
     let screened = json["screening"]["ranking"].as_array().unwrap();
-    assert_eq!(screened.len(), 20, "{screened:#?}");
+    assert_eq!(screened.len(), 21, "{screened:#?}");
     let declared = json["declared_effects"].as_array().unwrap();
     assert_eq!(declared.len(), 1, "{declared:#?}");
     assert_eq!(declared[0]["effect"], "wheel_speed_saturation_rad_s");

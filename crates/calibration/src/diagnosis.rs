@@ -326,6 +326,24 @@ pub fn lacks_summary(report: &super::CalibrationReport) -> Vec<String> {
                 b.effect, b.score_with, b.score_without, b.se
             ));
         }
+        if let Some(c) = &d.competition {
+            let list = |e: &[String]| {
+                if e.is_empty() {
+                    "nothing".to_string()
+                } else {
+                    e.join(", ")
+                }
+            };
+            lines.push(format!(
+                "discovery from the base model: {} ({} parameters) against the catalogue first: {} ({} parameters); {} kept: {}",
+                list(&c.discovery_first.effects),
+                c.discovery_first.parameters,
+                list(&c.catalogue_first.effects),
+                c.catalogue_first.parameters,
+                c.kept,
+                c.why
+            ));
+        }
     }
     let still: Vec<String> = after
         .channels

@@ -205,6 +205,13 @@ pub enum CalibrationEvent {
         /// The candidate.
         effect: String,
     },
+    /// The two orders of the competition between the catalogue and discovery were compared.
+    Competition {
+        /// The order kept (`catalogue first`, `discovery first`).
+        kept: String,
+        /// Why, in words.
+        why: String,
+    },
     /// The base and effect parameters were refitted together.
     FinalFit {
         /// Parameters fitted.
@@ -297,7 +304,8 @@ impl fmt::Display for CalibrationEvent {
             | Self::Pairs { .. }
             | Self::Backward { .. }
             | Self::DiscoveryRound { .. }
-            | Self::DiscoveryAdded { .. } => self.fmt_selection(f),
+            | Self::DiscoveryAdded { .. }
+            | Self::Competition { .. } => self.fmt_selection(f),
             Self::FinalFit { .. } | Self::Declared { .. } => self.fmt_end(f),
             Self::JointLogStarted { .. }
             | Self::JointLogCalibrated { .. }
@@ -456,6 +464,7 @@ impl CalibrationEvent {
                 trying.join(", ")
             ),
             Self::DiscoveryAdded { effect } => write!(f, "discovery: added {effect}"),
+            Self::Competition { kept, why } => write!(f, "competition: {kept} kept: {why}"),
             _ => unreachable!("not an event of the selection"),
         }
     }

@@ -358,7 +358,7 @@ fn select(
                     current: selection.current.clone(),
                     current_validation: selection.current_validation.clone(),
                     selected: selection.selected.clone(),
-                    refit: refit_for_discovery,
+                    refit: refit_for_discovery.clone(),
                 },
             )
         })?;
@@ -368,7 +368,50 @@ fn select(
             selection.selected = out.selected;
             selection.refit_current = false;
         }
-        Some(out.report)
+        let mut report = out.report;
+        // One competition: when the catalogue's order leaves a channel flagged, discovery
+        // also starts from the base model, and the better of the two orders is kept.
+        if !report.flagged_after.is_empty() {
+            let from_base = timings.time("competition", || {
+                crate::stages::discovery::run(
+                    ctx,
+                    crate::stages::discovery::DiscoveryInput {
+                        current: baseline.current.clone(),
+                        current_validation: baseline.current_validation.clone(),
+                        selected: Vec::new(),
+                        refit: refit_for_discovery,
+                    },
+                )
+            })?;
+            if from_base.added {
+                let (mut competition, discovery_wins) = crate::stages::competition::compete(
+                    ctx,
+                    &crate::stages::competition::Order {
+                        validation: &selection.current_validation,
+                        selected: &selection.selected,
+                    },
+                    &crate::stages::competition::Order {
+                        validation: &from_base.current_validation,
+                        selected: &from_base.selected,
+                    },
+                );
+                (ctx.progress)(&CalibrationEvent::Competition {
+                    kept: competition.kept.clone(),
+                    why: competition.why.clone(),
+                });
+                competition.rounds = from_base.report.rounds;
+                competition.backward = from_base.report.backward;
+                if discovery_wins {
+                    selection.current = from_base.current;
+                    selection.current_validation = from_base.current_validation;
+                    selection.selected = from_base.selected;
+                    selection.refit_current = false;
+                    report.flagged_after = from_base.report.flagged_after;
+                }
+                report.competition = Some(Box::new(competition));
+            }
+        }
+        Some(report)
     } else {
         None
     };

@@ -486,7 +486,7 @@ mod tests {
             yaw_rate_rad_s: 2.0,
         };
         let (k, left_out) = candidates_for(&KinematicFactory, &reach, None);
-        assert_eq!(k.len(), 21);
+        assert_eq!(k.len(), 22);
         assert_eq!(
             left_out,
             [
@@ -499,7 +499,7 @@ mod tests {
         );
         // The torque-speed line is not in the default catalogue: tried only when named.
         let (s, none) = candidates_for(&SimFactory::default(), &reach, None);
-        assert_eq!((s.len(), none.len()), (23, 0));
+        assert_eq!((s.len(), none.len()), (24, 0));
         let named = ["motor_torque_speed".to_string()];
         let (m, _) = candidates_for(&SimFactory::default(), &reach, Some(&named));
         assert_eq!((m.len(), m[0].params.len()), (1, 2));

@@ -17,6 +17,8 @@
 //! evidence, identifiable parameters); when a structural effect scores within one standard
 //! error of the best, it is kept instead (a physical effect generalises where a fitted
 //! polynomial may not). Rounds repeat until nothing flagged is explained.
+//!
+//! The catalogue and the terms then compete as two orders ([`super::competition`]).
 
 use super::candidates::{evaluate, Candidate, CandidateEvidence, EvaluateInput};
 use super::reading::{read, text_of};
@@ -95,6 +97,13 @@ pub struct DiscoveryReport {
     /// stand-in for what discovery found is dropped here.
     #[serde(default)]
     pub backward: Vec<super::selection::BackwardStep>,
+    /// Training channels still flagged when discovery ended.
+    #[serde(default)]
+    pub flagged_after: Vec<String>,
+    /// The competition with discovery from the base model, when the catalogue's order left a
+    /// channel flagged ([`super::competition`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub competition: Option<Box<super::competition::Competition>>,
 }
 
 /// Input of [`run`].
@@ -175,8 +184,7 @@ impl Source {
 }
 
 /// Runs discovery rounds on top of the current model (see the module doc).
-// One long stage on purpose: selection and discovery are being redesigned as one competition;
-// split when that lands.
+// Long: a round's equations, candidates, evaluation and choice share the round's state.
 pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> {
     let factory = ctx.factory;
     let idd = ctx.declared.robot.idd();
@@ -448,7 +456,25 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
             &mut out.current_validation,
         )?;
     }
+    out.report.flagged_after = flagged_on_training(ctx, &out.current)?;
     Ok(out)
+}
+
+/// The channels of `model`'s residual flagged on the training steps.
+fn flagged_on_training(ctx: &Context<'_>, model: &ModelParams) -> Result<Vec<String>> {
+    let replayed = ctx.train.replay_features(ctx.factory, model)?;
+    let residuals: Vec<_> = replayed
+        .iter()
+        .zip(&ctx.train.features)
+        .map(|(m, r)| crate::metrics::step_residuals(m, r))
+        .collect::<Result<_>>()?;
+    let diag = diagnose(
+        &residuals,
+        &ctx.train.features,
+        &ctx.floor,
+        &ctx.declared.robot.idd(),
+    );
+    Ok(diag.flagged().iter().map(|s| s.to_string()).collect())
 }
 
 /// The named effects each equation reads, as one candidate per equation: the physical

@@ -11,14 +11,20 @@
 //!    by the identifiability of its parameters;
 //! 4. [`selection`]: forward selection, then pairs among the top candidates, then a backward
 //!    pass that drops any effect whose removal does not hurt the validation score;
-//! 5. [`final_fit`]: the base and effect parameters refitted together, with their covariance;
-//! 6. [`report`]: every reported score on the test steps, which nothing above touched.
+//! 5. [`discovery`] (with `discover`): equations fitted on what the selected model leaves, tried
+//!    as model terms; when a channel is still flagged after it, discovery also runs from the
+//!    base model, and the better of the two orders is kept ([`competition`]: one
+//!    competition between the catalogue and the terms, the fewer parameters within one
+//!    standard error);
+//! 6. [`final_fit`]: the base and effect parameters refitted together, with their covariance;
+//! 7. [`report`]: every reported score on the test steps, which nothing above touched.
 //!
 //! [`Context`] holds what every stage reads: the split, the step sets, the noise floor and
 //! the command reach estimated on the training steps, the plant factory and the options.
 
 pub mod baseline;
 pub mod candidates;
+pub mod competition;
 pub mod discovery;
 pub mod final_fit;
 mod reading;

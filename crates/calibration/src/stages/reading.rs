@@ -115,6 +115,48 @@ pub(super) fn read(target: TermTarget, eq: &Equation) -> (Vec<String>, Vec<Strin
         reading.push("a wheel gain error: the wheel settles off its target in proportion to it".into());
         suggests.push("motor_gain");
     }
+    // The wheel's own command's nonlinearities, each named with its physical reading and unit.
+    if wheel && has(Feature::CmdWheelOdd) {
+        reading.push(format!(
+            "a gain curve: the wheel's gain is 1 {:+.4} s/rad × |ω_cmd| (a motor that gains or loses gain with speed)",
+            coef(Feature::CmdWheelOdd)
+        ));
+    }
+    if wheel && has(Feature::CmdWheelCube) {
+        reading.push(format!(
+            "a soft saturation: the wheel's gain changes by {:+.2e} s²/rad² × ω_cmd² (a limit approached gradually)",
+            coef(Feature::CmdWheelCube)
+        ));
+    }
+    if wheel && has(Feature::SignCmdWheel) {
+        let c = coef(Feature::SignCmdWheel);
+        if c < 0.0 {
+            reading.push(format!(
+                "a deadband: the wheel loses {:.3} rad/s against the direction it is told to turn (commands below it do not move it)",
+                -c
+            ));
+            suggests.push("wheel_deadband_rad_s");
+        } else {
+            reading.push(format!(
+                "a constant push of {c:.3} rad/s in the direction the wheel is told to turn (a friction compensation that overshoots)"
+            ));
+        }
+    }
+    if wheel && has(Feature::ReverseWheel) {
+        reading.push(format!(
+            "a reverse gain: backwards, the wheel's gain is 1 {:+.3}",
+            coef(Feature::ReverseWheel)
+        ));
+    }
+    for (i, knee) in drive_sim_model::effects::term::HINGES_RAD_S.iter().enumerate() {
+        let f = Feature::Hinge(i as u8);
+        if wheel && has(f) {
+            reading.push(format!(
+                "a knee at {knee:.0} rad/s: above it the wheel's gain changes by {:+.3}",
+                coef(f)
+            ));
+        }
+    }
     if target == TermTarget::ImuWz {
         if has(Feature::One) {
             reading.push("an IMU yaw-rate bias".into());

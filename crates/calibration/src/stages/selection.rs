@@ -136,8 +136,7 @@ fn joint_refit(ctx: &Context<'_>, st: &mut State, base: &[ParamSpec], label: &st
 }
 
 /// Runs forward selection, pairs and the backward pass.
-// One long stage on purpose: selection and discovery are being redesigned as one competition;
-// split when that lands.
+// Long: the forward rounds, the pairs and the backward pass share the selection's state.
 pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> {
     let opts = ctx.opts;
     let mut st = State {

@@ -40,6 +40,7 @@ mod suspension_torsion;
 pub mod term;
 mod time_constant_scale;
 mod turning_resistance;
+mod wheel_deadband;
 mod wheel_radius_scale;
 mod wheel_speed_saturation;
 mod wheel_speed_scatter;
@@ -409,6 +410,7 @@ pub static REGISTRY: LazyLock<Vec<&'static dyn Effect>> = LazyLock::new(|| {
         &motor_gain::MotorGain,
         &motor_gain_drift::MotorGainDrift,
         &wheel_speed_scatter::WheelSpeedScatter,
+        &wheel_deadband::WheelDeadband,
         &wheel_speed_saturation::WheelSpeedSaturation,
         &motor_torque_speed::MotorTorqueSpeed,
         &speed_droop::SpeedDroop,
