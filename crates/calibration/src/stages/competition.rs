@@ -5,7 +5,7 @@
 //! validation steps is kept; within one bootstrap standard error (by step) of each other, the
 //! one with fewer parameters, the catalogue's on a tie.
 //!
-//! Why two orders: the catalogue's stand-ins enter first and can absorb half of an effect they
+//! Why two orders: the catalogue's stand-ins enter first and can absorb part of an effect they
 //! do not describe (a controller's kinematics for a gain curve), leaving a residual that mixes
 //! model state with the command's nonlinearity, which no sparse equation reads; from the base
 //! model the same curve is one term in the command.
