@@ -12,25 +12,12 @@ use common::CATALOGUE_WITHOUT_STRUCTURAL;
 use drive_sim::calibration::{calibrate, CalibrationOptions, CalibrationReport, KinematicFactory};
 use drive_sim::terrain::Terrain;
 
-fn spec(seed: u64) -> TestRobotSpec {
-    TestRobotSpec {
-        radius_m: 0.3,
-        track_m: 1.08,
-        lag_s: 0.15,
-        gain: [1.0, 1.0],
-        enc_noise: 0.1,
-        pose_noise: 0.01,
-        imu_noise: 0.02,
-        seed,
-    }
-}
-
 fn run(name: &str, extra: Unmodelled, seed: u64) -> CalibrationReport {
     let extra = Unmodelled {
         pose_yaw_noise_rad: 0.003,
         ..extra
     };
-    let (log, robot) = drive_log_with(name, spec(seed), extra, 90);
+    let (log, robot) = drive_log_with(name, TestRobotSpec::discovery(seed), extra, 90);
     let (terrain, _) = Terrain::resolve("asphalt").unwrap();
     // The catalogue without the structural effects discovery points to: those these
     // generators carry can only come in through an equation.

@@ -13,19 +13,6 @@ use drive_sim::terrain::Terrain;
 const LIMIT: f64 = 11.0;
 const SLIPS: [f64; 3] = [0.05, 0.15, 0.25];
 
-fn spec(seed: u64) -> TestRobotSpec {
-    TestRobotSpec {
-        radius_m: 0.3,
-        track_m: 1.08,
-        lag_s: 0.15,
-        gain: [1.0, 1.0],
-        enc_noise: 0.1,
-        pose_noise: 0.01,
-        imu_noise: 0.02,
-        seed,
-    }
-}
-
 fn log(k: usize) -> drive_sim::log::DriveLog {
     let extra = Unmodelled {
         wheel_limit_rad_s: LIMIT,
@@ -33,7 +20,12 @@ fn log(k: usize) -> drive_sim::log::DriveLog {
         pose_yaw_noise_rad: 0.003,
         ..Unmodelled::default()
     };
-    let (mut log, _) = drive_log_with(&format!("ground{k}"), spec(40 + k as u64), extra, 40);
+    let (mut log, _) = drive_log_with(
+        &format!("ground{k}"),
+        TestRobotSpec::discovery(40 + k as u64),
+        extra,
+        40,
+    );
     log.meta.terrain = format!("ground{k}");
     log
 }

@@ -227,22 +227,7 @@ pub struct Case {
 impl Case {
     /// The generator's physics and sensors for this case.
     pub fn spec(&self) -> TestRobotSpec {
-        spec(self.seed)
-    }
-}
-
-/// The benchmark's robot: `tests/discovery.rs`'s noise level (the Warthog's geometry, the
-/// generator's lag).
-pub fn spec(seed: u64) -> TestRobotSpec {
-    TestRobotSpec {
-        radius_m: 0.3,
-        track_m: 1.08,
-        lag_s: 0.15,
-        gain: [1.0, 1.0],
-        enc_noise: 0.1,
-        pose_noise: 0.01,
-        imu_noise: 0.02,
-        seed,
+        TestRobotSpec::discovery(self.seed)
     }
 }
 

@@ -52,6 +52,23 @@ impl TestRobotSpec {
             seed,
         }
     }
+
+    /// The discovery cases' robot (`tests/discovery.rs`, the randomized benchmark, the joint
+    /// calibration of `tests/twin_joint.rs`): the
+    /// Warthog's geometry, the generator's lag, and noise low enough that a missing effect
+    /// stands out in a 90-step log.
+    pub fn discovery(seed: u64) -> Self {
+        Self {
+            radius_m: 0.3,
+            track_m: 1.08,
+            lag_s: 0.15,
+            gain: [1.0, 1.0],
+            enc_noise: 0.1,
+            pose_noise: 0.01,
+            imu_noise: 0.02,
+            seed,
+        }
+    }
 }
 
 /// Effects of the generator that the project's catalogue did not have when discovery was

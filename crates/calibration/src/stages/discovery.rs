@@ -195,18 +195,15 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
         selected: input.selected,
         added: false,
     };
+    // The flagged channels of the current model on the training steps, when known.
+    let mut flagged_now: Option<Vec<String>> = None;
     for round in 0..MAX_ROUNDS {
-        let model_train = ctx.train.replay_features(factory, &out.current)?;
-        let residuals: Vec<_> = model_train
-            .iter()
-            .zip(&ctx.train.features)
-            .map(|(m, r)| crate::metrics::step_residuals(m, r))
-            .collect::<Result<_>>()?;
-        let diag = diagnose(&residuals, &ctx.train.features, &ctx.floor, &idd);
+        let (model_train, diag) = on_training(ctx, &out.current)?;
         if round == 0 {
             out.report.start = Some(diag.clone());
         }
         let flagged: Vec<String> = diag.flagged().iter().map(|s| s.to_string()).collect();
+        flagged_now = Some(flagged.clone());
         let stage_of = |t: TermTarget| t.stage().as_str();
         // Upstream first: the stages with a flagged channel, in the order a command meets them.
         let mut stages: Vec<&str> = Vec::new();
@@ -438,6 +435,7 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
             }
             out.added = true;
             added_this_round = true;
+            flagged_now = None;
             (ctx.progress)(&CalibrationEvent::DiscoveryAdded {
                 effect: chosen_ev.effect.clone(),
             });
@@ -455,13 +453,23 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
             &mut out.current,
             &mut out.current_validation,
         )?;
+        if out.report.backward.iter().any(|b| b.dropped) {
+            flagged_now = None;
+        }
     }
-    out.report.flagged_after = flagged_on_training(ctx, &out.current)?;
+    // The last round's diagnosis holds unless the model changed after it.
+    out.report.flagged_after = match flagged_now {
+        Some(flagged) => flagged,
+        None => {
+            let (_, diag) = on_training(ctx, &out.current)?;
+            diag.flagged().iter().map(|s| s.to_string()).collect()
+        }
+    };
     Ok(out)
 }
 
-/// The channels of `model`'s residual flagged on the training steps.
-fn flagged_on_training(ctx: &Context<'_>, model: &ModelParams) -> Result<Vec<String>> {
+/// `model` replayed on the training steps, and the diagnosis of its residual there.
+fn on_training(ctx: &Context<'_>, model: &ModelParams) -> Result<(Vec<StepFeatures>, Diagnosis)> {
     let replayed = ctx.train.replay_features(ctx.factory, model)?;
     let residuals: Vec<_> = replayed
         .iter()
@@ -474,7 +482,7 @@ fn flagged_on_training(ctx: &Context<'_>, model: &ModelParams) -> Result<Vec<Str
         &ctx.floor,
         &ctx.declared.robot.idd(),
     );
-    Ok(diag.flagged().iter().map(|s| s.to_string()).collect())
+    Ok((replayed, diag))
 }
 
 /// The named effects each equation reads, as one candidate per equation: the physical
