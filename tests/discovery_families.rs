@@ -11,12 +11,15 @@
 //!   command's odd square has the curve's coefficient within 10 %;
 //! - a deadband is the catalogue's `wheel_deadband_rad_s`, which discovery brings in from the
 //!   wheel equations' negative term in sign(ω_cmd), its width within 10 %;
+//! - the wheel maps a polynomial describes only roughly are the named effects the wheel
+//!   equations point to, their parameters within 10 %: a soft limit S·tanh(ω/S), a knee
+//!   (where the gain changes, and to what), a gain backwards;
+//! - one encoder's scale is that encoder's, not its wheel's gain;
 //! - noise alone proposes nothing.
 //!
 //! The cases are the first of each family in the benchmark's draw (`--cases 30 --nulls 10
-//! --seed 1`). The families discovery does not explain yet (the soft saturation and the
-//! hinge, the reverse gain, the body lag, the turn memory, the backlash,
-//! the yaw damping's structure, one encoder's scale, dropouts and quantization, the pose
+//! --seed 1`). The families discovery does not explain yet (the body lag's slowest cases, the
+//! turn memory, the backlash, the yaw damping's structure, dropouts and quantization, the pose
 //! latency) are measured by the benchmark, whose table is in docs/results/discovery.md.
 
 #[allow(dead_code)] // the cases and scores this file does not use
@@ -172,4 +175,37 @@ fn a_gain_curve_is_one_term_in_the_command_found_from_the_base_model() {
         }
     }
     assert!(checked > 0, "{:?}", case.magnitudes);
+}
+
+/// The named effect's every parameter is checked against its truth (within 10 % or 3 SE).
+fn assert_named(family: Family, effect: &str, params: usize) {
+    let rec = run(&first_of(family));
+    assert_explained(&rec);
+    assert!(
+        rec.kept.iter().any(|k| k.starts_with(effect)),
+        "{}: kept {:?}",
+        rec.name,
+        rec.kept
+    );
+    assert_eq!(rec.values.len(), params, "{:?}", rec.values);
+}
+
+#[test]
+fn a_soft_saturation_is_the_named_soft_limit() {
+    assert_named(Family::SoftSaturation, "wheel_speed_soft_limit_rad_s", 1);
+}
+
+#[test]
+fn a_hinge_is_the_named_knee_between_the_grids_points() {
+    assert_named(Family::Hinge, "wheel_gain_knee", 2);
+}
+
+#[test]
+fn a_gain_backwards_is_the_named_reverse_gain() {
+    assert_named(Family::ReverseGain, "wheel_reverse_gain", 1);
+}
+
+#[test]
+fn one_encoders_scale_is_that_encoders_not_its_wheels() {
+    assert_named(Family::EncoderScale, "encoder_side_scale", 2);
 }

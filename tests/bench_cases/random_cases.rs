@@ -346,6 +346,10 @@ pub fn draw(family: Family, seed: u64) -> Case {
                 },
                 vec![("limit_rad_s", limit)],
                 Truth {
+                    exact: exact(
+                        "wheel_speed_soft_limit_rad_s",
+                        vec![("wheel_speed_soft_limit_rad_s", limit)],
+                    ),
                     near: vec!["wheel_speed_saturation_rad_s", "controller_wheel_limit_rad_s"],
                     ..truth(wheels.clone(), wheels)
                 },
@@ -376,6 +380,10 @@ pub fn draw(family: Family, seed: u64) -> Case {
                 },
                 vec![("theta_rad_s", theta), ("k", k)],
                 Truth {
+                    exact: exact(
+                        "wheel_gain_knee",
+                        vec![("wheel_knee_rad_s", theta), ("wheel_gain_above_knee", 1.0 + k)],
+                    ),
                     near: vec!["wheel_speed_saturation_rad_s", "motor_gain"],
                     ..truth(wheels.clone(), wheels)
                 },
@@ -390,6 +398,7 @@ pub fn draw(family: Family, seed: u64) -> Case {
                 },
                 vec![("delta", d)],
                 Truth {
+                    exact: exact("wheel_reverse_gain", vec![("wheel_reverse_gain", 1.0 + d)]),
                     near: vec!["motor_gain"],
                     ..truth(wheels.clone(), wheels)
                 },
@@ -539,10 +548,14 @@ pub fn draw(family: Family, seed: u64) -> Case {
         Family::EncoderScale => {
             let s = sides(&mut rng);
             let e = signed(&mut rng, 0.04, 0.12);
+            let [l, r] = s.pair(e);
             let exact_of = if s == Sides::Both {
                 exact("encoder_scale", vec![("encoder_scale", 1.0 + e)])
             } else {
-                None
+                exact(
+                    "encoder_side_scale",
+                    vec![("encoder_scale_left", 1.0 + l), ("encoder_scale_right", 1.0 + r)],
+                )
             };
             (
                 Unmodelled {

@@ -410,6 +410,7 @@ fn a_command_change_term_is_neutral_in_a_manoeuvre() {
         s.begin_step(StepContext {
             step: 3,
             previous_cmd: turning,
+            ..StepContext::default()
         });
         if manoeuvre {
             s.begin_manoeuvre();
@@ -474,7 +475,7 @@ fn wheel_speed_scatter_offsets_each_step() {
         for step in 0..16 {
             s.begin_step(StepContext {
                 step,
-                previous_cmd: WheelSpeeds::default(),
+                ..StepContext::default()
             });
             let run = hold(&mut s, WheelSpeeds::new(6.0, 6.0), 3.0);
             out.push(mean_tail(&run, 20, |x| x.0.enc.left_rad_s) - 6.0);

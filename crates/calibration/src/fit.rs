@@ -425,8 +425,15 @@ pub fn fit(
             continue;
         };
         let problem = ReplayProblem::new(data, factory, fixed, continuous.clone(), floor);
-        let sol = solve(&problem, &x0, opts, observe);
+        let mut sol = solve(&problem, &x0, opts, observe);
         evaluations += sol.evaluations as u64;
+        // A start read from elsewhere (a regression's coefficients) may give a model that
+        // cannot run the steps; the model as it is can.
+        let x0_model: Vec<f64> = continuous.iter().map(|s| s.model_start_in(base)).collect();
+        if !sol.score.is_finite() && x0_model != x0 {
+            sol = solve(&problem, &x0_model, opts, observe);
+            evaluations += sol.evaluations as u64;
+        }
         if sol.score.is_finite() && best.as_ref().is_none_or(|b| sol.score < b.0.score) {
             let model = problem.model(&sol.x)?;
             best = Some((sol, model, problem));

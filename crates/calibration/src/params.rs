@@ -207,8 +207,22 @@ impl ParamSpec {
     }
 
     /// The value the search starts from for the model `m`: the model's own when inside the
-    /// box, else [`ParamSpec::start`].
+    /// box, else [`ParamSpec::start`]. An effect's parameter still at its neutral value (the
+    /// effect is off in `m`) starts at [`ParamSpec::start`] when that was set elsewhere: a
+    /// discovered term starts at the regression's coefficients, a named effect an equation
+    /// points to where the equation reads it.
     pub fn start_in(&self, m: &ModelParams) -> f64 {
+        let v = self.param.get(m);
+        let off = self.param.neutral() == Some(v);
+        if off && self.start != v && self.start >= self.lower && self.start <= self.upper {
+            return self.start;
+        }
+        self.model_start_in(m)
+    }
+
+    /// The model's own value when inside the box, else [`ParamSpec::start`]: where a search
+    /// falls back to when [`ParamSpec::start_in`] gives a model that cannot run.
+    pub fn model_start_in(&self, m: &ModelParams) -> f64 {
         let v = self.param.get(m);
         if v >= self.lower && v <= self.upper {
             v

@@ -11,7 +11,6 @@ use super::model::{ModelParams, PlantFactory};
 use super::steps::{step_slices, step_start_in, StepSlice, StepStart};
 use crate::error::{Error, Result};
 use drive_sim_log::{DriveLog, Frame, LogMeta, Origin, Sample};
-use drive_sim_model::effects::StepContext;
 use drive_sim_sim::Plant;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -60,10 +59,7 @@ pub fn replay_step(
 ) -> Result<Vec<Sample>> {
     let wheels = plant.wheels_from_encoders(start.wheels);
     plant.reset(start.pose, start.velocity, wheels);
-    plant.begin_step(StepContext {
-        step: step.step,
-        previous_cmd: start.previous_cmd,
-    });
+    plant.begin_step(start.context(step.step));
     STEPS_REPLAYED.fetch_add(1, Ordering::Relaxed);
     let mut out = Vec::with_capacity(step.samples.len());
     for (i, s) in step.samples.iter().enumerate() {

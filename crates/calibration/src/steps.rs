@@ -5,6 +5,7 @@
 use crate::error::{Error, Result};
 use drive_sim_analysis::segment::{usable_steps, Exclusion, SegmentRules};
 use drive_sim_log::{DriveLog, Pose, Sample};
+use drive_sim_model::effects::StepContext;
 use drive_sim_model::geometry::wrap_angle;
 use drive_sim_model::kinematics::{BodyVelocity, WheelSpeeds};
 
@@ -64,6 +65,20 @@ pub struct StepStart {
     /// The previous step's command (its last sample's), or the wheels at the start when
     /// the previous step is not in the log.
     pub previous_cmd: WheelSpeeds,
+    /// The commands of the log's steps before this one through the filters of a plant's
+    /// [`StepContext`] (each step for its recorded duration; zero before the first).
+    pub filtered_cmd: [WheelSpeeds; 3],
+}
+
+impl StepStart {
+    /// What a plant replaying step `step` from here is told at its start.
+    pub fn context(&self, step: u32) -> StepContext {
+        StepContext {
+            step,
+            previous_cmd: self.previous_cmd,
+            filtered_cmd: self.filtered_cmd,
+        }
+    }
 }
 
 /// Estimates the state at the start of a step (see [`StepStart`]).
@@ -78,6 +93,7 @@ pub fn step_start(samples: &[Sample]) -> Result<StepStart> {
         velocity,
         wheels: first.m.enc,
         previous_cmd: first.m.enc,
+        filtered_cmd: [WheelSpeeds::default(); 3],
     })
 }
 
@@ -102,6 +118,15 @@ pub fn step_start_in(
     may_measure: impl Fn(u32) -> bool,
 ) -> Result<StepStart> {
     let mut start = step_start(step.samples)?;
+    // The filters run over every earlier step of the log, whatever set it is in: commands
+    // are the protocol's input, not a measurement.
+    let mut ctx = StepContext::default();
+    for earlier in all.iter().filter(|s| s.step < step.step) {
+        if let Some(last) = earlier.samples.last() {
+            ctx = ctx.next(last.m.cmd, duration_s(earlier.samples));
+        }
+    }
+    start.filtered_cmd = ctx.filtered_cmd;
     let Some(prev) = step
         .step
         .checked_sub(1)
@@ -122,6 +147,17 @@ pub fn step_start_in(
         }
     }
     Ok(start)
+}
+
+/// How long a recorded step lasted: from its first sample to one sample period after its last.
+fn duration_s(samples: &[Sample]) -> f64 {
+    match (samples.first(), samples.last()) {
+        (Some(a), Some(b)) if samples.len() > 1 => {
+            let span = b.t_in_step_s - a.t_in_step_s;
+            span * samples.len() as f64 / (samples.len() - 1) as f64
+        }
+        _ => 0.0,
+    }
 }
 
 /// Body velocity at a step's first sample from its poses: the slope at that sample of a

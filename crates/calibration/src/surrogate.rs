@@ -220,13 +220,7 @@ impl Plant for KinematicPlant {
         };
         let on_body = self.on_body;
         let latest = self.cmds.back().map(|c| c.1).unwrap_or_default();
-        let mut x = TermInput {
-            cmd: latest,
-            cmd_body: self.idd.body_from_wheels(latest),
-            previous_cmd_body: self.idd.body_from_wheels(self.ctx.previous_cmd),
-            step: self.ctx.step,
-            ..TermInput::default()
-        };
+        let mut x = TermInput::at_step(&self.ctx, latest, &self.idd);
         for _ in 0..n {
             x.t_in_step_s = self.time_s - self.step_t0_s;
             x.body = self.body;

@@ -282,16 +282,18 @@ impl Runner<'_> {
         self.summary.idle_time_s += self.plant.time_s() - self.t0;
         let mut history: Vec<StepOutcome> = Vec::new();
         let mut previous = WheelSpeeds::default();
+        // What the plant is told at each step's start: the step, the previous command and the
+        // command's filtered copies (run over the completed steps, as the replay of the log
+        // runs them).
+        let mut ctx = drive_sim_model::effects::StepContext::default();
         for step in 0..self.cfg.steps {
             let mut attempt = 0;
             let mut attempts_of_cmd = 0;
             let mut cmd = self.draw(sampler, step, previous, &history)?;
             loop {
                 let t_attempt = self.plant.time_s();
-                self.plant.begin_step(drive_sim_model::effects::StepContext {
-                    step,
-                    previous_cmd: previous,
-                });
+                self.plant
+                    .begin_step(drive_sim_model::effects::StepContext { step, ..ctx });
                 match self.attempt(step, attempt, cmd)? {
                     AttemptEnd::Completed(outcome) => {
                         history.push(outcome);
@@ -299,6 +301,7 @@ impl Runner<'_> {
                         self.summary.productive_time_s +=
                             self.cfg.window_s * self.cfg.windows_per_step as f64;
                         self.sink.step_done(self.summary.steps_completed);
+                        ctx = ctx.next(cmd, self.plant.time_s() - t_attempt);
                         previous = cmd;
                         break;
                     }

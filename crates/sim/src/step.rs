@@ -89,20 +89,18 @@ impl Simulator {
         let rot = self.bodies[self.body].position().rotation;
         let heading = rot * Vector::X;
         let ax = self.accel_world[0] * heading.x as f64 + self.accel_world[1] * heading.y as f64;
+        let ctx = if self.manoeuvre {
+            self.ctx.holding(self.cmd)
+        } else {
+            self.ctx
+        };
         TermInput {
-            cmd: self.cmd,
-            cmd_body: self.nominal.body_from_wheels(self.cmd),
-            previous_cmd_body: self.nominal.body_from_wheels(if self.manoeuvre {
-                self.cmd
-            } else {
-                self.ctx.previous_cmd
-            }),
             body: v,
             accel: [ax, self.yaw_accel_rad_s2],
             t_in_step_s: self.time_s - self.step_t0_s,
-            step: self.ctx.step,
             run_seed: self.seed,
             manoeuvre: self.manoeuvre,
+            ..TermInput::at_step(&ctx, self.cmd, &self.nominal)
         }
     }
 

@@ -66,6 +66,20 @@ impl Candidate {
             .collect()
     }
 
+    /// This candidate with the parameters named in `starts` (by key) started there, where
+    /// the value lies in their box.
+    pub fn started_at(mut self, starts: &[(&str, f64)]) -> Self {
+        for p in &mut self.params {
+            let key = p.param.key();
+            if let Some(&(_, v)) = starts.iter().find(|(k, _)| *k == key) {
+                if v.is_finite() && v >= p.lower && v <= p.upper {
+                    p.start = v;
+                }
+            }
+        }
+        self
+    }
+
     /// This candidate started from the values it has in `model` (a warm start).
     pub fn warm_from(&self, model: &ModelParams) -> Self {
         let mut c = self.clone();

@@ -21,7 +21,7 @@
 //! The catalogue and the terms then compete as two orders ([`super::competition`]).
 
 use super::candidates::{evaluate, Candidate, CandidateEvidence, EvaluateInput};
-use super::reading::{read, text_of};
+use super::reading::{read, text_of, Reading};
 use super::Context;
 use crate::data::StepSet;
 use crate::diagnosis::{diagnose, Diagnosis};
@@ -32,7 +32,7 @@ use crate::metrics::{StepErrors, StepFeatures};
 use crate::model::ModelParams;
 use crate::params::{Param, ParamSpec};
 use drive_sim_model::effects::{self, Feature, TermInput, TermTarget};
-use drive_sim_model::kinematics::{IdealDiffDrive, WheelSpeeds};
+use drive_sim_model::kinematics::IdealDiffDrive;
 use serde::{Deserialize, Serialize};
 
 /// Discovery rounds at most.
@@ -268,7 +268,11 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
                         ),
                     }),
                     Ok(eq) => {
-                        let (reading, suggests) = read(src.target, &eq);
+                        let Reading {
+                            text: reading,
+                            suggests,
+                            starts,
+                        } = read(src.target, &eq);
                         let term = term_candidate(src.target, &eq);
                         let mut named_here: Vec<String> = Vec::new();
                         for s in &suggests {
@@ -278,7 +282,7 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
                                 let e = effects::REGISTRY[i];
                                 if !selected && factory.supports(e) {
                                     if !listed {
-                                        candidates.push(Candidate::of_effect(i, &ctx.reach));
+                                        candidates.push(Candidate::of_effect(i, &ctx.reach).started_at(&starts));
                                     }
                                     if e.stage() == src.target.stage() {
                                         named_here.push(s.clone());
@@ -579,21 +583,10 @@ fn rows_of(
 ) -> Rows {
     let target = src.target;
     let features = target.features();
-    let side = |c: WheelSpeeds| match target {
-        TermTarget::WheelLeft => c.left_rad_s,
-        TermTarget::WheelRight => c.right_rad_s,
-        _ => 0.0,
-    };
     let mut rows = Rows::default();
     for ((meas, m), start) in set.features.iter().zip(model).zip(&set.starts) {
         let cmd = meas.cmd;
-        let base = TermInput {
-            cmd,
-            cmd_body: idd.body_from_wheels(cmd),
-            previous_cmd_body: idd.body_from_wheels(start.previous_cmd),
-            step: meas.step,
-            ..TermInput::default()
-        };
+        let base = TermInput::at_step(&start.context(meas.step), cmd, idd);
         // Per sample: the model's own velocity and acceleration (central differences).
         let n = m.series.len();
         let at = |i: usize| -> Vec<f64> {
@@ -609,7 +602,7 @@ fn rows_of(
                     (m.series[b][1] - m.series[a][1]) / dt,
                 ];
             }
-            features.iter().map(|f| f.value(&x, side(cmd))).collect()
+            features.iter().map(|f| f.value(&x, target.side())).collect()
         };
         if let Some(c) = src.steady {
             let w = 1.0 / ctx.floor.steady[c];

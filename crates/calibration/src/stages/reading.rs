@@ -4,6 +4,7 @@
 //! term ([`super::discovery`]), so that a physical effect can win where it explains as much.
 
 use crate::discovery::Equation;
+use drive_sim_model::effects::term::HINGES_RAD_S;
 use drive_sim_model::effects::{Feature, TermTarget};
 
 /// `Δvy = 0.101 [0.097, 0.105] · vx·wz - 0.02 [...]`.
@@ -29,9 +30,21 @@ pub(super) fn text_of(target: TermTarget, eq: &Equation) -> String {
     )
 }
 
+/// What an equation says: in words, the catalogue effects it points to, and where their
+/// parameters start (read from the equation's coefficients).
+pub(super) struct Reading {
+    /// Its structure in plain language.
+    pub text: Vec<String>,
+    /// Named effects of the catalogue it points to, each once.
+    pub suggests: Vec<String>,
+    /// Starting values of those effects' parameters (`wheel_knee_rad_s` at the strongest
+    /// hinge's knee), by parameter key.
+    pub starts: Vec<(&'static str, f64)>,
+}
+
 /// A plain-language reading of an equation's structure, and the catalogue effects it points
 /// to.
-pub(super) fn read(target: TermTarget, eq: &Equation) -> (Vec<String>, Vec<String>) {
+pub(super) fn read(target: TermTarget, eq: &Equation) -> Reading {
     let has = |f: Feature| eq.terms.iter().any(|t| t.feature == f.name());
     let coef = |f: Feature| {
         eq.terms
@@ -41,6 +54,7 @@ pub(super) fn read(target: TermTarget, eq: &Equation) -> (Vec<String>, Vec<Strin
     };
     let mut reading = Vec::new();
     let mut suggests: Vec<&str> = Vec::new();
+    let mut starts: Vec<(&'static str, f64)> = Vec::new();
     let wheel = matches!(target, TermTarget::WheelLeft | TermTarget::WheelRight);
     if has(Feature::Step) || has(Feature::StepCmdWheel) || has(Feature::StepCmdVx) {
         reading.push("gain changes over the run (battery sag, motors heating)".into());
@@ -115,6 +129,26 @@ pub(super) fn read(target: TermTarget, eq: &Equation) -> (Vec<String>, Vec<Strin
         reading.push("a wheel gain error: the wheel settles off its target in proportion to it".into());
         suggests.push("motor_gain");
     }
+    // Linear in the wheel's own speed and nothing else (its command, or the body's vx and wz
+    // it is made of): a scale on this side, of the wheel itself or of its encoder only.
+    let linear = [
+        Feature::CmdWheel,
+        Feature::Vx,
+        Feature::Wz,
+        Feature::CmdVx,
+        Feature::CmdWz,
+    ];
+    if wheel
+        && !eq.terms.is_empty()
+        && eq
+            .terms
+            .iter()
+            .all(|t| linear.iter().any(|f| f.name() == t.feature))
+    {
+        reading.push("a scale on this side: its wheel's gain, or its encoder's count".into());
+        suggests.push("motor_gain");
+        suggests.push("encoder_side_scale");
+    }
     // The wheel's own command's nonlinearities, each named with its physical reading and unit.
     if wheel && has(Feature::CmdWheelOdd) {
         reading.push(format!(
@@ -127,6 +161,31 @@ pub(super) fn read(target: TermTarget, eq: &Equation) -> (Vec<String>, Vec<Strin
             "a soft saturation: the wheel's gain changes by {:+.2e} s²/rad² × ω_cmd² (a limit approached gradually)",
             coef(Feature::CmdWheelCube)
         ));
+    }
+    // Gain lost at speed, in any odd form of the command (its square with its sign, its cube,
+    // a knee with a negative slope change): a limit approached gradually is one parameter
+    // where the polynomial needs several. S·tanh(ω/S) ≈ ω − ω³/(3S²) gives its start.
+    let hinges = || (0..HINGES_RAD_S.len()).map(|i| Feature::Hinge(i as u8));
+    let loses_at_speed = coef(Feature::CmdWheelCube) < 0.0
+        || coef(Feature::CmdWheelOdd) < 0.0
+        || hinges().any(|f| coef(f) < 0.0);
+    if wheel && loses_at_speed {
+        suggests.push("wheel_speed_soft_limit_rad_s");
+        let c3 = coef(Feature::CmdWheelCube);
+        if c3 < 0.0 {
+            starts.push(("wheel_speed_soft_limit_rad_s", (-1.0 / (3.0 * c3)).sqrt()));
+        }
+    }
+    // A hinge on the grid stands for a knee somewhere near it: the named knee fits where.
+    if let Some((knee, c)) = hinges()
+        .zip(HINGES_RAD_S)
+        .filter(|&(f, _)| wheel && has(f))
+        .map(|(f, k)| (k, coef(f)))
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+    {
+        suggests.push("wheel_gain_knee");
+        starts.push(("wheel_knee_rad_s", knee));
+        starts.push(("wheel_gain_above_knee", 1.0 + c));
     }
     if wheel && has(Feature::SignCmdWheel) {
         let c = coef(Feature::SignCmdWheel);
@@ -147,8 +206,24 @@ pub(super) fn read(target: TermTarget, eq: &Equation) -> (Vec<String>, Vec<Strin
             "a reverse gain: backwards, the wheel's gain is 1 {:+.3}",
             coef(Feature::ReverseWheel)
         ));
+        starts.push(("wheel_reverse_gain", 1.0 + coef(Feature::ReverseWheel)));
     }
-    for (i, knee) in drive_sim_model::effects::term::HINGES_RAD_S.iter().enumerate() {
+    // A wheel term that acts only backwards, on the wheel's own command or on the body's
+    // direction (vx and |vx| together are 2·min(vx, 0)): the wheel's gain backwards.
+    let backwards = [
+        Feature::ReverseWheel,
+        Feature::ReverseCmdWheel,
+        Feature::ReverseVx,
+        Feature::ReverseWz,
+        Feature::SignVx,
+    ]
+    .into_iter()
+    .any(has)
+        || (has(Feature::Vx) && has(Feature::AbsVx));
+    if wheel && backwards {
+        suggests.push("wheel_reverse_gain");
+    }
+    for (i, knee) in HINGES_RAD_S.iter().enumerate() {
         let f = Feature::Hinge(i as u8);
         if wheel && has(f) {
             reading.push(format!(
@@ -199,5 +274,9 @@ pub(super) fn read(target: TermTarget, eq: &Equation) -> (Vec<String>, Vec<Strin
             unique.push(x);
         }
     }
-    (reading, unique.into_iter().map(String::from).collect())
+    Reading {
+        text: reading,
+        suggests: unique.into_iter().map(String::from).collect(),
+        starts,
+    }
 }

@@ -23,6 +23,7 @@ mod crab_angle;
 mod dead_time;
 mod droop_recovery;
 mod encoder_scale;
+mod encoder_side_scale;
 mod icr_longitudinal_offset;
 mod imu_yaw_rate_bias;
 mod imu_yaw_rate_scale;
@@ -41,7 +42,10 @@ pub mod term;
 mod time_constant_scale;
 mod turning_resistance;
 mod wheel_deadband;
+mod wheel_gain_knee;
 mod wheel_radius_scale;
+mod wheel_reverse_gain;
+mod wheel_soft_limit;
 mod wheel_speed_saturation;
 mod wheel_speed_scatter;
 
@@ -51,7 +55,7 @@ use serde::{Deserialize, Serialize};
 pub use set::Effects;
 use std::fmt;
 use std::sync::LazyLock;
-pub use term::{Feature, StepContext, TermInput, TermTarget};
+pub use term::{Feature, Side, StepContext, TermInput, TermTarget};
 
 /// Where an effect acts on the way from a command to the sensors.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -411,6 +415,9 @@ pub static REGISTRY: LazyLock<Vec<&'static dyn Effect>> = LazyLock::new(|| {
         &motor_gain_drift::MotorGainDrift,
         &wheel_speed_scatter::WheelSpeedScatter,
         &wheel_deadband::WheelDeadband,
+        &wheel_gain_knee::WheelGainKnee,
+        &wheel_soft_limit::WheelSoftLimit,
+        &wheel_reverse_gain::WheelReverseGain,
         &wheel_speed_saturation::WheelSpeedSaturation,
         &motor_torque_speed::MotorTorqueSpeed,
         &speed_droop::SpeedDroop,
@@ -442,6 +449,7 @@ pub static REGISTRY: LazyLock<Vec<&'static dyn Effect>> = LazyLock::new(|| {
     r.extend([
         &pose_latency::PoseLatency as &'static dyn Effect,
         &encoder_scale::EncoderScale,
+        &encoder_side_scale::EncoderSideScale,
     ]);
     r
 });

@@ -7,12 +7,26 @@
 //!
 //! Each [`TermTarget`] is one registered effect (`term_body_vy`, ...) whose parameters are the
 //! coefficients of every [`Feature`], all neutral at 0: a discovered equation switches on the
-//! few it uses. A coefficient's key is `term_<target>__<feature>` (`term_body_vy__vx_wz`), so
+//! few it uses.
+//!
+//! Features with memory — the command first-order filtered ([`FILTERS_S`]) or delayed
+//! ([`DELAYS_S`]) — carry their state in the [`StepContext`] a plant receives at each step's
+//! start (the filters' values then, [`StepContext::next`]); within the step their value is
+//! closed-form, since the command is constant over a DRIVE step. The protocol runner and the
+//! replay build the context by the same recurrence, so both plants compute the same feature. A coefficient's key is `term_<target>__<feature>` (`term_body_vy__vx_wz`), so
 //! terms serialize, `--inject` and appear in `calibration.json` like every other parameter.
 
 use super::{Effect, ParamDef, ParamKind, SearchBox, Stage};
-use crate::kinematics::{BodyVelocity, WheelSpeeds};
+use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use std::sync::LazyLock;
+
+/// Time constants of the first-order filtered copies of the command, s: a memory of the
+/// commands that lasts about a wheel loop's response, a step's, and several steps'.
+pub const FILTERS_S: [f64; 3] = [0.5, 2.0, 8.0];
+
+/// Delays of the delayed copies of the side's own command, s (a late actuation the dead time's
+/// single value does not describe, or one side's).
+pub const DELAYS_S: [f64; 2] = [0.1, 0.3];
 
 /// What a plant knows about the step it is running: set at the start of each step (by the
 /// protocol runner in closed loop, by the replay when replaying a log).
@@ -22,6 +36,39 @@ pub struct StepContext {
     pub step: u32,
     /// The previous step's command (zero before the first).
     pub previous_cmd: WheelSpeeds,
+    /// The command of the steps before this one through a first-order filter of each time
+    /// constant of [`FILTERS_S`], at this step's start (zero before the first): each filter
+    /// runs over the DRIVE steps only, not the pauses and manoeuvres between them.
+    pub filtered_cmd: [WheelSpeeds; 3],
+}
+
+impl StepContext {
+    /// The context of the step after this one, which was commanded `cmd` for `duration_s`.
+    pub fn next(&self, cmd: WheelSpeeds, duration_s: f64) -> StepContext {
+        let mut filtered = self.filtered_cmd;
+        for (f, tau) in filtered.iter_mut().zip(FILTERS_S) {
+            let keep = (-duration_s.max(0.0) / tau).exp();
+            *f = WheelSpeeds::new(
+                cmd.left_rad_s + (f.left_rad_s - cmd.left_rad_s) * keep,
+                cmd.right_rad_s + (f.right_rad_s - cmd.right_rad_s) * keep,
+            );
+        }
+        StepContext {
+            step: self.step + 1,
+            previous_cmd: cmd,
+            filtered_cmd: filtered,
+        }
+    }
+
+    /// This context with its memory settled on `cmd` (an operator driving between steps: the
+    /// protocol's memory does not act there).
+    pub fn holding(&self, cmd: WheelSpeeds) -> StepContext {
+        StepContext {
+            step: self.step,
+            previous_cmd: cmd,
+            filtered_cmd: [cmd; 3],
+        }
+    }
 }
 
 /// Everything a term's features may read at one instant: the command, the model's own state
@@ -34,6 +81,12 @@ pub struct TermInput {
     pub cmd_body: BodyVelocity,
     /// The previous step's command in the nominal body space.
     pub previous_cmd_body: BodyVelocity,
+    /// The previous step's command (wheel speeds), rad/s.
+    pub previous_cmd: WheelSpeeds,
+    /// The filtered copies of the command at the step's start ([`StepContext::filtered_cmd`]).
+    pub filtered_cmd: [WheelSpeeds; 3],
+    /// The same in the nominal body space.
+    pub filtered_cmd_body: [BodyVelocity; 3],
     /// The model's body velocity before any body term.
     pub body: BodyVelocity,
     /// The model's body acceleration: d vx/dt m/s², d wz/dt rad/s².
@@ -54,6 +107,22 @@ pub struct TermInput {
 }
 
 impl TermInput {
+    /// The input at the start of a step run under `ctx` with the command `cmd`, the body-space
+    /// quantities through the nominal geometry `idd`; the model's state, the time in the step
+    /// and the run's seed are left for the plant to fill.
+    pub fn at_step(ctx: &StepContext, cmd: WheelSpeeds, idd: &IdealDiffDrive) -> Self {
+        Self {
+            cmd,
+            cmd_body: idd.body_from_wheels(cmd),
+            previous_cmd: ctx.previous_cmd,
+            previous_cmd_body: idd.body_from_wheels(ctx.previous_cmd),
+            filtered_cmd: ctx.filtered_cmd,
+            filtered_cmd_body: ctx.filtered_cmd.map(|w| idd.body_from_wheels(w)),
+            step: ctx.step,
+            ..Self::default()
+        }
+    }
+
     /// The command is a stop (both wheels told zero). A discovered wheel or body term then acts
     /// not at all: it was fitted on DRIVE steps, whose commands are never a stop, and a robot
     /// told to stop brakes its wheels and stands on them (a constant or time-dependent term
@@ -61,6 +130,28 @@ impl TermInput {
     /// Sensor terms still act: a gyro's bias reads at rest too.
     pub fn is_stop(&self) -> bool {
         self.cmd.left_rad_s == 0.0 && self.cmd.right_rad_s == 0.0
+    }
+}
+
+/// Whose wheel command a feature of the side's own command reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Side {
+    /// The left wheel's.
+    Left,
+    /// The right wheel's.
+    Right,
+    /// None: a body or sensor target (side features read 0).
+    Neither,
+}
+
+impl Side {
+    /// This side's speed in `w` (0 for [`Side::Neither`]).
+    pub fn of(self, w: WheelSpeeds) -> f64 {
+        match self {
+            Self::Left => w.left_rad_s,
+            Self::Right => w.right_rad_s,
+            Self::Neither => 0.0,
+        }
     }
 }
 
@@ -135,6 +226,16 @@ pub enum Feature {
     Hinge(u8),
     /// |vx|·wz (yaw rate lost or gained with speed, the same in both directions), m/s².
     AbsVxWz,
+    /// The side's own command through a first-order filter of time constant
+    /// [`FILTERS_S`] of this index (a memory of the commands: a load the loop has learnt),
+    /// rad/s.
+    FilteredWheel(u8),
+    /// The commanded vx through the filter of [`FILTERS_S`] of this index, m/s.
+    FilteredVx(u8),
+    /// The commanded wz through the filter of [`FILTERS_S`] of this index, rad/s.
+    FilteredWz(u8),
+    /// The side's own command of [`DELAYS_S`] of this index ago, rad/s.
+    DelayedWheel(u8),
 }
 
 /// The knees θ of the [`Feature::Hinge`] features, rad/s of wheel command: a grid over the
@@ -144,7 +245,7 @@ pub const HINGES_RAD_S: [f64; 7] = [2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 14.0];
 
 impl Feature {
     /// Every feature, in a fixed order (the order of the term parameters).
-    pub const ALL: [Feature; 37] = [
+    pub const ALL: [Feature; 48] = [
         Feature::One,
         Feature::Vx,
         Feature::Wz,
@@ -182,6 +283,17 @@ impl Feature {
         Feature::Hinge(5),
         Feature::Hinge(6),
         Feature::AbsVxWz,
+        Feature::FilteredWheel(0),
+        Feature::FilteredWheel(1),
+        Feature::FilteredWheel(2),
+        Feature::FilteredVx(0),
+        Feature::FilteredVx(1),
+        Feature::FilteredVx(2),
+        Feature::FilteredWz(0),
+        Feature::FilteredWz(1),
+        Feature::FilteredWz(2),
+        Feature::DelayedWheel(0),
+        Feature::DelayedWheel(1),
     ];
 
     /// Short name, used in parameter keys and equations.
@@ -218,6 +330,10 @@ impl Feature {
             Self::ReverseWheel => "rev_wheel",
             Self::Hinge(i) => HINGE_NAMES[(i as usize).min(HINGES_RAD_S.len() - 1)],
             Self::AbsVxWz => "abs_vx_wz",
+            Self::FilteredWheel(i) => ["lp_wheel_0s5", "lp_wheel_2s", "lp_wheel_8s"][filter(i)],
+            Self::FilteredVx(i) => ["lp_vx_0s5", "lp_vx_2s", "lp_vx_8s"][filter(i)],
+            Self::FilteredWz(i) => ["lp_wz_0s5", "lp_wz_2s", "lp_wz_8s"][filter(i)],
+            Self::DelayedWheel(i) => ["delay_wheel_0s1", "delay_wheel_0s3"][delay(i)],
         }
     }
 
@@ -255,6 +371,10 @@ impl Feature {
             Self::ReverseWheel => "[ω_cmd<0]·ω_cmd",
             Self::Hinge(i) => HINGE_SYMBOLS[(i as usize).min(HINGES_RAD_S.len() - 1)],
             Self::AbsVxWz => "|vx|·wz",
+            Self::FilteredWheel(i) => ["LP0.5s(ω_cmd)", "LP2s(ω_cmd)", "LP8s(ω_cmd)"][filter(i)],
+            Self::FilteredVx(i) => ["LP0.5s(vx_cmd)", "LP2s(vx_cmd)", "LP8s(vx_cmd)"][filter(i)],
+            Self::FilteredWz(i) => ["LP0.5s(wz_cmd)", "LP2s(wz_cmd)", "LP8s(wz_cmd)"][filter(i)],
+            Self::DelayedWheel(i) => ["ω_cmd(t−0.1s)", "ω_cmd(t−0.3s)"][delay(i)],
         }
     }
 
@@ -267,6 +387,8 @@ impl Feature {
             Self::Wz | Self::CmdWz | Self::AbsWz | Self::DeltaCmdWz | Self::PrevCmdWz => "rad/s",
             Self::ReverseWz => "rad/s",
             Self::CmdWheel | Self::StepCmdWheel | Self::ReverseCmdWheel => "rad/s",
+            Self::FilteredWheel(_) | Self::FilteredWz(_) | Self::DelayedWheel(_) => "rad/s",
+            Self::FilteredVx(_) => "m/s",
             Self::ReverseWheel | Self::Hinge(_) => "rad/s",
             Self::SignCmdWheel => "1",
             Self::CmdWheelOdd => "rad²/s²",
@@ -291,11 +413,14 @@ impl Feature {
                 | Self::SignCmdWheel
                 | Self::ReverseWheel
                 | Self::Hinge(_)
+                | Self::FilteredWheel(_)
+                | Self::DelayedWheel(_)
         )
     }
 
-    /// The value at `x`; `side_cmd` is the side's own wheel command (wheel targets).
-    pub fn value(self, x: &TermInput, side_cmd: f64) -> f64 {
+    /// The value at `x`; `side` says whose wheel command the side features read.
+    pub fn value(self, x: &TermInput, side: Side) -> f64 {
+        let side_cmd = side.of(x.cmd);
         let reverse = if x.cmd_body.vx_m_s < 0.0 { 1.0 } else { 0.0 };
         let (vx, wz) = (x.body.vx_m_s, x.body.wz_rad_s);
         let k = x.step as f64;
@@ -350,6 +475,27 @@ impl Feature {
                 side_cmd.signum() * (side_cmd.abs() - knee).max(0.0)
             }
             Self::AbsVxWz => vx.abs() * wz,
+            Self::FilteredWheel(i) => {
+                let i = filter(i);
+                lowpass(side_cmd, side.of(x.filtered_cmd[i]), x.t_in_step_s, FILTERS_S[i])
+            }
+            Self::FilteredVx(i) => {
+                let i = filter(i);
+                let start = x.filtered_cmd_body[i].vx_m_s;
+                lowpass(x.cmd_body.vx_m_s, start, x.t_in_step_s, FILTERS_S[i])
+            }
+            Self::FilteredWz(i) => {
+                let i = filter(i);
+                let start = x.filtered_cmd_body[i].wz_rad_s;
+                lowpass(x.cmd_body.wz_rad_s, start, x.t_in_step_s, FILTERS_S[i])
+            }
+            Self::DelayedWheel(i) => {
+                if x.t_in_step_s >= DELAYS_S[delay(i)] {
+                    side_cmd
+                } else {
+                    side.of(x.previous_cmd)
+                }
+            }
         }
     }
 
@@ -357,6 +503,21 @@ impl Feature {
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|f| f.name() == name)
     }
+}
+
+/// The index into [`FILTERS_S`] of a filter feature (the last for an index beyond it).
+fn filter(i: u8) -> usize {
+    (i as usize).min(FILTERS_S.len() - 1)
+}
+
+/// The index into [`DELAYS_S`] of a delay feature.
+fn delay(i: u8) -> usize {
+    (i as usize).min(DELAYS_S.len() - 1)
+}
+
+/// A first-order filter's output `t` after its input stepped to `now` from an output `start`.
+fn lowpass(now: f64, start: f64, t: f64, tau: f64) -> f64 {
+    now + (start - now) * (-t.max(0.0) / tau).exp()
 }
 
 /// [`Feature::Hinge`]'s names, one per knee of [`HINGES_RAD_S`].
@@ -455,6 +616,15 @@ impl TermTarget {
         }
     }
 
+    /// Whose wheel command its side features read.
+    pub fn side(self) -> Side {
+        match self {
+            Self::WheelLeft => Side::Left,
+            Self::WheelRight => Side::Right,
+            _ => Side::Neither,
+        }
+    }
+
     /// Whether `f` is a feature of this target (side features only on wheel targets).
     pub fn has_feature(self, f: Feature) -> bool {
         !f.needs_side() || matches!(self, Self::WheelLeft | Self::WheelRight)
@@ -538,13 +708,14 @@ impl Term {
         &self.features
     }
 
-    /// `Σ c_k φ_k(x)` with the side's own command `side_cmd`.
-    pub fn evaluate(&self, p: &[f64], x: &TermInput, side_cmd: f64) -> f64 {
+    /// `Σ c_k φ_k(x)` on this target's side.
+    pub fn evaluate(&self, p: &[f64], x: &TermInput) -> f64 {
+        let side = self.target.side();
         self.features
             .iter()
             .zip(p)
             .filter(|(_, c)| **c != 0.0)
-            .map(|(f, c)| c * f.value(x, side_cmd))
+            .map(|(f, c)| c * f.value(x, side))
             .sum()
     }
 }
@@ -595,14 +766,8 @@ impl Effect for Term {
             return w;
         }
         match self.target {
-            TermTarget::WheelLeft => WheelSpeeds::new(
-                w.left_rad_s + self.evaluate(p, x, x.cmd.left_rad_s),
-                w.right_rad_s,
-            ),
-            TermTarget::WheelRight => WheelSpeeds::new(
-                w.left_rad_s,
-                w.right_rad_s + self.evaluate(p, x, x.cmd.right_rad_s),
-            ),
+            TermTarget::WheelLeft => WheelSpeeds::new(w.left_rad_s + self.evaluate(p, x), w.right_rad_s),
+            TermTarget::WheelRight => WheelSpeeds::new(w.left_rad_s, w.right_rad_s + self.evaluate(p, x)),
             _ => w,
         }
     }
@@ -610,7 +775,7 @@ impl Effect for Term {
         if x.is_stop() {
             return BodyVelocity::default();
         }
-        let v = self.evaluate(p, x, 0.0);
+        let v = self.evaluate(p, x);
         match self.target {
             TermTarget::BodyVx => BodyVelocity::new(v, 0.0, 0.0),
             TermTarget::BodyVy => BodyVelocity::new(0.0, v, 0.0),
@@ -620,7 +785,7 @@ impl Effect for Term {
     }
     fn imu_yaw_rate_in(&self, p: &[f64], wz: f64, x: &TermInput) -> f64 {
         match self.target {
-            TermTarget::ImuWz => wz + self.evaluate(p, x, 0.0),
+            TermTarget::ImuWz => wz + self.evaluate(p, x),
             _ => wz,
         }
     }

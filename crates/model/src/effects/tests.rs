@@ -28,11 +28,12 @@ fn registry_names_and_keys_are_unique_and_documented() {
     }
     // 16 original catalogue effects, 5 structural ones that discovery points to, the motor's
     // torque-speed line, the turning centre's offset and the crab angle, the speed loop's
-    // droop, the wheels' step scatter, the droop's recovery, the wheels' deadband (28 named
-    // effects), and 6 generic terms.
-    assert_eq!(REGISTRY.iter().filter(|e| !e.generic()).count(), 28);
-    assert_eq!(REGISTRY.len(), 34);
-    assert_eq!(n, 31 + 2 * 37 + 4 * 23);
+    // droop, the wheels' step scatter, the droop's recovery, the wheels' deadband, knee, soft
+    // limit and reverse gain, one encoder's scale (32 named effects), and 6 generic terms: 48
+    // features on a wheel, the 29 that do not read a side's own command on the body and the IMU.
+    assert_eq!(REGISTRY.iter().filter(|e| !e.generic()).count(), 32);
+    assert_eq!(REGISTRY.len(), 38);
+    assert_eq!(n, 37 + 2 * 48 + 4 * 29);
 }
 
 #[test]
@@ -229,4 +230,56 @@ fn every_hinge_is_named_after_its_knee() {
         assert!(f.symbol().ends_with(&format!("−{k})₊")), "{}", f.symbol());
         assert_eq!(Feature::from_name(f.name()), Some(f));
     }
+}
+
+/// The features with memory: the filtered copies follow the command's first-order filter
+/// across steps (the context's recurrence, then the closed form within the step), as a
+/// filter integrated tick by tick does; a delayed copy reads the previous step's command until
+/// its delay has passed.
+#[test]
+fn filtered_and_delayed_copies_of_the_command_remember_the_steps_before() {
+    use crate::effects::{Side, StepContext};
+    let idd = IdealDiffDrive {
+        wheel_radius_m: 0.3,
+        baseline_m: 1.0,
+    };
+    let cmds = [
+        WheelSpeeds::new(4.0, -2.0),
+        WheelSpeeds::new(-1.0, 3.0),
+        WheelSpeeds::new(2.0, 2.0),
+    ];
+    let (step_s, dt): (f64, f64) = (3.0, 1e-4);
+    // A filter integrated by small exact steps over the three steps.
+    let tau = term::FILTERS_S[1];
+    let mut y = 0.0;
+    let mut ctx = StepContext::default();
+    for (k, cmd) in cmds.iter().enumerate() {
+        let at = |t: f64| TermInput {
+            t_in_step_s: t,
+            ..TermInput::at_step(&ctx, *cmd, &idd)
+        };
+        for i in 0..(step_s / dt).round() as usize {
+            let t = i as f64 * dt;
+            let f = Feature::FilteredWheel(1).value(&at(t), Side::Left);
+            assert!((f - y).abs() < 1e-6, "step {k} at {t:.3} s: {f} against {y}");
+            y = cmd.left_rad_s + (y - cmd.left_rad_s) * (-dt / tau).exp();
+        }
+        // Body space: the filtered wheels through the nominal geometry.
+        let x = at(1.0);
+        let wz = Feature::FilteredWz(1).value(&x, Side::Neither);
+        let both = WheelSpeeds::new(
+            Feature::FilteredWheel(1).value(&x, Side::Left),
+            Feature::FilteredWheel(1).value(&x, Side::Right),
+        );
+        assert!((wz - idd.body_from_wheels(both).wz_rad_s).abs() < 1e-9);
+        // The delayed copy: the previous step's command for its first 0.1 s.
+        let d = Feature::DelayedWheel(0);
+        assert_eq!(d.value(&at(0.05), Side::Right), ctx.previous_cmd.right_rad_s);
+        assert_eq!(d.value(&at(0.15), Side::Right), cmd.right_rad_s);
+        ctx = ctx.next(*cmd, step_s);
+    }
+    assert_eq!(ctx.step, 3);
+    // An operator's manoeuvre settles the memory on its own command.
+    let held = ctx.holding(WheelSpeeds::new(1.0, 1.0));
+    assert_eq!(held.filtered_cmd, [WheelSpeeds::new(1.0, 1.0); 3]);
 }
