@@ -9,7 +9,7 @@ use drive_sim_log::{GroundTruth, Measurement, Pose};
 use drive_sim_model::effects::{Effects, PlantModifiers, StepContext, TermInput};
 use drive_sim_model::geometry::wrap_angle;
 use drive_sim_model::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
-use drive_sim_sim::plant::{integrate_unicycle_with, kinematic_measurement, Heading, Plant};
+use drive_sim_sim::plant::{integrate_unicycle_with, kinematic_measurement, poses_behind, Heading, Plant};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -347,6 +347,9 @@ impl Plant for KinematicPlant {
     fn reset(&mut self, pose: Pose, velocity: BodyVelocity, wheels: WheelSpeeds) {
         // Kinematic: the wheels define the body velocity, unless the body lags them; then the
         // measured velocity is its state.
+        // With a pose latency, the logged pose is where the robot was that long ago.
+        let behind = poses_behind(pose, velocity, self.mods.pose_latency_s, 0.01);
+        let pose = behind.last().map_or(pose, |p| p.1);
         self.pose = pose;
         self.heading = Heading::of(pose.yaw_rad);
         self.wheels = wheels;
@@ -363,7 +366,7 @@ impl Plant for KinematicPlant {
         self.time_s = 0.0;
         self.step_t0_s = 0.0;
         self.poses.clear();
-        self.poses.push_back((self.time_s, pose));
+        self.poses.extend(behind);
     }
 }
 
@@ -438,5 +441,30 @@ mod tests {
         // Steady at 0.6 m/s: the reported pose lags 0.2 s * 0.6 m/s = 0.12 m.
         let lag = p.true_pose().x_m - p.measure().pose.x_m;
         assert!((lag - 0.12).abs() < 1e-3, "{lag}");
+    }
+
+    /// A replay starts from a logged pose that is the latency old: the robot starts ahead of
+    /// it, and reports the way there, as a robot that was driving does.
+    #[test]
+    fn a_reset_under_pose_latency_starts_the_robot_ahead_of_the_reported_pose() {
+        let mut e = Effects::default();
+        e.set("pose_latency_s", 0.2).unwrap();
+        let mut p = KinematicPlant::new(idd(), 0.1, e, None).unwrap();
+        let reported = Pose {
+            x_m: 1.0,
+            ..Pose::default()
+        };
+        let wheels = WheelSpeeds::new(2.0, 2.0);
+        p.reset(reported, BodyVelocity::new(0.6, 0.0, 0.0), wheels);
+        assert!((p.measure().pose.x_m - 1.0).abs() < 1e-9);
+        assert!((p.true_pose().x_m - 1.12).abs() < 1e-9, "{:?}", p.true_pose());
+        // Half the latency later, the reported pose is half way there.
+        p.command(wheels);
+        p.advance(0.1).unwrap();
+        assert!(
+            (p.measure().pose.x_m - 1.06).abs() < 1e-6,
+            "{:?}",
+            p.measure().pose
+        );
     }
 }

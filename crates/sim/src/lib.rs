@@ -223,6 +223,10 @@ impl Simulator {
     /// Nothing of the previous motion remains (the result of a replay does not depend on what
     /// the simulator did before; tested).
     pub fn reset(&mut self, pose: Pose, velocity: BodyVelocity, wheels: WheelSpeeds) {
+        // With a pose latency, the given pose is where the robot was that long ago: it starts
+        // ahead of it, and the latency reports the way there.
+        let behind = plant::poses_behind(pose, velocity, self.mods.pose_latency_s, 1e-3);
+        let pose = behind.last().map_or(pose, |p| p.1);
         let ground_z = self.ground.height_at(&self.colliders, pose.x_m, pose.y_m);
         let z = ground_z + self.com_height_m - self.sinkage_m;
         let rot = Rotation::from_rotation_z(pose.yaw_rad as f32);
@@ -266,6 +270,16 @@ impl Simulator {
         self.airborne_s = 0.0;
         self.accel_world = [0.0; 3];
         self.pose_history.clear();
+        if behind.len() > 1 {
+            // The way there, at the height and attitude the robot is put down with.
+            let now = *self.bodies[self.body].position();
+            for (t, p) in &behind {
+                let rot = Rotation::from_rotation_z(p.yaw_rad as f32);
+                let at = Vector::new(p.x_m as f32, p.y_m as f32, now.translation.z);
+                self.pose_history
+                    .push_back((*t, rapier3d::math::Pose::from_parts(at, rot)));
+            }
+        }
         self.input = TermInput::default();
         self.body_state = velocity;
         self.body_extra = BodyVelocity::default();

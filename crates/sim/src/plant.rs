@@ -143,6 +143,34 @@ fn sinc_cos(a: f64) -> (f64, f64) {
     }
 }
 
+/// The true poses behind a pose that is `latency_s` old: a log's localisation reports where
+/// the robot was `latency_s` ago, so a replay that starts from a logged pose must start the
+/// robot that far ahead of it, and its latency must report the way there. The robot is taken
+/// to have moved at `v` (body frame, constant: the velocity the step starts from) over that
+/// time. Returns `(time, pose)` every `h_s` or less from `-latency_s` (the reported pose) to 0
+/// (the true pose now); only `reported` when there is no latency.
+pub fn poses_behind(reported: Pose, v: BodyVelocity, latency_s: f64, h_s: f64) -> Vec<(f64, Pose)> {
+    if !(latency_s > 0.0 && h_s > 0.0) {
+        return vec![(0.0, reported)];
+    }
+    let n = (latency_s / h_s).ceil() as usize;
+    let h = latency_s / n as f64;
+    let mut pose = reported;
+    let mut heading = Heading::of(pose.yaw_rad);
+    let mut out = Vec::with_capacity(n + 1);
+    out.push((-latency_s, pose));
+    for k in 1..=n {
+        let mid = integrate_unicycle_with(&mut pose, &mut heading, v, h);
+        pose.x_m -= mid.sin * v.vy_m_s * h;
+        pose.y_m += mid.cos * v.vy_m_s * h;
+        out.push((-latency_s + k as f64 * h, pose));
+    }
+    if let Some(last) = out.last_mut() {
+        last.0 = 0.0;
+    }
+    out
+}
+
 /// [`integrate_unicycle`] with the heading of `pose` kept in `heading` (which must be
 /// [`Heading::of`] the pose's yaw on entry, and is on return); returns the mid heading, the
 /// frame a lateral velocity moves the pose in.
@@ -253,6 +281,30 @@ impl Plant for IdealPlant {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_poses_behind_a_late_pose_run_from_it_to_where_the_robot_is_now() {
+        let reported = Pose {
+            yaw_rad: 0.5,
+            ..Default::default()
+        };
+        let v = BodyVelocity::new(1.0, 0.2, 0.4);
+        let way = poses_behind(reported, v, 0.25, 0.01);
+        assert_eq!(way.len(), 26);
+        assert_eq!(way[0], (-0.25, reported));
+        let (t, now) = way[25];
+        assert_eq!(t, 0.0);
+        // The arc of 0.25 s at (1, 0.2) m/s turning 0.4 rad/s: about 0.25 m ahead, 0.05 m left.
+        let (s, c) = (0.55f64).sin_cos();
+        let ahead = c * now.x_m + s * now.y_m;
+        let left = -s * now.x_m + c * now.y_m;
+        assert!(
+            (ahead - 0.25).abs() < 2e-3 && (left - 0.05).abs() < 2e-3,
+            "{now:?}"
+        );
+        assert!((now.yaw_rad - 0.6).abs() < 1e-12);
+        assert_eq!(poses_behind(reported, v, 0.0, 0.01), vec![(0.0, reported)]);
+    }
 
     #[test]
     fn kept_heading_integrates_as_the_direct_one() {

@@ -37,6 +37,12 @@ use serde::{Deserialize, Serialize};
 
 /// Discovery rounds at most.
 const MAX_ROUNDS: usize = 3;
+/// The equations' terms of one stage are also tried together (the two wheels' terms of one
+/// effect) when they have at most this many coefficients in all. Past it the fit costs a
+/// replay of the training steps per coefficient per iteration (about 600 replays for the 24
+/// coefficients of warthog_asphalt's two wheel equations), and no measured run's final model
+/// kept one.
+const MAX_JOINT_COEFFICIENTS: usize = 12;
 /// An equation explaining less than this share of the validation residual's energy
 /// (uncentred R²) is not tried: it fits the training steps, not the effect.
 pub const MIN_VALIDATION_R2: f64 = 0.2;
@@ -309,7 +315,9 @@ pub fn run(ctx: &Context<'_>, input: DiscoveryInput) -> Result<DiscoveryOutput> 
                 let all = terms[1..]
                     .iter()
                     .fold(terms[0].clone(), |acc, t| Candidate::pair(&acc, t));
-                terms.push(all);
+                if all.params.len() <= MAX_JOINT_COEFFICIENTS {
+                    terms.push(all);
+                }
             }
             let joint = named_together(&candidates, &together);
             candidates.extend(joint);
