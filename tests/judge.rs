@@ -143,6 +143,9 @@ fn the_command_prints_the_table_and_writes_its_files() {
             "2",
             "--references",
             "4",
+            // 4 references reach p = 0.2 at best: the level must allow it.
+            "--alpha",
+            "0.2",
             "--resamples",
             "100",
             "--out",

@@ -119,7 +119,26 @@ pub(crate) fn render(
 
 /// Figure title.
 pub(crate) fn title_style() -> TextStyle<'static> {
-    (FONT, 26).into_font().style(FontStyle::Bold).into()
+    title_style_sized(TITLE_SIZE)
+}
+/// The title's size in drawing units.
+const TITLE_SIZE: f64 = 26.0;
+/// A bold sans-serif glyph's mean advance, as a share of the font size: an estimate on the
+/// wide side, since a viewer picks its own sans-serif font and a title too long is clipped.
+const TITLE_ADVANCE: f64 = 0.62;
+fn title_style_sized(size: f64) -> TextStyle<'static> {
+    (FONT, size).into_font().style(FontStyle::Bold).into()
+}
+/// The title's style for a canvas `width` wide: its own size where it fits, else smaller
+/// (down to 14) so that a long dataset name does not push it off both edges.
+pub(crate) fn title_style_fitting(title: &str, width: u32) -> TextStyle<'static> {
+    let needed = title.chars().count() as f64 * TITLE_ADVANCE * TITLE_SIZE;
+    let room = width.saturating_sub(16) as f64;
+    if needed <= room {
+        title_style()
+    } else {
+        title_style_sized((TITLE_SIZE * room / needed).max(14.0))
+    }
 }
 /// Panel caption.
 pub(crate) fn caption_style() -> TextStyle<'static> {
@@ -497,7 +516,7 @@ pub(crate) fn title_legend_body<DB: DrawingBackend>(
     top.draw(&Text::new(
         title.to_string(),
         (w as i32 / 2, TITLE_H as i32 / 2 + 2),
-        title_style().pos(Pos::new(HPos::Center, VPos::Center)),
+        title_style_fitting(title, w).pos(Pos::new(HPos::Center, VPos::Center)),
     ))?;
     let lh = legend_height(w, legend);
     if lh == 0 {

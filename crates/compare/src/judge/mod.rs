@@ -131,6 +131,21 @@ impl JudgeOptions {
         if !(self.alpha > 0.0 && self.alpha < 1.0) {
             return bad("--alpha", format!("must be in (0, 1), got {}", self.alpha));
         }
+        // A test whose smallest p-value is above its level can never tell the twin apart: its
+        // "indistinguishable" would be no judgement at all.
+        let smallest_p = 1.0 / (self.references as f64 + 1.0);
+        if smallest_p > self.alpha {
+            return bad(
+                "--references",
+                format!(
+                    "{} references cannot reach --alpha {}: the smallest p-value is 1 / (references + 1) = {:.3}; give at least {}",
+                    self.references,
+                    self.alpha,
+                    smallest_p,
+                    (1.0 / self.alpha - 1.0 - 1e-9).ceil()
+                ),
+            );
+        }
         Ok(())
     }
 
@@ -368,6 +383,14 @@ mod tests {
                     ..JudgeOptions::default()
                 },
                 "--steps",
+            ),
+            // 9 references reach p = 0.1, not 0.05.
+            (
+                JudgeOptions {
+                    references: 9,
+                    ..JudgeOptions::default()
+                },
+                "--references",
             ),
             (
                 JudgeOptions {
