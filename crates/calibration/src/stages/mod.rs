@@ -27,6 +27,7 @@ pub mod candidates;
 pub mod competition;
 pub mod discovery;
 pub mod final_fit;
+mod proposals;
 mod reading;
 pub mod report;
 pub mod screening;
