@@ -4,7 +4,7 @@
 //! term ([`super::discovery`]), so that a physical effect can win where it explains as much.
 
 use crate::discovery::Equation;
-use drive_sim_model::effects::term::{DELAYS_S, FILTERS_S, HINGES_RAD_S};
+use drive_sim_model::effects::term::HINGES_RAD_S;
 use drive_sim_model::effects::{Feature, TermTarget};
 
 /// `Δvy = 0.101 [0.097, 0.105] · vx·wz - 0.02 [...]`.
@@ -261,29 +261,21 @@ pub(super) fn read(target: TermTarget, eq: &Equation) -> Reading {
     }
     // Memory of earlier commands: the filtered copies (a load the loop learns and forgets
     // over the filter's time) and the delayed ones (an actuation that acts late).
-    for f in Feature::ALL {
-        if !has(f) {
-            continue;
-        }
-        match f {
-            Feature::FilteredWheel(i) | Feature::FilteredVx(i) | Feature::FilteredWz(i) => {
-                reading.push(format!(
-                    "remembers the commands of the last {} s ({:+.4} · {}): a response that builds up or is learnt over several seconds",
-                    FILTERS_S[i as usize],
-                    coef(f),
-                    f.symbol()
-                ));
-            }
-            Feature::DelayedWheel(i) => {
-                reading.push(format!(
-                    "acts on the command of {} s ago ({:+.4} · {}): an actuation that answers late",
-                    DELAYS_S[i as usize],
-                    coef(f),
-                    f.symbol()
-                ));
-                suggests.push("dead_time_s");
-            }
-            _ => {}
+    for f in Feature::ALL.into_iter().filter(|&f| has(f)) {
+        let Some(t) = f.memory_s() else { continue };
+        if matches!(f, Feature::DelayedWheel(_)) {
+            reading.push(format!(
+                "acts on the command of {t} s ago ({:+.4} · {}): an actuation that answers late",
+                coef(f),
+                f.symbol()
+            ));
+            suggests.push("dead_time_s");
+        } else {
+            reading.push(format!(
+                "remembers the commands of the last {t} s ({:+.4} · {}): a response that builds up or is learnt over several seconds",
+                coef(f),
+                f.symbol()
+            ));
         }
     }
     if has(Feature::VxSq) || has(Feature::WzSq) || has(Feature::AbsVx) || has(Feature::AbsWz) {

@@ -279,6 +279,9 @@ fn filtered_and_delayed_copies_of_the_command_remember_the_steps_before() {
         ctx = ctx.next(*cmd, step_s);
     }
     assert_eq!(ctx.step, 3);
+    assert_eq!(Feature::FilteredWz(2).memory_s(), Some(8.0));
+    assert_eq!(Feature::DelayedWheel(1).memory_s(), Some(0.3));
+    assert_eq!(Feature::Vx.memory_s(), None);
     // An operator's manoeuvre settles the memory on its own command.
     let held = ctx.holding(WheelSpeeds::new(1.0, 1.0));
     assert_eq!(held.filtered_cmd, [WheelSpeeds::new(1.0, 1.0); 3]);

@@ -380,6 +380,16 @@ impl Feature {
         }
     }
 
+    /// A feature with memory's time: the filter's time constant of a filtered copy of the
+    /// command, the delay of a delayed one, s; `None` for the others.
+    pub fn memory_s(self) -> Option<f64> {
+        match self {
+            Self::FilteredWheel(i) | Self::FilteredVx(i) | Self::FilteredWz(i) => Some(FILTERS_S[filter(i)]),
+            Self::DelayedWheel(i) => Some(DELAYS_S[delay(i)]),
+            _ => None,
+        }
+    }
+
     /// The feature named `name` ([`Feature::name`]).
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|f| f.name() == name)
