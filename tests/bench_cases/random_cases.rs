@@ -129,7 +129,7 @@ impl Family {
             Self::ReverseGain => "u < 0 → (1 + δ)·u, δ ∈ ±[0.08, 0.25]",
             Self::DeadTime => "the command of τ ago, τ ∈ [0.05, 0.25] s (whole ms)",
             Self::BodyLag => "body velocity lags the wheels', τ ∈ [0.1, 0.5] s",
-            Self::TurnMemory => "wheels give way by m·(s − learnt s), m ∈ [0.5, 1.5] rad/s, τ ∈ [2, 8] s",
+            Self::TurnMemory => "wheels give way by m·(s − learnt s), s = tanh((u_l − u_r)/2) learnt over τ, m ∈ [0.5, 1.5] rad/s, τ ∈ [2, 8] s",
             Self::Backlash => "gap b between motor and wheel, b ∈ [0.1, 0.4] rad",
             Self::GainDrift => "gain 1 + d·k at step k, d ∈ ±[0.001, 0.003]",
             Self::ImuBiasDrift => "gyro reads d·k more at step k, d ∈ ±[2e-4, 8e-4] rad/s",
@@ -305,6 +305,8 @@ pub fn draw(family: Family, seed: u64) -> Case {
         ..Unmodelled::default()
     };
     let wheels = vec![WheelLeft, WheelRight];
+    let spec = TestRobotSpec::discovery(seed);
+    let turn_saturation = 2.0 * spec.radius_m / spec.track_m;
     let truth = |channels: Vec<Channel>, targets: Vec<Channel>| Truth {
         channels,
         targets,
@@ -443,7 +445,19 @@ pub fn draw(family: Family, seed: u64) -> Case {
                     ..base
                 },
                 vec![("m_rad_s", m), ("tau_s", tau)],
-                truth(wheels.clone(), wheels),
+                Truth {
+                    // The generator's turn, tanh((u_l − u_r)/2), is the named effect's load
+                    // tanh(wz/w_s) at w_s = 2r/b of its nominal geometry.
+                    exact: exact(
+                        "turn_memory",
+                        vec![
+                            ("turn_memory_give_rad_s", m),
+                            ("turn_memory_s", tau),
+                            ("turn_memory_saturation_rad_s", turn_saturation),
+                        ],
+                    ),
+                    ..truth(wheels.clone(), wheels)
+                },
             )
         }
         Family::Backlash => {

@@ -32,8 +32,19 @@ pub struct StepSet<'a> {
 impl<'a> StepSet<'a> {
     /// Selects `which` steps of `all` (in that order; a step may repeat, as in a bootstrap
     /// resample). A step's start is measured from the steps of `which` only (see
-    /// [`step_start_in`]): the sets of a calibration share no measurement.
+    /// [`step_start_in`]): the training set takes nothing from the sets that judge it.
     pub fn new(all: &[StepSlice<'a>], which: &[u32], rate_hz: f64) -> Result<Self> {
+        Self::after(all, which, &[], rate_hz)
+    }
+
+    /// As [`StepSet::new`], with the steps' starts also measured from the `earlier` sets'
+    /// steps: a validation step that follows a training step starts where that step ended,
+    /// a test step where a training or validation step ended. Measurements flow from the sets
+    /// that fit to those that judge, never back, so the judging sets' starts are as good as
+    /// the training set's without a test step moving the fit (with their own steps only,
+    /// most test steps followed a step of another set and started from the noisier estimate
+    /// over their own first samples).
+    pub fn after(all: &[StepSlice<'a>], which: &[u32], earlier: &[u32], rate_hz: f64) -> Result<Self> {
         let steps: Vec<StepSlice<'a>> = which
             .iter()
             .map(|w| {
@@ -49,7 +60,7 @@ impl<'a> StepSet<'a> {
             .collect::<Result<_>>()?;
         let starts = steps
             .iter()
-            .map(|s| step_start_in(all, *s, |k| which.contains(&k)))
+            .map(|s| step_start_in(all, *s, |k| which.contains(&k) || earlier.contains(&k)))
             .collect::<Result<_>>()?;
         Ok(Self {
             steps,
@@ -228,6 +239,49 @@ mod tests {
                 (i, WheelSpeeds::new(5.0 * a.cos(), 5.0 * a.sin()))
             })
             .collect()
+    }
+
+    #[test]
+    fn a_judging_set_starts_from_the_fitting_sets_steps_and_never_the_reverse() {
+        use drive_sim_log::{Measurement, Pose, Sample};
+        // Two steps back to back at 20 Hz, the robot at 1.2 m/s then braking.
+        let sample = |step: u32, i: u32, stamp0: f64, x: f64| Sample {
+            step,
+            window: i / 40,
+            k: i % 40,
+            t_in_step_s: f64::from(i) * 0.05,
+            stamp_s: stamp0 + f64::from(i) * 0.05,
+            m: Measurement {
+                pose: Pose {
+                    x_m: x,
+                    ..Pose::default()
+                },
+                enc: WheelSpeeds::new(4.0, 4.0),
+                ..Measurement::default()
+            },
+        };
+        let first: Vec<Sample> = (0..120).map(|i| sample(0, i, 0.0, 0.06 * f64::from(i))).collect();
+        let second: Vec<Sample> = (0..120)
+            .map(|i| {
+                let t = f64::from(i) * 0.05;
+                sample(1, i, 6.0, 7.2 + 1.2 * t - 1.5 * t * t.min(0.4))
+            })
+            .collect();
+        let all = [
+            StepSlice {
+                step: 0,
+                samples: &first,
+            },
+            StepSlice {
+                step: 1,
+                samples: &second,
+            },
+        ];
+        let judged = StepSet::after(&all, &[1], &[0], 20.0).unwrap();
+        assert!((judged.starts[0].velocity.vx_m_s - 1.2).abs() < 1e-9);
+        // A set on its own (the training set) reads none of the other sets' poses.
+        let alone = StepSet::new(&all, &[1], 20.0).unwrap();
+        assert!((alone.starts[0].velocity.vx_m_s - 1.2).abs() > 1e-3);
     }
 
     #[test]

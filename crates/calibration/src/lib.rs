@@ -379,7 +379,8 @@ pub fn replay_model_and_compare(
                     "the calibration's test step is not in this log (was it calibrated on another log?)",
                 ));
             }
-            let set = StepSet::new(&slices, &s.steps, log.meta.rate_hz)?;
+            // As the calibration's own test set: its steps start from any step's end.
+            let set = StepSet::after(&slices, &s.steps, &ids, log.meta.rate_hz)?;
             Some(ErrorSummary::pool(
                 &set.errors(factory.as_ref(), params)?,
                 &s.floor,

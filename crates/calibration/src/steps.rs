@@ -4,7 +4,9 @@
 
 use crate::error::{Error, Result};
 use drive_sim_analysis::segment::{usable_steps, Exclusion, SegmentRules};
+use drive_sim_analysis::stats::interquartile_mean;
 use drive_sim_log::{DriveLog, Pose, Sample};
+use drive_sim_model::effects::term::{PastStep, HISTORY_STEPS};
 use drive_sim_model::effects::StepContext;
 use drive_sim_model::geometry::wrap_angle;
 use drive_sim_model::kinematics::{BodyVelocity, WheelSpeeds};
@@ -57,10 +59,13 @@ pub fn body_rate(p: &Pose, q: &Pose, dt_s: f64) -> [f64; 3] {
 pub struct StepStart {
     /// Pose of the first sample.
     pub pose: Pose,
-    /// Body velocity at the first sample: the source's reference estimate when it has one,
-    /// else the pose difference over the first 0.25 s of the step, in the body frame.
+    /// Body velocity at the first sample: the source's reference estimate when it has one;
+    /// else the previous step's steady end when this step follows it ([`step_start_in`]); else
+    /// at rest when the wheels stand still, or the poses' slope at the start with the gyro's
+    /// yaw rate ([`step_start`]). In the body frame.
     pub velocity: BodyVelocity,
-    /// Encoder wheel speeds of the first sample.
+    /// Encoder wheel speeds at the first sample: the previous step's steady end when this
+    /// step follows it (see [`step_start_in`]), else the first sample's reading.
     pub wheels: WheelSpeeds,
     /// The previous step's command (its last sample's), or the wheels at the start when
     /// the previous step is not in the log.
@@ -68,6 +73,8 @@ pub struct StepStart {
     /// The commands of the log's steps before this one through the filters of a plant's
     /// [`StepContext`] (each step for its recorded duration; zero before the first).
     pub filtered_cmd: [WheelSpeeds; 3],
+    /// The log's steps before this one, as a plant's [`StepContext::history`] holds them.
+    pub history: [PastStep; HISTORY_STEPS],
 }
 
 impl StepStart {
@@ -77,6 +84,7 @@ impl StepStart {
             step,
             previous_cmd: self.previous_cmd,
             filtered_cmd: self.filtered_cmd,
+            history: self.history,
         }
     }
 }
@@ -94,22 +102,27 @@ pub fn step_start(samples: &[Sample]) -> Result<StepStart> {
         wheels: first.m.enc,
         previous_cmd: first.m.enc,
         filtered_cmd: [WheelSpeeds::default(); 3],
+        history: [PastStep::default(); HISTORY_STEPS],
     })
 }
 
 /// The start of `step` with the previous step's command taken from `all` (the log's steps in
 /// order) when the previous step index is there.
 ///
-/// Without a reference velocity, and when the previous step ran right before this one (the
-/// next sample period, the pose continuing) and `may_measure` allows its step index, the start
-/// velocity is the previous step's end velocity: a backward difference over its steady last
-/// samples. The forward difference over this step's first 0.25 s averages the start of the
-/// transient into it: with a body lagging its wheels by 0.3 s, that starts the replay a third
-/// of the step's change away from where the robot was.
+/// When the previous step ran right before this one (the next sample period, the pose
+/// continuing) and `may_measure` allows its step index, the start is read from the previous
+/// step's steady last second: the velocity (without a reference velocity) as the mean of the
+/// body rates between poses half a second apart, each exact on a constant arc; the wheels as
+/// each encoder's interquartile mean, which ignores a dropped or miscounted reading. This
+/// step's own first samples would carry the start of its transient: with a body lagging its
+/// wheels by 0.3 s, their slope starts the replay a third of the step's change away from
+/// where the robot was.
 ///
-/// `may_measure` keeps a calibration's sets apart: a training step after a test step must not
-/// start from the test step's poses, or the test steps would move the fit (they did, by 1e-7 in
-/// a score, once the simulated protocol interrupted less and more steps followed each other
+/// `may_measure` says which steps' measurements may start this one: a calibration's training
+/// set reads only its own steps, the validation set also the training steps, the test set
+/// every step ([`crate::data::StepSet::after`]). A training step after a test step must not
+/// start from the test step's poses, or the test steps would move the fit (they did, by 1e-7
+/// in a score, once the simulated protocol interrupted less and more steps followed each other
 /// without a break). The previous command is the protocol's input, not a measurement: it is
 /// taken whatever set its step is in.
 pub fn step_start_in(
@@ -127,6 +140,7 @@ pub fn step_start_in(
         }
     }
     start.filtered_cmd = ctx.filtered_cmd;
+    start.history = ctx.history;
     let Some(prev) = step
         .step
         .checked_sub(1)
@@ -139,11 +153,18 @@ pub fn step_start_in(
     };
     start.previous_cmd = last.m.cmd;
     let first = &step.samples[0];
-    if may_measure(prev.step) && !first.m.reference.is_some_and(|v| v.is_finite()) {
-        if let Some(v) = end_velocity(prev.samples) {
-            if continues(prev.samples, first, v) {
-                start.velocity = v;
-            }
+    if !may_measure(prev.step) {
+        return Ok(start);
+    }
+    let Some(v) = end_velocity(prev.samples) else {
+        return Ok(start);
+    };
+    if continues(prev.samples, first, v) {
+        if !first.m.reference.is_some_and(|v| v.is_finite()) {
+            start.velocity = v;
+        }
+        if let Some(w) = end_wheels(prev.samples) {
+            start.wheels = w;
         }
     }
     Ok(start)
@@ -160,13 +181,25 @@ fn duration_s(samples: &[Sample]) -> f64 {
     }
 }
 
-/// Body velocity at a step's first sample from its poses: the slope at that sample of a
+/// Below this encoder speed on both sides at a step's first sample, the wheels stand still
+/// and the step starts from rest, rad/s (0.15 m/s on a 0.3 m wheel: about the encoders'
+/// noise on the measured runs). A step after the operator stopped the robot starts so.
+const STILL_WHEEL_RAD_S: f64 = 0.5;
+
+/// Body velocity at a step's first sample without a reference. At rest when its wheels stand
+/// still ([`STILL_WHEEL_RAD_S`]). Else vx and vy from its poses: the slope at that sample of a
 /// least-squares parabola through the first half second of the first window (up to 10
-/// samples; poses restart at each window in measured logs). A forward difference over the same
-/// samples would be the mean velocity over them, which is late by half the window in a
-/// transient; the parabola's slope at the start is not, at a similar noise for 10 samples.
+/// samples; poses restart at each window in measured logs; a forward difference over the same
+/// samples would be the mean velocity over them, late by half the window in a transient), and
+/// wz from the gyro at that sample where the log has one (as the measured runs' reference
+/// takes it). The poses' curve bends with the response to the new command, and more so when
+/// the poses are late: under a 0.17 s pose latency the parabola put a robot at rest at −0.5
+/// to −1 m/s, and its yaw-rate slope biased the fitted latency 8 % low.
 fn start_velocity(samples: &[Sample]) -> BodyVelocity {
     let first = &samples[0];
+    if first.m.enc.left_rad_s.abs() < STILL_WHEEL_RAD_S && first.m.enc.right_rad_s.abs() < STILL_WHEEL_RAD_S {
+        return BodyVelocity::default();
+    }
     let window: Vec<&Sample> = samples
         .iter()
         .take(10)
@@ -201,7 +234,13 @@ fn start_velocity(samples: &[Sample]) -> BodyVelocity {
             0.0
         }
     };
-    BodyVelocity::new(slope(&xyz[0]), slope(&xyz[1]), slope(&xyz[2]))
+    // The yaw rate is the gyro's at the first sample where there is one, as the measured
+    // runs' reference takes it: a late pose bends the poses' curve, the gyro is not late.
+    let wz = match first.m.imu.wz_rad_s {
+        w if w.is_finite() => w,
+        _ => slope(&xyz[2]),
+    };
+    BodyVelocity::new(slope(&xyz[0]), slope(&xyz[1]), wz)
 }
 
 /// The slope at t = 0 of the least-squares parabola y ≈ a + b t + c t² (None if singular).
@@ -216,21 +255,63 @@ fn parabola_slope_at_zero(t: &[f64], y: &[f64]) -> Option<f64> {
     ata.cholesky().map(|c| c.solve(&aty)[1])
 }
 
-/// Body velocity at the end of a step: the backward difference over its last samples inside
-/// one window (up to 5 sample periods).
-fn end_velocity(samples: &[Sample]) -> Option<BodyVelocity> {
-    let last = samples.last()?;
-    let first = samples
+/// Samples of a step's steady end the next step's start is read from: up to 1 s at 20 Hz.
+const END_SAMPLES: usize = 20;
+
+/// The last samples of a step inside its last window (up to [`END_SAMPLES`]), in time order.
+fn end_samples(samples: &[Sample]) -> &[Sample] {
+    let Some(last) = samples.last() else {
+        return samples;
+    };
+    let n = samples
         .iter()
         .rev()
-        .take(6)
+        .take(END_SAMPLES)
         .take_while(|s| s.window == last.window)
-        .last()?;
-    let dt = last.t_in_step_s - first.t_in_step_s;
-    (dt > 0.0).then(|| {
-        let v = body_rate(&first.m.pose, &last.m.pose, dt);
-        BodyVelocity::new(v[0], v[1], v[2])
-    })
+        .count();
+    &samples[samples.len() - n..]
+}
+
+/// Body velocity at the end of a step, from its steady last second: the mean of the
+/// [`body_rate`]s between each sample of its first half and the sample half its length later.
+/// Each sample enters once, so the noise falls as a least-squares slope's would (about 7×
+/// below a difference over 0.25 s, for a second of poses), and each rate is exact on a
+/// constant arc, where a straight-line fit of positions is not.
+fn end_velocity(samples: &[Sample]) -> Option<BodyVelocity> {
+    let end = end_samples(samples);
+    let half = end.len() / 2;
+    if half == 0 {
+        return None;
+    }
+    let mut sum = [0.0; 3];
+    let mut n = 0.0;
+    for (a, b) in end[..half].iter().zip(&end[half..]) {
+        let dt = b.t_in_step_s - a.t_in_step_s;
+        if dt > 0.0 {
+            let v = body_rate(&a.m.pose, &b.m.pose, dt);
+            for (s, x) in sum.iter_mut().zip(v) {
+                *s += x;
+            }
+            n += 1.0;
+        }
+    }
+    (n > 0.0).then(|| BodyVelocity::new(sum[0] / n, sum[1] / n, sum[2] / n))
+}
+
+/// Encoder wheel speeds at the end of a step: the interquartile mean of each side over the
+/// same steady last second as [`end_velocity`]. One sample's reading carries the encoder's
+/// noise, its counts' quantisation and, now and then, a dropout to zero; a replay started
+/// from it starts the wheels that far off.
+fn end_wheels(samples: &[Sample]) -> Option<WheelSpeeds> {
+    let end = end_samples(samples);
+    if end.len() < 4 {
+        return None;
+    }
+    let side = |f: fn(&Sample) -> f64| interquartile_mean(&end.iter().map(f).collect::<Vec<_>>());
+    Some(WheelSpeeds::new(
+        side(|s| s.m.enc.left_rad_s),
+        side(|s| s.m.enc.right_rad_s),
+    ))
 }
 
 /// Whether `next` follows the step `before` without a break: one sample period after its
@@ -269,6 +350,8 @@ mod tests {
                     stamp_s: stamp0_s + t,
                     m: Measurement {
                         pose: pose(t),
+                        // Turning wheels: the poses, not a stop, say how the step starts.
+                        enc: WheelSpeeds::new(4.0, 4.0),
                         ..Measurement::default()
                     },
                 }
@@ -345,5 +428,58 @@ mod tests {
         ];
         let start = step_start_in(&all, all[1], |_| true).unwrap();
         assert!((start.velocity.vx_m_s - 0.3).abs() < 1e-9, "{start:?}");
+    }
+
+    #[test]
+    fn a_step_after_a_steady_one_starts_its_wheels_at_the_end_ignoring_dropouts_and_counts() {
+        let steady = |t: f64| Pose {
+            x_m: 1.2 * t,
+            ..Pose::default()
+        };
+        let mut prev = step(4, 0.0, 120, steady);
+        // Counts of ±0.5 rad/s about 4 and, twice in the last second, an encoder that reads 0.
+        for (i, s) in prev.iter_mut().enumerate() {
+            let count = if i % 2 == 0 { 0.5 } else { -0.5 };
+            s.m.enc = WheelSpeeds::new(4.0 + count, 4.0 - count);
+        }
+        prev[110].m.enc.left_rad_s = 0.0;
+        prev[116].m.enc.right_rad_s = 0.0;
+        let next = step(5, 6.0, 80, move |t| Pose {
+            x_m: 7.2 + 1.2 * t,
+            ..Pose::default()
+        });
+        let all = [
+            StepSlice {
+                step: 4,
+                samples: &prev,
+            },
+            StepSlice {
+                step: 5,
+                samples: &next,
+            },
+        ];
+        // Within 0.05 rad/s of 4 (a plain mean of the last second is 0.2 below it, and the
+        // last sample alone 0.5 off).
+        let start = step_start_in(&all, all[1], |_| true).unwrap();
+        assert!((start.wheels.left_rad_s - 4.0).abs() < 0.05, "{start:?}");
+        assert!((start.wheels.right_rad_s - 4.0).abs() < 0.05, "{start:?}");
+        // Without the previous step's measurements, the first sample's own reading.
+        let own = step_start_in(&all, all[1], |k| k != 4).unwrap();
+        assert_eq!(own.wheels, next[0].m.enc);
+    }
+
+    #[test]
+    fn a_step_whose_wheels_stand_still_starts_at_rest_whatever_its_poses_bend_to() {
+        // Poses that stand for 0.15 s (a late pose) and then accelerate: a parabola through
+        // them would give a start velocity below zero.
+        let mut samples = step(0, 0.0, 80, |t| Pose {
+            x_m: 2.0 * (t - 0.15).max(0.0).powi(2),
+            ..Pose::default()
+        });
+        samples[0].m.enc = WheelSpeeds::new(0.1, -0.2);
+        let v = step_start(&samples).unwrap().velocity;
+        assert_eq!(v, BodyVelocity::default());
+        samples[0].m.enc = WheelSpeeds::new(3.0, 3.0);
+        assert!(step_start(&samples).unwrap().velocity.vx_m_s < -0.05);
     }
 }

@@ -319,7 +319,8 @@ fn prepare<'a>(
             fit_steps.sort_unstable();
         }
         let train = StepSet::new(&slices, &fit_steps, l.meta.rate_hz)?;
-        let test = StepSet::new(&slices, &r.heldout_steps, l.meta.rate_hz)?;
+        let earlier = [r.train_steps.as_slice(), &r.validation_steps].concat();
+        let test = StepSet::after(&slices, &r.heldout_steps, &earlier, l.meta.rate_hz)?;
         reach = reach.max(CommandReach::of_commands(
             train.steps.iter().flat_map(|s| s.samples).map(|s| s.m.cmd),
             &input.robot.idd(),

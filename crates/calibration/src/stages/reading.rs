@@ -261,6 +261,7 @@ pub(super) fn read(target: TermTarget, eq: &Equation) -> Reading {
     }
     // Memory of earlier commands: the filtered copies (a load the loop learns and forgets
     // over the filter's time) and the delayed ones (an actuation that acts late).
+    let mut turn_memory: Option<(f64, f64)> = None;
     for f in Feature::ALL.into_iter().filter(|&f| has(f)) {
         let Some(t) = f.memory_s() else { continue };
         if matches!(f, Feature::DelayedWheel(_)) {
@@ -276,7 +277,23 @@ pub(super) fn read(target: TermTarget, eq: &Equation) -> Reading {
                 coef(f),
                 f.symbol()
             ));
+            // A wheel, or the yaw it makes, that remembers the commanded turn: a speed loop
+            // learning the turn's load. The strongest such memory sets where its time starts.
+            let turns = wheel || matches!(target, TermTarget::BodyWz | TermTarget::ImuWz);
+            if turns
+                && matches!(f, Feature::FilteredWz(_))
+                && turn_memory.is_none_or(|(_, c)| coef(f).abs() > c)
+            {
+                turn_memory = Some((t, coef(f).abs()));
+            }
         }
+    }
+    if let Some((t, _)) = turn_memory {
+        reading.push(format!(
+            "a turn's load learnt over about {t} s and carried into the next step: a wheel speed loop with an integral"
+        ));
+        suggests.push("turn_memory");
+        starts.push(("turn_memory_s", t));
     }
     if has(Feature::VxSq) || has(Feature::WzSq) || has(Feature::AbsVx) || has(Feature::AbsWz) {
         reading.push("nonlinear in speed (drag, a soft limit)".into());
@@ -297,5 +314,55 @@ pub(super) fn read(target: TermTarget, eq: &Equation) -> Reading {
         text: reading,
         suggests: unique.into_iter().map(String::from).collect(),
         starts,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::discovery::Term;
+
+    fn equation(terms: &[(Feature, f64)]) -> Equation {
+        Equation {
+            terms: terms
+                .iter()
+                .map(|&(f, c)| Term {
+                    feature: f.name().to_string(),
+                    coefficient: c,
+                    ci95: [c - 0.01, c + 0.01],
+                    stability: 1.0,
+                })
+                .collect(),
+            threshold: 0.0,
+            validation_r2: 0.5,
+            validation_rms: [1.0, 0.5],
+            unstable: Vec::new(),
+            skipped: Vec::new(),
+            rows: [100, 30],
+        }
+    }
+
+    #[test]
+    fn a_wheel_that_remembers_the_turn_points_to_the_turn_memory_at_its_strongest_filter() {
+        let eq = equation(&[
+            (Feature::Wz, 0.05),
+            (Feature::FilteredWz(1), -0.18),
+            (Feature::FilteredWz(2), 0.04),
+        ]);
+        let r = read(TermTarget::WheelLeft, &eq);
+        assert!(
+            r.suggests.contains(&"turn_memory".to_string()),
+            "{:?}",
+            r.suggests
+        );
+        assert_eq!(r.starts, vec![("turn_memory_s", 2.0)]);
+        // A memory of the forward command is not a turn's; a late command is a dead time.
+        let eq = equation(&[(Feature::FilteredVx(1), 0.1), (Feature::DelayedWheel(0), 0.3)]);
+        let r = read(TermTarget::WheelRight, &eq);
+        assert!(!r.suggests.contains(&"turn_memory".to_string()));
+        assert!(r.suggests.contains(&"dead_time_s".to_string()));
+        // The lateral velocity does not learn a turn's load.
+        let r = read(TermTarget::BodyVy, &equation(&[(Feature::FilteredWz(1), 0.1)]));
+        assert!(!r.suggests.contains(&"turn_memory".to_string()));
     }
 }

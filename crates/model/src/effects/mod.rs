@@ -40,6 +40,7 @@ mod step_draw;
 mod suspension_torsion;
 pub mod term;
 mod time_constant_scale;
+mod turn_memory;
 mod turning_resistance;
 mod wheel_deadband;
 mod wheel_gain_knee;
@@ -419,6 +420,7 @@ pub static REGISTRY: LazyLock<Vec<&'static dyn Effect>> = LazyLock::new(|| {
         &wheel_soft_limit::WheelSoftLimit,
         &wheel_reverse_gain::WheelReverseGain,
         &wheel_speed_saturation::WheelSpeedSaturation,
+        &turn_memory::TurnMemory,
         &motor_torque_speed::MotorTorqueSpeed,
         &speed_droop::SpeedDroop,
         &droop_recovery::DroopRecovery,

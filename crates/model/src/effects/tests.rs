@@ -29,11 +29,12 @@ fn registry_names_and_keys_are_unique_and_documented() {
     // 16 original catalogue effects, 5 structural ones that discovery points to, the motor's
     // torque-speed line, the turning centre's offset and the crab angle, the speed loop's
     // droop, the wheels' step scatter, the droop's recovery, the wheels' deadband, knee, soft
-    // limit and reverse gain, one encoder's scale (32 named effects), and 6 generic terms: 48
-    // features on a wheel, the 29 that do not read a side's own command on the body and the IMU.
-    assert_eq!(REGISTRY.iter().filter(|e| !e.generic()).count(), 32);
-    assert_eq!(REGISTRY.len(), 38);
-    assert_eq!(n, 37 + 2 * 48 + 4 * 29);
+    // limit and reverse gain, one encoder's scale, the turn's learnt load (33 named effects),
+    // and 6 generic terms: 48 features on a wheel, the 29 that do not read a side's own command
+    // on the body and the IMU.
+    assert_eq!(REGISTRY.iter().filter(|e| !e.generic()).count(), 33);
+    assert_eq!(REGISTRY.len(), 39);
+    assert_eq!(n, 40 + 2 * 48 + 4 * 29);
 }
 
 #[test]

@@ -26,6 +26,19 @@ use super::{Effect, ParamDef, ParamKind, SearchBox, Stage};
 use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use std::sync::LazyLock;
 
+/// Completed steps a [`StepContext`] remembers: with DRIVE's 6 s steps, 48 s, over which a
+/// memory of up to 8 s forgets where it started to e⁻⁶.
+pub const HISTORY_STEPS: usize = 8;
+
+/// A completed step as a memory of the commands sees it: what it commanded, for how long.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PastStep {
+    /// Its command, rad/s.
+    pub cmd: WheelSpeeds,
+    /// Its duration, s (infinite for a memory settled on `cmd`, [`StepContext::holding`]).
+    pub duration_s: f64,
+}
+
 /// What a plant knows about the step it is running: set at the start of each step (by the
 /// protocol runner in closed loop, by the replay when replaying a log).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -38,6 +51,10 @@ pub struct StepContext {
     /// constant of [`FILTERS_S`], at this step's start (zero before the first): each filter
     /// runs over the DRIVE steps only, not the pauses and manoeuvres between them.
     pub filtered_cmd: [WheelSpeeds; 3],
+    /// The last [`HISTORY_STEPS`] completed steps, oldest first (zero-length steps of no
+    /// command before the first): what an effect with a memory of its own time constant
+    /// reads ([`filtered_history`]).
+    pub history: [PastStep; HISTORY_STEPS],
 }
 
 impl StepContext {
@@ -51,10 +68,14 @@ impl StepContext {
                 cmd.right_rad_s + (f.right_rad_s - cmd.right_rad_s) * keep,
             );
         }
+        let mut history = self.history;
+        history.rotate_left(1);
+        history[HISTORY_STEPS - 1] = PastStep { cmd, duration_s };
         StepContext {
             step: self.step + 1,
             previous_cmd: cmd,
             filtered_cmd: filtered,
+            history,
         }
     }
 
@@ -65,8 +86,26 @@ impl StepContext {
             step: self.step,
             previous_cmd: cmd,
             filtered_cmd: [cmd; 3],
+            history: [PastStep {
+                cmd,
+                duration_s: f64::INFINITY,
+            }; HISTORY_STEPS],
         }
     }
+}
+
+/// A signal through a first-order filter of time constant `tau_s`, from 0 before the first
+/// of `steps` (each the signal's value over a step and that step's duration, oldest first):
+/// the filter's value at the start of the step after them.
+pub fn filtered_history(steps: impl IntoIterator<Item = (f64, f64)>, tau_s: f64) -> f64 {
+    steps.into_iter().fold(0.0, |f, (u, duration_s)| {
+        let keep = if tau_s > 0.0 {
+            (-duration_s.max(0.0) / tau_s).exp()
+        } else {
+            0.0
+        };
+        u + (f - u) * keep
+    })
 }
 
 /// Everything a term's features may read at one instant: the command, the model's own state
@@ -85,6 +124,10 @@ pub struct TermInput {
     pub filtered_cmd: [WheelSpeeds; 3],
     /// The same in the nominal body space.
     pub filtered_cmd_body: [BodyVelocity; 3],
+    /// The completed steps before this one ([`StepContext::history`]).
+    pub history: [PastStep; HISTORY_STEPS],
+    /// Their commands in the nominal body space.
+    pub history_cmd_body: [BodyVelocity; HISTORY_STEPS],
     /// The model's body velocity before any body term.
     pub body: BodyVelocity,
     /// The model's body acceleration: d vx/dt m/s², d wz/dt rad/s².
@@ -116,6 +159,8 @@ impl TermInput {
             previous_cmd_body: idd.body_from_wheels(ctx.previous_cmd),
             filtered_cmd: ctx.filtered_cmd,
             filtered_cmd_body: ctx.filtered_cmd.map(|w| idd.body_from_wheels(w)),
+            history: ctx.history,
+            history_cmd_body: ctx.history.map(|p| idd.body_from_wheels(p.cmd)),
             step: ctx.step,
             ..Self::default()
         }
