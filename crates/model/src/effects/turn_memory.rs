@@ -37,9 +37,8 @@ const PARAMS: &[ParamDef] = &[
         kind: ParamKind::Continuous,
         min: 0.01,
         max: 600.0,
-        // With no give the time changes nothing: its neutral value only says the effect is
-        // off when the give is.
-        neutral: 4.0,
+        // A loop that learns at once gives nothing away: the shortest time is the effect off.
+        neutral: 0.01,
         // From a wheel's own lag (below 0.5 s the time constant explains it) to memories
         // that outlast three steps.
         search: SearchBox::Fixed {
@@ -54,10 +53,15 @@ const PARAMS: &[ParamDef] = &[
         kind: ParamKind::Continuous,
         min: 1e-3,
         max: 100.0,
-        neutral: 1.0,
+        // A turn whose load never saturates loads nothing at the commanded rates: the largest
+        // saturation is the effect off.
+        neutral: 100.0,
+        // Above 2 rad/s the load is nearly linear over DRIVE's yaw rates (up to about 4 rad/s
+        // on the Warthog) and the saturation trades with the give: the box stops there, and a
+        // search starts mid-box, about 1 rad/s.
         search: SearchBox::Fixed {
             lower: 0.05,
-            upper: 5.0,
+            upper: 2.0,
         },
         resolution: None,
     },
