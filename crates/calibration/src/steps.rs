@@ -193,8 +193,8 @@ const STILL_WHEEL_RAD_S: f64 = 0.5;
 /// samples would be the mean velocity over them, late by half the window in a transient), and
 /// wz from the gyro at that sample where the log has one (as the measured runs' reference
 /// takes it). The poses' curve bends with the response to the new command, and more so when
-/// the poses are late: under a 0.17 s pose latency the parabola put a robot at rest at −0.5
-/// to −1 m/s, and its yaw-rate slope biased the fitted latency 8 % low.
+/// the poses are late: the parabola puts a robot at rest at a speed below zero (tested), and
+/// its yaw-rate slope biased a fitted pose latency low.
 fn start_velocity(samples: &[Sample]) -> BodyVelocity {
     let first = &samples[0];
     if first.m.enc.left_rad_s.abs() < STILL_WHEEL_RAD_S && first.m.enc.right_rad_s.abs() < STILL_WHEEL_RAD_S {
@@ -359,6 +359,20 @@ mod tests {
             .collect()
     }
 
+    /// Steps 4 and 5 of a log, in order.
+    fn steps_4_and_5<'a>(prev: &'a [Sample], next: &'a [Sample]) -> [StepSlice<'a>; 2] {
+        [
+            StepSlice {
+                step: 4,
+                samples: prev,
+            },
+            StepSlice {
+                step: 5,
+                samples: next,
+            },
+        ]
+    }
+
     /// A straight line along heading `yaw` from rest at `v0`, accelerating at `a`.
     fn accelerating(v0: f64, a: f64, yaw: f64) -> impl Fn(f64) -> Pose {
         move |t| {
@@ -393,16 +407,7 @@ mod tests {
             x_m: x0 + 1.2 * t - 0.5 * 3.0 * t * t.min(0.4),
             ..Pose::default()
         });
-        let all = [
-            StepSlice {
-                step: 4,
-                samples: &prev,
-            },
-            StepSlice {
-                step: 5,
-                samples: &next,
-            },
-        ];
+        let all = steps_4_and_5(&prev, &next);
         let start = step_start_in(&all, all[1], |_| true).unwrap();
         assert!((start.velocity.vx_m_s - 1.2).abs() < 1e-9, "{start:?}");
         // The previous step in another set (a test step before a training one): its poses are
@@ -448,16 +453,7 @@ mod tests {
             x_m: 7.2 + 1.2 * t,
             ..Pose::default()
         });
-        let all = [
-            StepSlice {
-                step: 4,
-                samples: &prev,
-            },
-            StepSlice {
-                step: 5,
-                samples: &next,
-            },
-        ];
+        let all = steps_4_and_5(&prev, &next);
         // Within 0.05 rad/s of 4 (a plain mean of the last second is 0.2 below it, and the
         // last sample alone 0.5 off).
         let start = step_start_in(&all, all[1], |_| true).unwrap();
