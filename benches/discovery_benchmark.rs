@@ -247,8 +247,26 @@ struct Summary {
     null_with_equations: usize,
     /// Null cases with a channel flagged after calibration.
     null_flagged: usize,
+    /// Equations found over all cases, by the sparse regression validation chose for them.
+    equations_by_solver: Vec<(String, usize)>,
     families: Vec<FamilySummary>,
     records: Vec<Record>,
+}
+
+/// Equations over all records, counted by the solver each used, in the solvers' order.
+fn by_solver(records: &[Record]) -> Vec<(String, usize)> {
+    drive_sim::calibration::discovery::SparseSolver::ALL
+        .iter()
+        .map(|s| {
+            let name = s.name();
+            let n = records
+                .iter()
+                .flat_map(|r| &r.solvers)
+                .filter(|x| *x == name)
+                .count();
+            (name.to_string(), n)
+        })
+        .collect()
 }
 
 fn summarize(records: &[Record]) -> Vec<FamilySummary> {
@@ -476,6 +494,7 @@ fn main() -> ExitCode {
         null_false_discoveries: nulls_run.iter().filter(|r| r.false_discovery()).count(),
         null_with_equations: nulls_run.iter().filter(|r| !r.equations.is_empty()).count(),
         null_flagged: nulls_run.iter().filter(|r| !r.within_flags).count(),
+        equations_by_solver: by_solver(&records),
         families: summarize(&records),
         records,
     };
@@ -510,6 +529,15 @@ fn main() -> ExitCode {
         share(summary.null_with_equations, nulls_run.len()),
         share(summary.null_flagged, nulls_run.len()),
         wall_seconds
+    );
+    let solvers: Vec<String> = summary
+        .equations_by_solver
+        .iter()
+        .map(|(s, n)| format!("{s} {n}"))
+        .collect();
+    println!(
+        "equations by the solver validation chose: {}",
+        list_or_dash(&solvers)
     );
     let json = args.out.join("summary.json");
     let md = args.out.join("table.md");

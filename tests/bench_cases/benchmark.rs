@@ -3,7 +3,7 @@
 //! the generator's log, the kinematic calibration with discovery, and the case's record
 //! against its truth.
 
-use super::random_cases::{Case, Family};
+use super::random_cases::{Case, Channel, Family};
 use crate::common::generator::drive_log_with;
 use drive_sim::calibration::{calibrate, CalibrationOptions, CalibrationReport, KinematicFactory};
 use drive_sim::terrain::Terrain;
@@ -54,6 +54,8 @@ pub struct Record {
     pub term_targets: Vec<String>,
     /// Every equation discovery found (`target: text`).
     pub equations: Vec<String>,
+    /// The sparse regression each equation used, in the order of `equations`.
+    pub solvers: Vec<String>,
     /// What discovery added, round by round.
     pub added: Vec<String>,
     /// Each discovery round's stage and why it added what it did (or nothing), and the
@@ -66,6 +68,9 @@ pub struct Record {
     pub worst_channel: String,
     pub worst_ratio: f64,
     pub worst_threshold: f64,
+    /// The channels where the effect acts, each with its RMSE / floor on the test steps after
+    /// calibration (every diagnosis channel of those quantities: steady, transient, pose).
+    pub effect_channel_ratios: Vec<(String, f64)>,
     pub within_flags: bool,
     pub structure: bool,
     pub values: Vec<ValueCheck>,
@@ -98,6 +103,7 @@ impl Record {
             kept: Vec::new(),
             term_targets: Vec::new(),
             equations: Vec::new(),
+            solvers: Vec::new(),
             added: Vec::new(),
             discovery_notes: Vec::new(),
             flagged_before: Vec::new(),
@@ -105,6 +111,7 @@ impl Record {
             worst_channel: String::new(),
             worst_ratio: 0.0,
             worst_threshold: 0.0,
+            effect_channel_ratios: Vec::new(),
             within_flags: false,
             structure: false,
             values: Vec::new(),
@@ -124,6 +131,21 @@ pub fn owner(key: &str) -> String {
     drive_sim::effects::param_owner(key)
         .map(|(i, _)| drive_sim::effects::REGISTRY[i].name().to_string())
         .unwrap_or_else(|| key.to_string())
+}
+
+/// The diagnosis channel `channel` (`steady vx`, `transient enc_left`, `pose rotation`)
+/// measures the quantity `t`.
+fn measures(t: Channel, channel: &str) -> bool {
+    let (kind, quantity) = channel.split_once(' ').unwrap_or(("", channel));
+    match t {
+        Channel::WheelLeft => quantity == "enc_left",
+        Channel::WheelRight => quantity == "enc_right",
+        Channel::BodyVx => quantity == "vx",
+        Channel::BodyVy => quantity == "vy",
+        Channel::BodyWz => quantity == "wz",
+        Channel::Imu => quantity == "imu_wz",
+        Channel::Pose => kind == "pose",
+    }
 }
 
 /// Scores `r` against the case's truth.
@@ -157,6 +179,11 @@ pub fn score(case: &Case, r: &CalibrationReport, seconds: f64) -> Record {
         .flat_map(|round| &round.equations)
         .map(|e| format!("{}: {}", e.target, e.text))
         .collect();
+    rec.solvers = rounds
+        .clone()
+        .flat_map(|round| &round.equations)
+        .map(|e| e.equation.solver.name().to_string())
+        .collect();
     rec.added = rounds.clone().filter_map(|round| round.added.clone()).collect();
     rec.discovery_notes = rounds
         .flat_map(|round| {
@@ -186,6 +213,12 @@ pub fn score(case: &Case, r: &CalibrationReport, seconds: f64) -> Record {
             rec.worst_ratio = c.ratio;
             rec.worst_threshold = c.threshold;
         }
+        rec.effect_channel_ratios = d
+            .channels
+            .iter()
+            .filter(|c| case.truth.channels.iter().any(|&t| measures(t, &c.channel)))
+            .map(|c| (c.channel.clone(), c.ratio))
+            .collect();
     }
     let truth = &case.truth;
     let targets: Vec<&str> = truth.targets.iter().map(|c| c.name()).collect();

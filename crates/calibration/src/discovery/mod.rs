@@ -1,8 +1,8 @@
 //! Equation discovery by sparse regression: which few columns of a library of candidate
 //! features explain a response, with how much confidence.
 //!
-//! The method is SINDy's sequentially thresholded least squares (STLSQ; Brunton, Proctor and
-//! Kutz 2016) with the safeguards a small, noisy system-identification dataset needs:
+//! The method is SINDy's sparse regression (Brunton, Proctor and Kutz 2016) with the
+//! safeguards a small, noisy system-identification dataset needs:
 //!
 //! 1. **Rows are weighted and grouped.** Each row carries a weight (the calibration divides a
 //!    residual by its channel's noise floor, so the steady and transient rows of one channel
@@ -12,16 +12,20 @@
 //!    non-finite or almost collinear with an earlier one (|r| > [`MAX_COLUMN_CORRELATION`]) is
 //!    left out with the reason; the others are scaled to unit root mean square, so the
 //!    threshold reads in the response's units (after weighting: in noise floors).
-//! 3. **The threshold is chosen twice, and the sparser choice kept.** Each threshold of a grid
-//!    gives a sparse fit on the training rows. The validation loss picks the largest threshold
-//!    whose loss is within one standard error (over validation groups) of the smallest — the
-//!    one-standard-error rule, which prefers the sparser of two equally good equations — or,
-//!    when larger, within [`DiscoveryOptions::good_enough_rms`] of the response's noise: below
-//!    the noise floor, a smaller threshold buys terms that only fit it. The Bayesian
-//!    information criterion on the training fit ([`bic`], the likelihood clustered by step:
-//!    each coefficient costs ln(steps)) picks its own; the larger of the two thresholds wins.
+//! 3. **The solver and its threshold are chosen on validation.** Two sparse regressions
+//!    ([`SparseSolver`]: STLSQ, and SR3 with the ℓ0 penalty) each choose a threshold, the
+//!    sparser of two choices. Each threshold of a grid gives a sparse fit on the training rows.
+//!    The validation loss picks the largest threshold whose loss is within one standard error
+//!    (over validation groups) of the smallest — the one-standard-error rule, which prefers the
+//!    sparser of two equally good equations — or, when larger, within
+//!    [`DiscoveryOptions::good_enough_rms`] of the response's noise: below the noise floor, a
+//!    smaller threshold buys terms that only fit it. The Bayesian information criterion on the
+//!    training fit ([`bic`], the likelihood clustered by step: each coefficient costs
+//!    ln(steps)) picks its own; the larger of the two thresholds wins. SR3 then replaces STLSQ
+//!    only when its validation loss at its threshold is lower by more than one standard error
+//!    of the paired difference over validation groups: the incumbent keeps a tie.
 //! 4. **A term is kept only if it is stable** (stability selection; Meinshausen and Bühlmann
-//!    2010): STLSQ on bootstrap resamples of the training groups, and a term is kept if
+//!    2010): the chosen solver on bootstrap resamples of the training groups, and a term is kept if
 //!    chosen in at least [`STABILITY_THRESHOLD`] of them. The resamples use half the chosen
 //!    threshold: the one-standard-error rule puts the threshold just under the smallest term
 //!    it keeps, and at that same threshold the resampling noise alone would drop the term
@@ -33,6 +37,11 @@
 //!
 //! Bad designs (too few rows or groups, no usable column, a singular system) give a
 //! [`Skipped`] reason, never a NaN coefficient.
+
+mod solvers;
+
+use solvers::minimum_norm_least_squares;
+pub use solvers::{least_squares, stlsq, SparseSolver, Sr3, SR3_MAX_ITER, SR3_PULL_PER_ROW, SR3_TOLERANCE};
 
 use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
@@ -147,8 +156,22 @@ pub struct Term {
     pub coefficient: f64,
     /// 95 % percentile bootstrap interval (by group).
     pub ci95: [f64; 2],
-    /// Share of bootstrap resamples in which STLSQ chose it.
+    /// Share of bootstrap resamples in which the chosen solver kept it.
     pub stability: f64,
+}
+
+/// A solver's threshold chosen on validation, and how its fit there scores.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SolverScore {
+    /// The solver.
+    pub solver: SparseSolver,
+    /// Its threshold (response units per unit-RMS column).
+    pub threshold: f64,
+    /// Weighted RMS of the validation residual after its fit at that threshold on all
+    /// training rows (in noise floors when rows are floor-weighted).
+    pub validation_rms: f64,
+    /// Terms of that fit, before stability selection.
+    pub terms: usize,
 }
 
 /// A discovered equation `y = Σ c_k φ_k`.
@@ -156,8 +179,15 @@ pub struct Term {
 pub struct Equation {
     /// The kept terms (none: nothing the library explains).
     pub terms: Vec<Term>,
-    /// STLSQ threshold chosen on validation (response units per unit-RMS column).
+    /// Threshold chosen on validation (response units per unit-RMS column).
     pub threshold: f64,
+    /// The sparse regression chosen on validation.
+    #[serde(default)]
+    pub solver: SparseSolver,
+    /// Each solver's own choice of threshold and its validation score, the chosen one among
+    /// them.
+    #[serde(default)]
+    pub solvers: Vec<SolverScore>,
     /// Uncentred validation R² (see the module doc).
     pub validation_r2: f64,
     /// Weighted RMS of the response on validation rows, before and after the equation.
@@ -187,8 +217,9 @@ pub fn discover(
         train: columns.design(train),
         validation: columns.design(validation),
     };
-    let threshold = choose_threshold(&design, train, validation, opts)?;
-    let stable = Stability::resample(&design, train, threshold, opts);
+    let (choice, solvers) = choose_solver(&design, train, validation, opts)?;
+    let threshold = choice.threshold;
+    let stable = Stability::resample(&design, train, &choice, opts);
     let freq = &stable.freq;
     let kept: Vec<usize> = (0..columns.cols.len())
         .filter(|&k| freq[k] >= STABILITY_THRESHOLD)
@@ -201,6 +232,8 @@ pub fn discover(
     let mut eq = Equation {
         terms: Vec::new(),
         threshold,
+        solver: choice.solver,
+        solvers,
         validation_r2: 0.0,
         validation_rms: [rms(bv), rms(bv)],
         unstable,
@@ -367,62 +400,140 @@ struct Design {
     validation: (DMatrix<f64>, DVector<f64>),
 }
 
-/// The STLSQ threshold: the sparser of the one-standard-error rule's on the validation loss
-/// and the Bayesian information criterion's on the training fit (see the module doc).
-fn choose_threshold(
+/// A solver's choice of threshold, and what it scores on validation.
+struct Choice {
+    solver: SparseSolver,
+    threshold: f64,
+    /// The validation loss (weighted squared residual) of each validation group at that
+    /// threshold.
+    per_group: Vec<f64>,
+    /// Terms of the fit at that threshold on all training rows.
+    terms: usize,
+}
+
+impl Choice {
+    fn loss(&self) -> f64 {
+        self.per_group.iter().sum()
+    }
+}
+
+/// The solver and its threshold: each solver's threshold chosen by [`threshold_for`], then
+/// the solver whose validation loss is lower than the incumbent's (STLSQ's) by more than one
+/// standard error of the paired difference over validation groups; otherwise the incumbent.
+/// A challenger must win clearly, as a smaller threshold must under the one-standard-error
+/// rule.
+fn choose_solver(
     design: &Design,
     train: &Rows,
     validation: &Rows,
     opts: &DiscoveryOptions,
-) -> Result<f64, Skipped> {
+) -> Result<(Choice, Vec<SolverScore>), Skipped> {
+    let mut choices = Vec::new();
+    for solver in SparseSolver::ALL {
+        choices.push(threshold_for(solver, design, train, validation, opts)?);
+    }
+    let scores = choices
+        .iter()
+        .map(|c| SolverScore {
+            solver: c.solver,
+            threshold: c.threshold,
+            validation_rms: (c.loss() / validation.len().max(1) as f64).sqrt(),
+            terms: c.terms,
+        })
+        .collect();
+    let mut best = 0;
+    for (k, c) in choices.iter().enumerate().skip(1) {
+        if clearly_better(&choices[0].per_group, &c.per_group) && c.loss() < choices[best].loss() {
+            best = k;
+        }
+    }
+    Ok((choices.swap_remove(best), scores))
+}
+
+/// A challenger's validation losses per group are lower than the incumbent's by more than
+/// one standard error of the paired difference (groups are the validation steps).
+fn clearly_better(incumbent: &[f64], challenger: &[f64]) -> bool {
+    let d: Vec<f64> = incumbent.iter().zip(challenger).map(|(a, b)| a - b).collect();
+    let m = d.len() as f64;
+    if m < 2.0 {
+        return false;
+    }
+    let mean = d.iter().sum::<f64>() / m;
+    let se = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1.0) / m).sqrt();
+    mean > se
+}
+
+/// `solver`'s threshold: the sparser of the one-standard-error rule's on the validation loss
+/// and the Bayesian information criterion's on the training fit (see the module doc).
+fn threshold_for(
+    solver: SparseSolver,
+    design: &Design,
+    train: &Rows,
+    validation: &Rows,
+    opts: &DiscoveryOptions,
+) -> Result<Choice, Skipped> {
     let ((a, b), (av, bv)) = (&design.train, &design.validation);
     let train_groups = train.groups().len();
-    let mut bics: Vec<(f64, f64)> = Vec::new();
     let val_groups = validation.groups();
     let group_index: Vec<usize> = validation
         .group
         .iter()
         .map(|g| val_groups.binary_search(g).unwrap_or(0))
         .collect();
-    let mut losses = Vec::new();
+    // SR3 factors its relaxed normal equations once for every threshold.
+    let sr3 = match solver {
+        SparseSolver::Sr3 => Sr3::new(a, b),
+        SparseSolver::Stlsq => None,
+    };
+    let mut fits = Vec::new();
     for &lambda in &THRESHOLDS {
-        let xi = stlsq(a, b, lambda, opts.max_iter);
+        let xi = match &sr3 {
+            Some(s) => s.fit(lambda),
+            None => solver.fit(a, b, lambda, opts.max_iter),
+        };
         let terms = xi.iter().filter(|c| **c != 0.0).count();
-        bics.push((
-            lambda,
-            bic((b - a * &xi).norm_squared(), b.len(), train_groups, terms),
-        ));
+        let bic = bic((b - a * &xi).norm_squared(), b.len(), train_groups, terms);
         let r = bv - av * &xi;
         let mut per_group = vec![0.0; val_groups.len()];
         for (i, v) in r.iter().enumerate() {
             per_group[group_index[i]] += v * v;
         }
-        let total: f64 = per_group.iter().sum();
-        let m = per_group.len() as f64;
-        let mean = total / m;
-        let sd = (per_group.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
-        losses.push((lambda, total, sd * m.sqrt()));
+        fits.push((lambda, bic, per_group, terms));
     }
-    let best = losses
+    let loss = |f: &(f64, f64, Vec<f64>, usize)| f.2.iter().sum::<f64>();
+    let se = |f: &(f64, f64, Vec<f64>, usize)| {
+        let m = f.2.len() as f64;
+        let mean = loss(f) / m;
+        (f.2.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt() * m.sqrt()
+    };
+    let best = fits
         .iter()
-        .copied()
-        .min_by(|x, y| x.1.total_cmp(&y.1))
+        .min_by(|x, y| loss(x).total_cmp(&loss(y)))
         .ok_or_else(|| regression_skipped("no threshold".into()))?;
     // An equation that already brings the response to `good_enough_rms` is as good as any:
     // terms below the noise floor only fit it.
     let enough = opts.good_enough_rms.powi(2) * validation.len() as f64;
-    let one_se = losses
+    let one_se = fits
         .iter()
-        .filter(|l| l.1 <= (best.1 + best.2).max(enough))
-        .map(|l| l.0)
+        .filter(|f| loss(f) <= (loss(best) + se(best)).max(enough))
+        .map(|f| f.0)
         .fold(best.0, f64::max);
     // The criterion's least value; on a tie, the larger threshold (the sparser equation).
-    let by_bic = bics
+    let by_bic = fits
         .iter()
-        .copied()
         .reduce(|m, x| if x.1 <= m.1 { x } else { m })
-        .map_or(one_se, |(lambda, _)| lambda);
-    Ok(one_se.max(by_bic))
+        .map_or(one_se, |f| f.0);
+    let threshold = one_se.max(by_bic);
+    let chosen = fits
+        .into_iter()
+        .find(|f| f.0 == threshold)
+        .ok_or_else(|| regression_skipped("no threshold".into()))?;
+    Ok(Choice {
+        solver,
+        threshold,
+        per_group: chosen.2,
+        terms: chosen.3,
+    })
 }
 
 /// The Bayesian information criterion of a least-squares fit with `terms` coefficients whose
@@ -443,8 +554,9 @@ struct Stability {
 }
 
 impl Stability {
-    /// STLSQ at half `threshold` on `opts.bootstrap` resamples of the training groups.
-    fn resample(design: &Design, train: &Rows, threshold: f64, opts: &DiscoveryOptions) -> Self {
+    /// The chosen solver at half its threshold on `opts.bootstrap` resamples of the training
+    /// groups.
+    fn resample(design: &Design, train: &Rows, choice: &Choice, opts: &DiscoveryOptions) -> Self {
         let (a, b) = &design.train;
         let groups = train.groups();
         let rows_of: Vec<Vec<usize>> = groups
@@ -460,7 +572,7 @@ impl Stability {
                 .collect();
             let ab = a.select_rows(idx.iter());
             let bb = b.select_rows(idx.iter());
-            let xi = stlsq(&ab, &bb, 0.5 * threshold, opts.max_iter);
+            let xi = choice.solver.fit(&ab, &bb, 0.5 * choice.threshold, opts.max_iter);
             for (k, c) in chosen.iter_mut().enumerate() {
                 if xi[k] != 0.0 {
                     *c += 1;
@@ -525,70 +637,6 @@ fn fit_terms(eq: &mut Equation, k: &Kept<'_>) {
             stability: k.stable.freq[c],
         });
     }
-}
-
-/// Sequentially thresholded least squares: least squares, zero every coefficient below
-/// `lambda` in magnitude, refit on the rest, until the support stops changing.
-pub fn stlsq(a: &DMatrix<f64>, b: &DVector<f64>, lambda: f64, max_iter: usize) -> DVector<f64> {
-    let p = a.ncols();
-    let mut support: Vec<usize> = (0..p).collect();
-    let mut xi = DVector::zeros(p);
-    for _ in 0..max_iter.max(1) {
-        xi = DVector::zeros(p);
-        if support.is_empty() {
-            break;
-        }
-        let sub = a.select_columns(support.iter());
-        let Some(x) = least_squares(&sub, b) else {
-            break;
-        };
-        for (k, &j) in support.iter().enumerate() {
-            xi[j] = x[k];
-        }
-        let next: Vec<usize> = support
-            .iter()
-            .copied()
-            .filter(|&j| xi[j].abs() >= lambda)
-            .collect();
-        if next.len() == support.len() {
-            break;
-        }
-        support = next;
-    }
-    for j in 0..p {
-        if xi[j].abs() < lambda {
-            xi[j] = 0.0;
-        }
-    }
-    xi
-}
-
-/// Least squares by SVD; `None` when the matrix is rank-deficient (a singular design), has
-/// no row, or gives a non-finite solution.
-pub fn least_squares(a: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
-    if a.nrows() < a.ncols() || a.ncols() == 0 {
-        return None;
-    }
-    let svd = a.clone().svd(true, true);
-    let smax = svd.singular_values.max();
-    let smin = svd.singular_values.min();
-    if smax.is_nan() || smax <= 0.0 || smin <= smax * 1e-10 {
-        return None;
-    }
-    let x = svd.solve(b, 0.0).ok()?;
-    x.iter().all(|v| v.is_finite()).then_some(x)
-}
-
-/// Least squares by SVD with singular values below 1e-10 of the largest treated as zero (the
-/// minimum-norm solution of a rank-deficient system).
-fn minimum_norm_least_squares(a: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
-    if a.ncols() == 0 || a.nrows() == 0 {
-        return None;
-    }
-    let svd = a.clone().svd(true, true);
-    let eps = svd.singular_values.max() * 1e-10;
-    let x = svd.solve(b, eps).ok()?;
-    x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
 fn correlation(u: &[f64], v: &[f64]) -> f64 {

@@ -115,3 +115,65 @@ fn bic_counts_steps_not_rows_and_charges_each_coefficient_ln_steps() {
     assert!(bic(200.0, 400, 10, 4) < base);
     assert!(bic(200.0, 400, 10, 5) > base);
 }
+
+/// Eight columns sharing 90 % of their variance, three of them in the law: SR3 and STLSQ at
+/// the same threshold, on designs where the law stands well above the noise, both find it.
+#[test]
+fn sr3_finds_a_sparse_law_among_correlated_columns() {
+    let n = Normal::new(0.0, 1.0).unwrap();
+    let truth = [0.5, -0.4, 0.0, 0.0, 0.3, 0.0, 0.0, 0.0];
+    for seed in 0..5u64 {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let (rows, p, shared) = (400, truth.len(), 0.9f64);
+        let mut a = DMatrix::zeros(rows, p);
+        for i in 0..rows {
+            let z: f64 = n.sample(&mut rng);
+            for j in 0..p {
+                a[(i, j)] = shared.sqrt() * z + (1.0 - shared).sqrt() * n.sample(&mut rng);
+            }
+        }
+        let b = DVector::from_fn(rows, |i, _| {
+            (0..p).map(|j| a[(i, j)] * truth[j]).sum::<f64>() + 0.1 * n.sample(&mut rng)
+        });
+        let sr3 = Sr3::new(&a, &b).unwrap().fit(0.1);
+        let st = stlsq(&a, &b, 0.1, 10);
+        for j in 0..p {
+            assert!((sr3[j] - truth[j]).abs() < 0.05, "seed {seed}: SR3 {sr3:?}");
+            assert_eq!(
+                sr3[j] != 0.0,
+                st[j] != 0.0,
+                "seed {seed}: SR3 {sr3:?}, STLSQ {st:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_challenger_solver_must_win_by_more_than_one_standard_error() {
+    let incumbent = [1.0, 1.0, 1.0, 1.0];
+    // Lower on every group: clearly better.
+    assert!(clearly_better(&incumbent, &[0.8, 0.9, 0.85, 0.8]));
+    // Lower in total, but by one group's luck: not.
+    assert!(!clearly_better(&incumbent, &[0.2, 1.1, 1.1, 1.1]));
+    // Equal: the incumbent stays.
+    assert!(!clearly_better(&incumbent, &incumbent));
+}
+
+#[test]
+fn the_equation_says_which_solver_it_used_and_how_each_scored() {
+    let truth = |x: &[f64]| 0.4 * x[3] - 0.2;
+    let eq = discover(
+        &library(),
+        &rows(30, 1, 0.05, truth),
+        &rows(10, 2, 0.05, truth),
+        &DiscoveryOptions::default(),
+    )
+    .unwrap();
+    let solvers: Vec<SparseSolver> = eq.solvers.iter().map(|s| s.solver).collect();
+    assert_eq!(solvers, SparseSolver::ALL);
+    // Both find the law: a tie, and the incumbent keeps it.
+    assert_eq!(eq.solver, SparseSolver::Stlsq);
+    assert!(eq.solvers.iter().all(|s| s.terms == 2), "{:?}", eq.solvers);
+    let chosen = eq.solvers.iter().find(|s| s.solver == eq.solver).unwrap();
+    assert_eq!(chosen.threshold, eq.threshold);
+}

@@ -227,6 +227,12 @@ pub struct SelectionRule {
     pub k_se_remove: f64,
     /// Required relative reduction of the validation score.
     pub min_rel: f64,
+    /// The backward pass keeps an effect only if its removal also worsens the validation
+    /// score by more than this share of it (looser than `min_rel`, for the same reason as
+    /// `k_se_remove`). Without it, an effect a later one made negligible stays: its removal
+    /// changes the score by a hair, and the bootstrap standard error of a hair is a hair.
+    #[serde(default = "default_min_rel_remove")]
+    pub min_rel_remove: f64,
     /// Bootstrap resamples.
     pub bootstrap_samples: usize,
     /// Bootstrap seed.
@@ -237,12 +243,17 @@ fn default_k_se_remove() -> f64 {
     1.0
 }
 
+fn default_min_rel_remove() -> f64 {
+    0.01
+}
+
 impl Default for SelectionRule {
     fn default() -> Self {
         Self {
             k_se: 2.0,
             k_se_remove: default_k_se_remove(),
             min_rel: 0.02,
+            min_rel_remove: default_min_rel_remove(),
             bootstrap_samples: 1000,
             seed: 0,
         }
@@ -253,6 +264,12 @@ impl SelectionRule {
     /// Whether a reduction of `reduction ± se` from `before` counts.
     pub fn passes(&self, reduction: f64, se: f64, before: f64) -> bool {
         reduction > self.k_se * se && reduction > self.min_rel * before
+    }
+
+    /// Whether an effect whose removal worsens the validation score from `with` by
+    /// `worsening ± se` stays in the backward pass.
+    pub fn stays(&self, worsening: f64, se: f64, with: f64) -> bool {
+        worsening > self.k_se_remove * se && worsening > self.min_rel_remove * with
     }
 }
 

@@ -23,10 +23,11 @@ pub(super) fn text_of(target: TermTarget, eq: &Equation) -> String {
         })
         .collect();
     format!(
-        "{} = {}   (validation R² {:.2})",
+        "{} = {}   (validation R² {:.2}, {})",
         target.symbol(),
         terms.join(" + "),
-        eq.validation_r2
+        eq.validation_r2,
+        eq.solver.name()
     )
 }
 
@@ -334,6 +335,8 @@ mod tests {
                 })
                 .collect(),
             threshold: 0.0,
+            solver: Default::default(),
+            solvers: Vec::new(),
             validation_r2: 0.5,
             validation_rms: [1.0, 0.5],
             unstable: Vec::new(),

@@ -391,7 +391,7 @@ fn add_pair(selected: &mut Vec<Candidate>, pool: &mut Vec<Candidate>, pair: &Can
 
 /// The backward pass: each of `selected` out in turn, the others refit; dropped unless
 /// keeping it lowers the validation score by more than `k_se_remove` bootstrap standard
-/// errors. Updates the selection, the model and its validation errors.
+/// errors and `min_rel_remove` of the score ([`super::candidates::SelectionRule::stays`]). Updates the selection, the model and its validation errors.
 pub fn backward_pass(
     ctx: &Context<'_>,
     selected: &mut Vec<Candidate>,
@@ -432,7 +432,7 @@ pub fn backward_pass(
             opts.rule.bootstrap_samples,
             opts.seed ^ 0xbac ^ k as u64,
         );
-        let dropped = without_s - with_s <= opts.rule.k_se_remove * se;
+        let dropped = !opts.rule.stays(without_s - with_s, se, with_s);
         backward.push(BackwardStep {
             effect: c.name.clone(),
             score_with: with_s,
