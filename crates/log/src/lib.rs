@@ -23,6 +23,7 @@ pub mod bag;
 pub mod cdr;
 pub mod csv;
 pub mod mcap;
+pub mod readers;
 pub mod ros_msgs;
 
 pub use drive_sim_model::measurement::{
@@ -30,22 +31,17 @@ pub use drive_sim_model::measurement::{
     Phase, Pose, Sample, UseSteps,
 };
 
-/// Reads a DRIVE log of either kind: a simulated `.mcap` or a measured `.csv` (with its JSON).
+/// Reads a DRIVE log that declares its robot and terrain itself: a measured `.csv` (with its
+/// JSON) or a drive-sim `.mcap` (the [`readers::Reader::self_describing`] readers; a bag needs
+/// [`open`] and its options).
 pub fn read_log(path: &std::path::Path) -> drive_sim_model::Result<DriveLog> {
-    match path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .as_deref()
-    {
-        Some("mcap") => mcap::read_mcap(path),
-        Some("csv") => csv::read_measured_csv(path),
-        _ => Err(drive_sim_model::Error::log(
-            path,
-            "file name",
-            "expected a .mcap (simulated) or .csv (measured) DRIVE log",
-        )),
-    }
+    let described: Vec<&'static dyn readers::Reader> = readers::READERS
+        .iter()
+        .copied()
+        .filter(|r| r.self_describing())
+        .collect();
+    let reader = readers::reader_of(path, &described)?;
+    reader.read(path, &OpenOptions::default()).map(|o| o.log)
 }
 
 /// What [`open`] needs besides the path: what a bag does not record (ignored for the other
@@ -65,51 +61,11 @@ pub struct Opened {
 
 /// Opens any supported DRIVE input into the common [`DriveLog`]: a measured `.csv` (JSON
 /// beside it), a drive-sim `.mcap`, or a rosbag2 recording of the DRIVE node (a bag directory,
-/// a `.db3`, or a rosbag2 `.mcap`).
+/// a `.db3`, or a rosbag2 `.mcap`); the first of [`readers::READERS`] that takes the path
+/// reads it.
 pub fn open(path: &std::path::Path, opts: &OpenOptions) -> drive_sim_model::Result<Opened> {
-    let plain = |log| Opened {
-        log,
-        notes: Vec::new(),
-        warnings: Vec::new(),
-    };
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    let from_bag = |b: bag::BagLog| Opened {
-        log: b.log,
-        notes: b.notes,
-        warnings: b.warnings,
-    };
-    let opened = if path.is_dir() {
-        bag::read_bag(path, opts).map(from_bag)
-    } else {
-        open_file(path, ext.as_deref(), opts, plain, from_bag)
-    }?;
+    let opened = readers::reader_of(path, readers::READERS)?.read(path, opts)?;
     settle_terrain(opened, path, opts)
-}
-
-fn open_file(
-    path: &std::path::Path,
-    ext: Option<&str>,
-    opts: &OpenOptions,
-    plain: impl Fn(DriveLog) -> Opened,
-    from_bag: impl Fn(bag::BagLog) -> Opened,
-) -> drive_sim_model::Result<Opened> {
-    match ext {
-        Some("csv") => csv::read_measured_csv(path).map(plain),
-        Some("mcap") if !path.exists() => Err(drive_sim_model::Error::io(
-            path,
-            std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
-        )),
-        Some("mcap") if mcap::read::is_drive_sim_mcap(path)? => mcap::read_mcap(path).map(plain),
-        Some("mcap") | Some("db3") | Some("zstd") => bag::read_bag(path, opts).map(from_bag),
-        _ => Err(drive_sim_model::Error::log(
-            path,
-            "file name",
-            "expected a measured .csv, a drive-sim .mcap, or a rosbag2 bag (directory, .db3 or .mcap, or either as .zstd)",
-        )),
-    }
 }
 
 /// The terrain label of a log that does not say which terrain it was recorded on.
