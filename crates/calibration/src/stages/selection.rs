@@ -5,7 +5,7 @@
 //! made on the validation steps; every fit on the training steps.
 
 use super::candidates::{
-    bootstrap_reduction_se, evaluate, pairs_of, Candidate, CandidateEvidence, EvaluateInput,
+    bootstrap_reduction_se, evaluate, pairs_of, Candidate, CandidateEvidence, EvaluateInput, EvaluateOutput,
 };
 use super::Context;
 use crate::error::Result;
@@ -136,45 +136,23 @@ fn joint_refit(ctx: &Context<'_>, st: &mut State, base: &[ParamSpec], label: &st
 }
 
 /// Runs forward selection, pairs and the backward pass.
-// Long: the forward rounds, the pairs and the backward pass share the selection's state.
 pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> {
     let opts = ctx.opts;
     let mut st = State {
         refit_current: false,
-        current: input.current,
-        validation: input.current_validation,
+        current: input.current.clone(),
+        validation: input.current_validation.clone(),
         selected: Vec::new(),
         notes: Vec::new(),
         converged: true,
     };
-    let mut pool = input.pool;
+    let mut pool = input.pool.clone();
     let mut rounds: Vec<SelectionRound> = Vec::new();
     let mut pairs: Vec<CandidateEvidence> = Vec::new();
     // Forward.
     for round in 0..opts.max_effects {
         if round == 1 && opts.rerank_top > 0 {
-            // After the first round only the best few that lowered the validation score are
-            // re-ranked: a candidate that explained nothing against the base model rarely
-            // explains something after another effect, and the pairs below look for those
-            // that only pay together.
-            let keep: Vec<String> = rounds[0]
-                .ranking
-                .iter()
-                .filter(|e| {
-                    let added = rounds[0].added.clone().unwrap_or_default();
-                    !added.split('+').any(|a| a == e.effect) && e.reduction > 0.0
-                })
-                .take(opts.rerank_top)
-                .map(|e| e.effect.clone())
-                .collect();
-            let (kept, rest): (Vec<Candidate>, Vec<Candidate>) =
-                pool.into_iter().partition(|c| keep.contains(&c.name));
-            pool = kept;
-            st.notes.push(format!(
-                "rounds after the first re-rank the {} best of the first round ({} left out)",
-                pool.len(),
-                rest.len()
-            ));
+            pool = rerank(&rounds[0], pool, opts.rerank_top, &mut st.notes);
         }
         if pool.is_empty() {
             break;
@@ -197,95 +175,13 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
             }
         }
         let mut best = out.ranked.first().map(|(e, m)| (e.clone(), m.clone()));
-        // In the first round, pairs among the top candidates: two effects that only pay
-        // together (a controller's speed gain with its wheel limit) lose to a stand-in when
-        // tried one at a time. A pair replaces the best single if it beats the single's model
-        // by the selection rule.
-        let mut pair_added: Option<Candidate> = None;
-        if round == 0 && opts.pair_top >= 2 && opts.max_effects >= 2 {
-            let top: Vec<&Candidate> = out
-                .ranked
-                .iter()
-                .filter(|(e, _)| e.reduction > 0.0)
-                .filter_map(|(e, m)| pool.iter().find(|c| c.name == e.effect).map(|c| (c, m)))
-                .take(opts.pair_top)
-                .map(|(c, _)| c)
-                .collect();
-            let warm: Vec<Candidate> = top
-                .iter()
-                .map(|c| {
-                    let m = &out
-                        .ranked
-                        .iter()
-                        .find(|(e, _)| e.effect == c.name)
-                        .expect("ranked")
-                        .1;
-                    c.warm_from(m)
-                })
-                .collect();
-            let tried = match &input.pairs {
-                Some(screened) => screened.clone(),
-                None => pairs_of(&warm.iter().collect::<Vec<_>>()),
-            };
-            if let (false, Some((single, single_model))) = (tried.is_empty(), &best) {
-                let pairs_out = evaluate(
-                    ctx,
-                    ctx.factory,
-                    EvaluateInput {
-                        current: &st.current,
-                        current_validation: &st.validation,
-                        candidates: &tried,
-                        refit: &input.refit,
-                        seed: opts.rule.seed ^ opts.seed ^ 0x9a0,
-                    },
-                )?;
-                if let Some((pev, pmodel)) = pairs_out.ranked.first() {
-                    let single_val = ctx.validation.errors(ctx.factory, single_model)?;
-                    let pair_val = ctx.validation.errors(ctx.factory, pmodel)?;
-                    let gain = score(&single_val, &ctx.floor) - score(&pair_val, &ctx.floor);
-                    let se = bootstrap_reduction_se(
-                        &single_val,
-                        &pair_val,
-                        &ctx.floor,
-                        opts.rule.bootstrap_samples,
-                        opts.seed ^ 0x9a2,
-                    );
-                    let better = pev.significant
-                        && (!single.significant
-                            || opts.rule.passes(gain, se, score(&single_val, &ctx.floor)));
-                    (ctx.progress)(&CalibrationEvent::FirstRoundPairs {
-                        tried: tried.len(),
-                        best: pev.effect.clone(),
-                        validation_before: pev.heldout_before,
-                        validation_after: pev.heldout_after,
-                        gain,
-                        se,
-                        preferred: better,
-                    });
-                    if better {
-                        pair_added = tried.iter().find(|c| c.name == pev.effect).cloned();
-                        best = Some((pev.clone(), pmodel.clone()));
-                    }
-                }
-                pairs.extend(pairs_out.ranked.into_iter().map(|(e, _)| e));
-            }
-        }
+        let pair_added = if round == 0 && opts.pair_top >= 2 && opts.max_effects >= 2 {
+            first_round_pair(ctx, &st, &input, &out, &pool, &mut best, &mut pairs)?
+        } else {
+            None
+        };
         if let Some((ev, _)) = &best {
-            (ctx.progress)(&CalibrationEvent::Round {
-                round,
-                candidates: out.ranked.len(),
-                best: ev.effect.clone(),
-                validation_before: ev.heldout_before,
-                validation_after: ev.heldout_after,
-                se: ev.reduction_se,
-                outcome: if ev.significant {
-                    RoundOutcome::Added
-                } else if ev.identifiable == Some(false) {
-                    RoundOutcome::NotIdentifiable
-                } else {
-                    RoundOutcome::NotSignificant
-                },
-            });
+            round_event(ctx, round, out.ranked.len(), ev);
         }
         let added = match best {
             Some((ev, model)) if ev.significant => {
@@ -315,48 +211,8 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
         }
         joint_refit(ctx, &mut st, &input.base, &format!("round {round}"))?;
     }
-    // Pairs among the top candidates of the last round that were not added.
     if opts.pair_top >= 2 && st.selected.len() + 2 <= opts.max_effects {
-        let last = rounds.last().map(|r| r.ranking.clone()).unwrap_or_default();
-        let top: Vec<&Candidate> = last
-            .iter()
-            .filter_map(|e| pool.iter().find(|c| c.name == e.effect))
-            .take(opts.pair_top)
-            .collect();
-        let tried = pairs_of(&top);
-        if !tried.is_empty() {
-            let out = evaluate(
-                ctx,
-                ctx.factory,
-                EvaluateInput {
-                    current: &st.current,
-                    current_validation: &st.validation,
-                    candidates: &tried,
-                    refit: &input.refit,
-                    seed: opts.rule.seed ^ opts.seed ^ 0x9a1,
-                },
-            )?;
-            if let Some((ev, model)) = out.ranked.first() {
-                (ctx.progress)(&CalibrationEvent::Pairs {
-                    tried: tried.len(),
-                    best: ev.effect.clone(),
-                    validation_before: ev.heldout_before,
-                    validation_after: ev.heldout_after,
-                    se: ev.reduction_se,
-                    added: ev.significant,
-                });
-                if ev.significant {
-                    if let Some(c) = tried.iter().find(|c| c.name == ev.effect) {
-                        add_pair(&mut st.selected, &mut pool, c, model);
-                    }
-                    st.validation = ctx.validation.errors(ctx.factory, model)?;
-                    st.current = model.clone();
-                    st.refit_current = false;
-                    joint_refit(ctx, &mut st, &input.base, "pair")?;
-                }
-            }
-            pairs.extend(out.ranked.into_iter().map(|(e, _)| e));
-        }
+        last_round_pairs(ctx, &mut st, &input, &rounds, &mut pool, &mut pairs)?;
     }
     // Backward: each selected effect out, the others refit; dropped unless keeping it passes.
     let backward = backward_pass(ctx, &mut st.selected, &mut st.current, &mut st.validation)?;
@@ -374,6 +230,180 @@ pub fn run(ctx: &Context<'_>, input: SelectionInput) -> Result<SelectionOutput> 
         converged: st.converged,
         refit_current: st.refit_current,
     })
+}
+
+/// The pool of the rounds after the first: only the best `keep_n` of the first round that
+/// lowered the validation score. A candidate that explained nothing against the base model
+/// rarely explains something after another effect, and the pairs look for those that only
+/// pay together.
+fn rerank(
+    first: &SelectionRound,
+    pool: Vec<Candidate>,
+    keep_n: usize,
+    notes: &mut Vec<String>,
+) -> Vec<Candidate> {
+    let added = first.added.clone().unwrap_or_default();
+    let keep: Vec<String> = first
+        .ranking
+        .iter()
+        .filter(|e| !added.split('+').any(|a| a == e.effect) && e.reduction > 0.0)
+        .take(keep_n)
+        .map(|e| e.effect.clone())
+        .collect();
+    let (kept, rest): (Vec<Candidate>, Vec<Candidate>) =
+        pool.into_iter().partition(|c| keep.contains(&c.name));
+    notes.push(format!(
+        "rounds after the first re-rank the {} best of the first round ({} left out)",
+        kept.len(),
+        rest.len()
+    ));
+    kept
+}
+
+/// The first round's pairs among its top candidates: two effects that only pay together (a
+/// controller's speed gain with its wheel limit) lose to a stand-in when tried one at a time.
+/// The best pair replaces `best` (the best single) if it beats the single's model by the
+/// selection rule; then it is returned, to be added in the single's place. Every pair tried
+/// joins `pairs`.
+fn first_round_pair(
+    ctx: &Context<'_>,
+    st: &State,
+    input: &SelectionInput,
+    out: &EvaluateOutput,
+    pool: &[Candidate],
+    best: &mut Option<(CandidateEvidence, ModelParams)>,
+    pairs: &mut Vec<CandidateEvidence>,
+) -> Result<Option<Candidate>> {
+    let opts = ctx.opts;
+    let warm: Vec<Candidate> = out
+        .ranked
+        .iter()
+        .filter(|(e, _)| e.reduction > 0.0)
+        .filter_map(|(e, m)| pool.iter().find(|c| c.name == e.effect).map(|c| c.warm_from(m)))
+        .take(opts.pair_top)
+        .collect();
+    let tried = match &input.pairs {
+        Some(screened) => screened.clone(),
+        None => pairs_of(&warm.iter().collect::<Vec<_>>()),
+    };
+    let Some((single, single_model)) = best.as_ref().filter(|_| !tried.is_empty()) else {
+        return Ok(None);
+    };
+    let pairs_out = evaluate(
+        ctx,
+        ctx.factory,
+        EvaluateInput {
+            current: &st.current,
+            current_validation: &st.validation,
+            candidates: &tried,
+            refit: &input.refit,
+            seed: opts.rule.seed ^ opts.seed ^ 0x9a0,
+        },
+    )?;
+    let mut added = None;
+    if let Some((pev, pmodel)) = pairs_out.ranked.first() {
+        let single_val = ctx.validation.errors(ctx.factory, single_model)?;
+        let pair_val = ctx.validation.errors(ctx.factory, pmodel)?;
+        let gain = score(&single_val, &ctx.floor) - score(&pair_val, &ctx.floor);
+        let se = bootstrap_reduction_se(
+            &single_val,
+            &pair_val,
+            &ctx.floor,
+            opts.rule.bootstrap_samples,
+            opts.seed ^ 0x9a2,
+        );
+        let better = pev.significant
+            && (!single.significant || opts.rule.passes(gain, se, score(&single_val, &ctx.floor)));
+        (ctx.progress)(&CalibrationEvent::FirstRoundPairs {
+            tried: tried.len(),
+            best: pev.effect.clone(),
+            validation_before: pev.heldout_before,
+            validation_after: pev.heldout_after,
+            gain,
+            se,
+            preferred: better,
+        });
+        if better {
+            added = tried.iter().find(|c| c.name == pev.effect).cloned();
+            *best = Some((pev.clone(), pmodel.clone()));
+        }
+    }
+    pairs.extend(pairs_out.ranked.into_iter().map(|(e, _)| e));
+    Ok(added)
+}
+
+/// Tells the progress observer how a forward round ended.
+fn round_event(ctx: &Context<'_>, round: usize, candidates: usize, ev: &CandidateEvidence) {
+    (ctx.progress)(&CalibrationEvent::Round {
+        round,
+        candidates,
+        best: ev.effect.clone(),
+        validation_before: ev.heldout_before,
+        validation_after: ev.heldout_after,
+        se: ev.reduction_se,
+        outcome: if ev.significant {
+            RoundOutcome::Added
+        } else if ev.identifiable == Some(false) {
+            RoundOutcome::NotIdentifiable
+        } else {
+            RoundOutcome::NotSignificant
+        },
+    });
+}
+
+/// Pairs among the top candidates of the last forward round that were not added; the best
+/// is added if it passes the rule, then the joint refit. Every pair tried joins `pairs`.
+fn last_round_pairs(
+    ctx: &Context<'_>,
+    st: &mut State,
+    input: &SelectionInput,
+    rounds: &[SelectionRound],
+    pool: &mut Vec<Candidate>,
+    pairs: &mut Vec<CandidateEvidence>,
+) -> Result<()> {
+    let opts = ctx.opts;
+    let last = rounds.last().map(|r| r.ranking.clone()).unwrap_or_default();
+    let top: Vec<&Candidate> = last
+        .iter()
+        .filter_map(|e| pool.iter().find(|c| c.name == e.effect))
+        .take(opts.pair_top)
+        .collect();
+    let tried = pairs_of(&top);
+    if tried.is_empty() {
+        return Ok(());
+    }
+    let out = evaluate(
+        ctx,
+        ctx.factory,
+        EvaluateInput {
+            current: &st.current,
+            current_validation: &st.validation,
+            candidates: &tried,
+            refit: &input.refit,
+            seed: opts.rule.seed ^ opts.seed ^ 0x9a1,
+        },
+    )?;
+    if let Some((ev, model)) = out.ranked.first() {
+        (ctx.progress)(&CalibrationEvent::Pairs {
+            tried: tried.len(),
+            best: ev.effect.clone(),
+            validation_before: ev.heldout_before,
+            validation_after: ev.heldout_after,
+            se: ev.reduction_se,
+            added: ev.significant,
+        });
+        if ev.significant {
+            if let Some(c) = tried.iter().find(|c| c.name == ev.effect) {
+                add_pair(&mut st.selected, pool, c, model);
+            }
+            st.validation = ctx.validation.errors(ctx.factory, model)?;
+            st.current = model.clone();
+            st.refit_current = false;
+            joint_refit(ctx, st, &input.base, "pair")?;
+        }
+    }
+    pairs.extend(out.ranked.into_iter().map(|(e, _)| e));
+    Ok(())
 }
 
 /// Adds both effects of `pair` to `selected`, warm from `model`, and takes them out of `pool`
