@@ -389,11 +389,11 @@ fn changed(s: &mut String, r: &TwinReport) {
                 t.check.se,
                 if t.accepted { "accepted" } else { "not accepted: the twin is the calibrated model" }
             );
-            s.push_str("| value | ground | calibrated | chosen | box | near-best range | on a bound |\n|---|---|---|---|---|---|---|\n");
+            s.push_str("| value | ground | calibrated | chosen | box | profile interval | near-best range | on a bound |\n|---|---|---|---|---|---|---|---|\n");
             for v in &t.values {
                 let _ = writeln!(
                     s,
-                    "| `{}` ({}) | {} | {} | {:.4} | [{:.4}, {:.4}] | {} | {} |",
+                    "| `{}` ({}) | {} | {} | {:.4} | [{:.4}, {:.4}] | {} | {} | {} |",
                     v.name,
                     v.unit,
                     v.ground.as_deref().unwrap_or("all"),
@@ -405,12 +405,14 @@ fn changed(s: &mut String, r: &TwinReport) {
                     v.chosen,
                     v.lower,
                     v.upper,
+                    v.interval
+                        .map_or("not pinned".into(), |[a, b]| format!("[{a:.4}, {b:.4}]")),
                     v.near_best
                         .map_or("-".into(), |[a, b]| format!("[{a:.4}, {b:.4}]")),
                     if v.at_bound { "yes" } else { "no" }
                 );
             }
-            s.push_str("\n(near-best range: the values of the search's points whose loss lies within twice the check's standard error of the best; a set of evaluated points, not a confidence interval.)\n");
+            s.push_str("\n(profile interval: the values whose loss, on a quadratic fitted to the search's points nearest the best and minimised over the other tuned values, lies within twice the check's standard error of its minimum; \"not pinned\": the fitted surface has no minimum there. Near-best range: the values of the search's points whose loss lies within twice the check's standard error of the best, a set of evaluated points.)\n");
         }
         None => s.push_str("Nothing tuned: no knob lowered the loss enough in the screening (below).\n"),
     }

@@ -45,6 +45,13 @@ pub struct TunedValue {
     /// cannot tell from the best's (a set of the search's own points, not a confidence
     /// interval; `None` without a standard error).
     pub near_best: Option<[f64; 2]>,
+    /// The values whose loss, on a quadratic fitted to the search's points nearest the best
+    /// and minimised over the other tuned values, lies within twice the check's standard
+    /// error of the surface's minimum (a response surface's profile interval, [`crate::profile`]);
+    /// clamped to the box. `None`: the surface has no minimum there (the closed loop does not
+    /// pin the value), too few points, or no standard error.
+    #[serde(default)]
+    pub interval: Option<[f64; 2]>,
 }
 
 /// One point the search evaluated.
@@ -262,6 +269,19 @@ fn tuned_values(
         .iter()
         .filter(|e| se.is_finite() && e.loss.is_some_and(|l| l <= best + 2.0 * se))
         .collect();
+    let to_z = |x: &[f64]| -> Vec<f64> {
+        space
+            .coords
+            .iter()
+            .zip(x)
+            .map(|(c, v)| (v - c.spec.lower) / (c.spec.upper - c.spec.lower))
+            .collect()
+    };
+    let points: Vec<(Vec<f64>, f64)> = evaluated
+        .iter()
+        .filter_map(|e| e.loss.map(|l| (to_z(&e.values), l)))
+        .collect();
+    let intervals = crate::profile::profile_intervals(&points, &to_z(x_best), 2.0 * se);
     space
         .coords
         .iter()
@@ -286,6 +306,10 @@ fn tuned_values(
                 chosen: x_best[i],
                 at_bound: c.spec.at_bound(x_best[i]),
                 near_best: range,
+                interval: intervals.as_ref().map(|iv| {
+                    let (lo, width) = (c.spec.lower, c.spec.upper - c.spec.lower);
+                    [lo + iv[i][0] * width, lo + iv[i][1] * width]
+                }),
             }
         })
         .collect()

@@ -159,12 +159,14 @@ fn provenance_of(w: &Written, g: usize, tuned: bool) -> Provenance {
                 (
                     name,
                     format!(
-                        "[twin] {:.6} {}, chosen in closed loop in [{}, {}] (calibrated: {}){}; check on fresh seeds: loss reduction {:.3} ± {:.3} (SE)",
+                        "[twin] {:.6} {}, chosen in closed loop in [{}, {}] (calibrated: {}){}{}; check on fresh seeds: loss reduction {:.3} ± {:.3} (SE)",
                         v.chosen,
                         v.unit,
                         v.lower,
                         v.upper,
                         if v.calibrated.is_finite() { format!("{:.6}", v.calibrated) } else { "off".into() },
+                        v.interval
+                            .map_or(String::new(), |[a, b]| format!("; profile interval [{a:.6}, {b:.6}]")),
                         v.near_best.map_or(String::new(), |[a, b]| format!("; near-best range [{a:.6}, {b:.6}]")),
                         t.check.mean_reduction,
                         t.check.se
