@@ -22,7 +22,8 @@
 //! Where the effect acts, every channel also ends within 1.5× its floor on the test steps.
 //!
 //! The cases are the first of each family in the benchmark's draw (`--cases 30 --nulls 10
-//! --seed 1`). A late pose is the catalogue's latency; counting encoders need no effect. The
+//! --seed 1`), on logs of 60 steps (the benchmark's are 90; the coupling between the sides
+//! keeps 90, see its test). A late pose is the catalogue's latency; counting encoders need no effect. The
 //! families left to the benchmark are measured there, its table in docs/results/discovery.md:
 //! the turn memory (its first case is the benchmark's miss, 3.5× against a flag of 3; its
 //! replay at the generator's values is the last test here), the backlash (no effect has the
@@ -45,19 +46,24 @@ fn first_of(family: Family) -> Case {
         .unwrap_or_else(|| panic!("no {family:?} case in the benchmark's draw"))
 }
 
-/// The case calibrated and scored as the benchmark scores it (90 steps).
+/// Steps of a CI case's log: shorter than the benchmark's, as a CI test should be.
+const CI_STEPS: u32 = 60;
+/// The benchmark's steps, for the one case that needs them (see its test).
+const BENCHMARK_STEPS: u32 = 90;
+
+/// The case calibrated and scored as the benchmark scores it, on a log of [`CI_STEPS`].
 fn run(case: &Case) -> Record {
-    run_with_report(case).0
+    run_with_report(case, CI_STEPS).0
 }
 
-/// [`run`], with the calibration's report.
-fn run_with_report(case: &Case) -> (Record, CalibrationReport) {
+/// [`run`] on a log of `steps`, with the calibration's report.
+fn run_with_report(case: &Case, steps: u32) -> (Record, CalibrationReport) {
     let candidates = CATALOGUE_WITHOUT_STRUCTURAL
         .iter()
         .map(|s| s.to_string())
         .collect();
     let t0 = std::time::Instant::now();
-    let r = calibrate_case(case, 90, Some(candidates)).unwrap();
+    let r = calibrate_case(case, steps, Some(candidates)).unwrap();
     let rec = score(case, &r, t0.elapsed().as_secs_f64());
     eprintln!(
         "{}: kept {:?}; worst {} {:.2} (flag {}); within flags {}, structure {}; effect's channels {:?}; {:.1} s",
@@ -159,7 +165,11 @@ fn a_drifting_gyro_bias_is_a_term_in_the_step_index() {
 
 #[test]
 fn one_side_driven_by_the_other_is_a_wheel_term() {
-    assert_explained(&run(&first_of(Family::CrossCoupling)));
+    // On 60 steps (36 to fit) the right wheel's equation is not stable under resampling (no
+    // term in 70 % of the resamples, though the residual is 5 floors), the body takes a
+    // stand-in and steady enc_right ends 19.7× its floor: the coupling needs the benchmark's
+    // 90 steps.
+    assert_explained(&run_with_report(&first_of(Family::CrossCoupling), BENCHMARK_STEPS).0);
 }
 
 #[test]
@@ -205,7 +215,7 @@ fn a_gyro_fault_is_the_catalogue_fault() {
 #[test]
 fn a_gain_curve_is_one_term_in_the_command_found_from_the_base_model() {
     let case = first_of(Family::GainCurve);
-    let (rec, r) = run_with_report(&case);
+    let (rec, r) = run_with_report(&case, CI_STEPS);
     assert_explained(&rec);
     let competition = r
         .discovery

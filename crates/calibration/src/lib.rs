@@ -69,6 +69,7 @@ pub mod residual;
 pub mod solver;
 pub mod stages;
 pub mod steps;
+pub mod surface;
 pub mod surrogate;
 pub mod to_dir;
 pub mod twin;

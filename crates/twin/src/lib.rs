@@ -45,7 +45,6 @@ pub mod input;
 pub mod judging;
 pub mod knobs;
 pub mod pass;
-pub mod profile;
 pub mod report;
 pub mod rule;
 pub mod screen;

@@ -47,7 +47,7 @@ pub struct TunedValue {
     pub near_best: Option<[f64; 2]>,
     /// The values whose loss, on a quadratic fitted to the search's points nearest the best
     /// and minimised over the other tuned values, lies within twice the check's standard
-    /// error of the surface's minimum (a response surface's profile interval, [`crate::profile`]);
+    /// error of the surface's minimum (a response surface's profile interval, [`drive_sim_calibration::surface`]);
     /// clamped to the box. `None`: the surface has no minimum there (the closed loop does not
     /// pin the value), too few points, or no standard error.
     #[serde(default)]
@@ -281,7 +281,7 @@ fn tuned_values(
         .iter()
         .filter_map(|e| e.loss.map(|l| (to_z(&e.values), l)))
         .collect();
-    let intervals = crate::profile::profile_intervals(&points, &to_z(x_best), 2.0 * se);
+    let intervals = drive_sim_calibration::surface::profile_intervals(&points, &to_z(x_best), 2.0 * se);
     space
         .coords
         .iter()

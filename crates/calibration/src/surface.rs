@@ -1,4 +1,7 @@
-//! How far a tuned value can move: the profile of a quadratic fitted to the search's losses.
+//! How far a tuned value can move: the profile of a quadratic fitted to a search's losses.
+//!
+//! It lives beside the calibration's other least-squares code (the twin's closed-loop tuning
+//! uses it), so that one crate instantiates the linear algebra.
 //!
 //! The closed-loop search evaluates its loss at points of the knobs' unit box; each loss is a
 //! mean over a few seeds, so it is noisy, and the check on fresh seeds measures that noise
