@@ -405,14 +405,19 @@ fn changed(s: &mut String, r: &TwinReport) {
                     v.chosen,
                     v.lower,
                     v.upper,
-                    v.interval
-                        .map_or("not pinned".into(), |[a, b]| format!("[{a:.4}, {b:.4}]")),
+                    v.interval.map_or("not pinned".into(), |[a, b]| {
+                        let mark = match v.interval_fit {
+                            Some(drive_sim_calibration::surface::SurfaceFit::Separable) => " ¹",
+                            _ => "",
+                        };
+                        format!("[{a:.4}, {b:.4}]{mark}")
+                    }),
                     v.near_best
                         .map_or("-".into(), |[a, b]| format!("[{a:.4}, {b:.4}]")),
                     if v.at_bound { "yes" } else { "no" }
                 );
             }
-            s.push_str("\n(profile interval: the values whose loss, on a quadratic fitted to the search's points nearest the best and minimised over the other tuned values, lies within twice the check's standard error of its minimum; \"not pinned\": the fitted surface has no minimum there. Near-best range: the values of the search's points whose loss lies within twice the check's standard error of the best, a set of evaluated points.)\n");
+            s.push_str("\n(profile interval: the values whose loss, on a quadratic fitted to the search's points nearest the best and minimised over the other tuned values, lies within twice the check's standard error of its minimum; marked ¹ where the full quadratic had no minimum and the one without cross terms was used, the others held at their minimum; \"not pinned\": the fitted surface has no minimum along it. Near-best range: the values of the search's points whose loss lies within twice the check's standard error of the best, a set of evaluated points.)\n");
         }
         None => s.push_str("Nothing tuned: no knob lowered the loss enough in the screening (below).\n"),
     }

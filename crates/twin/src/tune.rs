@@ -45,13 +45,18 @@ pub struct TunedValue {
     /// cannot tell from the best's (a set of the search's own points, not a confidence
     /// interval; `None` without a standard error).
     pub near_best: Option<[f64; 2]>,
-    /// The values whose loss, on a quadratic fitted to the search's points nearest the best
-    /// and minimised over the other tuned values, lies within twice the check's standard
-    /// error of the surface's minimum (a response surface's profile interval, [`drive_sim_calibration::surface`]);
-    /// clamped to the box. `None`: the surface has no minimum there (the closed loop does not
-    /// pin the value), too few points, or no standard error.
+    /// The values whose loss, on a quadratic fitted to the search's points nearest the best,
+    /// lies within twice the check's standard error of the surface's minimum: the profile
+    /// interval of the full quadratic (the other tuned values minimised over), or, where that
+    /// one has no minimum, the interval of the quadratic without cross terms
+    /// ([`drive_sim_calibration::surface`]; which one: `interval_fit`); clamped to the box.
+    /// `None`: the surface has no minimum along this value (the closed loop does not pin it),
+    /// too few points, or no standard error.
     #[serde(default)]
     pub interval: Option<[f64; 2]>,
+    /// Which quadratic `interval` was read from (`None` when no surface could be fitted).
+    #[serde(default)]
+    pub interval_fit: Option<drive_sim_calibration::surface::SurfaceFit>,
 }
 
 /// One point the search evaluated.
@@ -306,10 +311,11 @@ fn tuned_values(
                 chosen: x_best[i],
                 at_bound: c.spec.at_bound(x_best[i]),
                 near_best: range,
-                interval: intervals.as_ref().map(|iv| {
+                interval: intervals.as_ref().and_then(|iv| iv.intervals[i]).map(|[a, b]| {
                     let (lo, width) = (c.spec.lower, c.spec.upper - c.spec.lower);
-                    [lo + iv[i][0] * width, lo + iv[i][1] * width]
+                    [lo + a * width, lo + b * width]
                 }),
+                interval_fit: intervals.as_ref().map(|iv| iv.fit),
             }
         })
         .collect()
