@@ -40,7 +40,7 @@ use std::time::Instant;
 #[serde(rename_all = "kebab-case")]
 enum Catalogue {
     /// The catalogue without the structural effects discovery points to (as
-    /// `tests/discovery.rs`): those can only come in through an equation, so the benchmark
+    /// `tests/long/discovery.rs`): those can only come in through an equation, so the benchmark
     /// measures discovery rather than the catalogue's selection.
     WithoutStructural,
     /// Every effect the kinematic model can run (the calibration's default).
@@ -77,7 +77,7 @@ struct Args {
     family: Option<Family>,
     /// Candidates of the calibration. Default: without-structural, so that what the
     /// benchmark scores is discovery (the structural effects can only come in through an
-    /// equation), as tests/discovery.rs does.
+    /// equation), as tests/long/discovery.rs does.
     #[arg(long, value_enum, default_value_t = Catalogue::WithoutStructural)]
     catalogue: Catalogue,
     /// Cases run at once (default: one per core).

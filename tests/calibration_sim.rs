@@ -168,7 +168,7 @@ fn calibrate_measured(name: &str) -> CalibrationReport {
         &terrain,
         &SimFactory::default(),
         // The catalogue's findings on measured data; discovery (minutes more on these logs)
-        // is tested on generated data in tests/discovery.rs and measured with the CLI.
+        // is tested on generated data in tests/long/discovery.rs and measured with the CLI.
         &CalibrationOptions {
             discover: false,
             ..CalibrationOptions::default()

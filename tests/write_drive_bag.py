@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes a measured DRIVE CSV as the rosbag2 bag the DRIVE ROS 2 node records.
 
-An independent writer for tests/bag_read.rs: the `rosbags` package (pip install rosbags)
+An independent writer for tests/quick/bag_read.rs: the `rosbags` package (pip install rosbags)
 serializes the messages and writes the storage (sqlite3 or MCAP), so the Rust reader is checked
 against a bag it did not write itself.
 

@@ -1,5 +1,5 @@
 //! Running and scoring one case of the randomized discovery benchmark
-//! (`benches/discovery_benchmark.rs`; one case per family in `tests/discovery_families.rs`):
+//! (`benches/discovery_benchmark.rs`; one case per family in `tests/long/discovery_families.rs`):
 //! the generator's log, the kinematic calibration with discovery, and the case's record
 //! against its truth.
 
@@ -33,7 +33,7 @@ pub struct ValueCheck {
     pub truth: f64,
     pub fitted: Option<f64>,
     pub se: Option<f64>,
-    /// Within 10 % of the truth or 3 standard errors (the criterion of tests/discovery.rs).
+    /// Within 10 % of the truth or 3 standard errors (the criterion of tests/long/discovery.rs).
     pub ok: bool,
 }
 

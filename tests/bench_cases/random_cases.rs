@@ -3,7 +3,7 @@
 //! in physically plausible ranges that stand above the noise, each with its truth: where it
 //! acts, which catalogue effect (if any) is its exact explanation and with which value.
 //!
-//! The noise is that of `tests/discovery.rs` (encoders 0.1 rad/s, pose 0.01 m and 0.003 rad,
+//! The noise is that of `tests/long/discovery.rs` (encoders 0.1 rad/s, pose 0.01 m and 0.003 rad,
 //! gyro 0.02 rad/s), the robot the Warthog's geometry with the generator's lag of 0.15 s.
 
 use crate::common::generator::{TestRobotSpec, Unmodelled};
@@ -299,7 +299,7 @@ pub fn draw(family: Family, seed: u64) -> Case {
     use Channel::*;
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_d15c_0e77);
     let base = Unmodelled {
-        // A lidar pose has some yaw noise (as in tests/discovery.rs): without it the transient
+        // A lidar pose has some yaw noise (as in tests/long/discovery.rs): without it the transient
         // yaw-rate floor is round-off and any lag mismatch flags.
         pose_yaw_noise_rad: 0.003,
         ..Unmodelled::default()

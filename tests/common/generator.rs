@@ -53,8 +53,8 @@ impl TestRobotSpec {
         }
     }
 
-    /// The discovery cases' robot (`tests/discovery.rs`, the randomized benchmark, the joint
-    /// calibration of `tests/twin_joint.rs`): the
+    /// The discovery cases' robot (`tests/long/discovery.rs`, the randomized benchmark, the joint
+    /// calibration of `tests/long/twin_joint.rs`): the
     /// Warthog's geometry, the generator's lag, and noise low enough that a missing effect
     /// stands out in a 90-step log.
     pub fn discovery(seed: u64) -> Self {

@@ -7,7 +7,7 @@ pub mod generator;
 use drive_sim::calibration::CalibrationReport;
 
 /// The catalogue without the structural effects discovery points to (`body_lag`,
-/// `centripetal_slip`, `motor_gain_drift`, ...): the candidates of `tests/discovery.rs` and of the
+/// `centripetal_slip`, `motor_gain_drift`, ...): the candidates of `tests/long/discovery.rs` and of the
 /// discovery benchmark's cases, so that such an effect can only come in through an equation.
 #[allow(dead_code)] // the discovery tests' and benchmark's candidates
 pub const CATALOGUE_WITHOUT_STRUCTURAL: [&str; 14] = [

@@ -1,11 +1,12 @@
 //! The quick integration tests, one module per concern, in one test binary: each binary of
 //! `tests/` links the whole pipeline, and these run in seconds, so one link serves them all
 //! (`cargo test --test quick`; one module: `cargo test --test quick cli_bad_input::`). The
-//! tests that run long (calibrations, judgements, twins) keep their own binaries, which
-//! `cargo test` runs one after the other.
+//! tests that run long (calibrations, judgements, twins) are the `long` binary's
+//! (`tests/long/main.rs`).
 
 mod analysis_measured;
 mod analysis_synthetic;
+mod bag_read;
 mod cli_bad_input;
 mod cli_calibrate;
 mod cli_run;
@@ -17,6 +18,7 @@ mod protocol_claims;
 mod readers_fuzz;
 mod report_analysis;
 mod report_figures;
+mod report_render;
 mod samplers_compare;
 mod samplers_properties;
 mod sim_effects;

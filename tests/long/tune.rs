@@ -14,7 +14,7 @@
 //! and a lower limit, slowing the turns, shrinks that difference: the search trades the limit
 //! for the lateral map (8.55 rad/s chosen with the yardstick averaged over 64 halvings).
 
-mod common;
+use crate::common;
 use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};
 use drive_sim::calibration::twin;
 use drive_sim::compare::tune::{search::SearchOptions, tune, TuneEvent, TuneOptions, TuneRequest};

@@ -15,7 +15,7 @@ use drive_sim::protocol::{run_drive, ProtocolConfig};
 use drive_sim::robot::Robot;
 use drive_sim::terrain::Terrain;
 
-mod common;
+use crate::common;
 
 const STEPS: u32 = 30;
 
@@ -250,7 +250,7 @@ fn a_declared_limit_is_refit_and_judged() {
 /// score brought below the stated multiple of the noise floor (1 = at the floor; the floor is
 /// itself estimated from 60 steps). CI runs one seed (22) of each; the three seeds 21–23 (two
 /// of the saturation: see the ignored regression below) are
-/// `cargo test --test calibration_synthetic each_effect_over_three_seeds -- --ignored`.
+/// `cargo test --test long calibration_synthetic::each_effect_over_three_seeds -- --ignored`.
 fn every_effect_cases() -> &'static [(&'static str, f64, &'static str, f64, f64)] {
     // The saturation on seeds 21 and 23 is in `open_regressions_of_the_least_squares_pipeline`
     // below.

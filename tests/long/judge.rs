@@ -7,7 +7,7 @@
 //!   the real run more extreme than every reference, on the loss (which decides) and on the
 //!   count of runs called "differs".
 
-mod common;
+use crate::common;
 use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};
 use drive_sim::calibration::twin;
 use drive_sim::compare::judge::{judge, JudgeOptions, JudgeOutcome, JudgeRequest, DIFFERS};

@@ -6,7 +6,7 @@
 //! ends within 1.5× its floor on the test steps, and every channel within its flag (2× steady,
 //! 3× transient and pose). Noise alone proposes nothing.
 
-mod common;
+use crate::common;
 use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};
 use common::CATALOGUE_WITHOUT_STRUCTURAL;
 use drive_sim::calibration::{calibrate, CalibrationOptions, CalibrationReport, KinematicFactory};

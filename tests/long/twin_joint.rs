@@ -3,7 +3,7 @@
 //! terrain's). The joint calibration recovers the shared limit with a tighter interval than any
 //! log alone, and each log's slip. Logs of different robots are refused before any work.
 
-mod common;
+use crate::common;
 
 use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};
 use drive_sim::calibration::joint::{calibrate_joint, JointInput, JointLog};

@@ -10,7 +10,7 @@ use drive_sim::log::csv::read_measured_csv;
 use drive_sim::log::DriveLog;
 use std::path::Path;
 
-mod common;
+use crate::common;
 
 const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured");
 

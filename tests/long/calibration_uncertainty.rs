@@ -13,7 +13,7 @@ use drive_sim::calibration::{
 };
 use drive_sim::terrain::Terrain;
 
-mod common;
+use crate::common;
 use common::generator::{drive_log, TestRobotSpec};
 
 fn spec(seed: u64) -> TestRobotSpec {

@@ -30,9 +30,8 @@
 //! gap's state) and the dropouts (within their flags, nothing kept: the encoder scale they
 //! average to is not found).
 
-#[allow(dead_code)] // the cases and scores this file does not use
-mod bench_cases;
-mod common;
+use crate::bench_cases;
+use crate::common;
 use bench_cases::benchmark::{calibrate_case, score, Record};
 use bench_cases::random_cases::{cases, Case, Family};
 use common::CATALOGUE_WITHOUT_STRUCTURAL;

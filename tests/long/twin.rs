@@ -13,7 +13,7 @@
 //! each judgement 4 runs of the twin against 19 references, so the file runs in about two
 //! minutes; the full budget is `scripts/twin_results.py`'s, on the measured runs.
 
-mod common;
+use crate::common;
 use common::generator::{write_drive_mcap, TestRobotSpec, Unmodelled};
 use drive_sim::calibration::twin::lift_effects;
 use drive_sim::compare::judge::{judge, yardstick, JudgeRequest};
