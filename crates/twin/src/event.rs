@@ -110,7 +110,7 @@ impl fmt::Display for TwinEvent<'_> {
             Self::Calibration { event } => write!(f, "calibrate: {event}"),
             Self::Screening { knobs, runs } => write!(
                 f,
-                "screen: {knobs} knobs of the model, each at {} points of its box ({runs} DRIVE runs)",
+                "screen: {knobs} knobs of the model, each at {} points an eighth of its box from its calibrated value ({runs} DRIVE runs)",
                 crate::screen::POINTS_PER_KNOB
             ),
             Self::KnobScreened { screen } => {

@@ -429,9 +429,10 @@ fn choice(s: &mut String, r: &TwinReport) {
     let sc = &r.final_twin.pass.screening;
     let _ = writeln!(
         s,
-        "\n## How the knobs were chosen (the twin written)\n\nEach of the {} knobs of the model was set at {} points of its box and run in closed loop on seeds {:?} ({} DRIVE runs); the calibrated model's loss there: {}. The rule: {}.\n",
+        "\n## How the knobs were chosen (the twin written)\n\nEach of the {} knobs of the model was set at {} points, each parameter moved by {} of its box either side of its calibrated value (the box's quarters where that value is off or outside the box), and run in closed loop on seeds {:?} ({} DRIVE runs); the calibrated model's loss there: {}. The rule: {}.\n",
         sc.knobs.len(),
         crate::screen::POINTS_PER_KNOB,
+        crate::screen::SCREEN_STEP,
         sc.seeds,
         sc.runs,
         sc.start.loss.map_or("-".into(), |l| format!("{l:.2}")),

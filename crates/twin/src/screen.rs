@@ -1,5 +1,5 @@
-//! Which knobs move the twin towards the robot: each knob of the pool set at a few points of
-//! its box, the rest of the model as calibrated, every point run in closed loop on the pass's
+//! Which knobs move the twin towards the robot: each knob of the pool moved a little either
+//! side of its calibrated value, the rest of the model as calibrated, every point run in closed loop on the pass's
 //! seeds and scored by compare's loss. What a knob changes in each of the loss's terms (ρ, the
 //! slips, the T/U areas, the maps) is measured here, on this run, for this robot and ground:
 //! no table says in advance which knob moves which statistic.
@@ -11,10 +11,16 @@ use drive_sim_calibration::ModelParams;
 use drive_sim_compare::tune::search::design;
 use serde::{Deserialize, Serialize};
 
-/// Points of a knob's box run by the screening: the Halton design's second and third points
-/// (the quarters of a one-parameter box; its first point, the middle, is often the
-/// calibrated value itself, a neutral offset or scale).
+/// Points of a knob's box run by the screening, one on each side of the calibrated value.
 pub const POINTS_PER_KNOB: usize = 2;
+
+/// How far each screening point moves a parameter from its calibrated value, as a fraction of
+/// its box. The calibration by replay leaves most parameters near the robot's, and what the
+/// closed loop adds is a correction: points far out (the box's quarters) measured the knob
+/// where it is worst, and a knob whose good value lay close by looked harmful (the Husky's
+/// ICR offset scored 15.2 and 27.2 at its quarters against 10.4 calibrated), or did not run at
+/// all. The search that follows covers the whole box.
+pub const SCREEN_STEP: f64 = 0.125;
 
 /// One point of a knob's screening.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -90,6 +96,55 @@ pub(crate) fn knob_values(knob: &Knob, z: &[f64]) -> Vec<f64> {
         .collect()
 }
 
+/// The knob's screening points, in its units.
+///
+/// A parameter whose calibrated value `c` lies in its box (a limit that is off, or values that
+/// differ between grounds, do not) moves by `SCREEN_STEP` of its box to either side: `c + d`
+/// at the first point and `c − d` at the second, the signs alternating between a knob's
+/// parameters so that the two points do not move them all together; a side beyond the box is
+/// replaced by a second step on the other side. Any other parameter takes the Halton design's
+/// second and third points (the quarters of its box; the first point, the middle, is often the
+/// calibrated value itself).
+pub(crate) fn screen_points(knob: &Knob, starts: &[ModelParams]) -> [Vec<f64>; POINTS_PER_KNOB] {
+    let far = design(knob.specs.len(), POINTS_PER_KNOB + 1);
+    let mut points = [Vec::new(), Vec::new()];
+    for (j, spec) in knob.specs.iter().enumerate() {
+        let of = |m: &ModelParams| {
+            let v = spec.param.get(m);
+            // An effect the model does not run sits at its neutral value.
+            if v.is_nan() {
+                spec.param.neutral().unwrap_or(f64::NAN)
+            } else {
+                v
+            }
+        };
+        let c = starts.first().map_or(f64::NAN, of);
+        let same = starts.iter().all(|m| of(m) == c);
+        let (lo, hi) = (spec.lower, spec.upper);
+        let pair = if same && c.is_finite() && (lo..=hi).contains(&c) {
+            let d = SCREEN_STEP * (hi - lo);
+            let (a, b) = if c + d > hi {
+                (c - d, c - 2.0 * d)
+            } else if c - d < lo {
+                (c + d, c + 2.0 * d)
+            } else {
+                (c + d, c - d)
+            };
+            if j % 2 == 0 {
+                (a, b)
+            } else {
+                (b, a)
+            }
+        } else {
+            let at = |z: f64| lo + z * (hi - lo);
+            (at(far[1][j]), at(far[2][j]))
+        };
+        points[0].push(pair.0);
+        points[1].push(pair.1);
+    }
+    points
+}
+
 /// Runs the calibrated model and every knob's points (all in parallel), and measures each
 /// knob's gain and the terms it moves.
 pub(crate) fn screen(input: &ScreenInput, progress: &(dyn Fn(&TwinEvent) + Sync)) -> Screening {
@@ -104,8 +159,7 @@ pub(crate) fn screen(input: &ScreenInput, progress: &(dyn Fn(&TwinEvent) + Sync)
     let mut values: Vec<(usize, Vec<f64>)> = Vec::new();
     let mut points: Vec<Result<Vec<ModelParams>, String>> = vec![Ok(starts.to_vec())];
     for (k, knob) in knobs.iter().enumerate() {
-        for z in design(knob.specs.len(), POINTS_PER_KNOB + 1).into_iter().skip(1) {
-            let v = knob_values(knob, &z);
+        for v in screen_points(knob, starts) {
             points.push(with_knob(starts, knob, &v));
             values.push((k, v));
         }
@@ -185,5 +239,98 @@ fn knob_screen(knob: &Knob, mine: &[(&Vec<f64>, &PointScore)], start: &PointScor
         best,
         gain,
         term_change,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use drive_sim_calibration::params::{Param, ParamSpec};
+    use drive_sim_model::robot::Robot;
+    use drive_sim_model::terrain::Terrain;
+
+    fn start() -> ModelParams {
+        let robot = Robot::resolve("warthog").unwrap().0;
+        let terrain = Terrain::resolve("asphalt").unwrap().0;
+        ModelParams::new(robot, terrain)
+    }
+
+    fn knob(specs: Vec<ParamSpec>) -> Knob {
+        Knob {
+            name: "k".into(),
+            specs,
+            terrain_side: false,
+        }
+    }
+
+    #[test]
+    fn points_sit_an_eighth_of_the_box_either_side_of_the_calibrated_value() {
+        let m = start();
+        let peak = m.terrain.friction.peak_longitudinal;
+        let p = screen_points(
+            &knob(vec![ParamSpec::new(
+                Param::PeakLongitudinal,
+                peak - 0.5,
+                peak + 0.5,
+            )]),
+            std::slice::from_ref(&m),
+        );
+        assert!((p[0][0] - (peak + 0.125)).abs() < 1e-12, "{p:?}");
+        assert!((p[1][0] - (peak - 0.125)).abs() < 1e-12, "{p:?}");
+        // At the lower bound both points step inwards.
+        let p = screen_points(
+            &knob(vec![ParamSpec::new(Param::PeakLongitudinal, peak, peak + 1.0)]),
+            std::slice::from_ref(&m),
+        );
+        assert!(
+            (p[0][0] - (peak + 0.125)).abs() < 1e-12 && (p[1][0] - (peak + 0.25)).abs() < 1e-12,
+            "{p:?}"
+        );
+        // An effect the model does not run starts from its neutral value (dead time 0), and a
+        // second parameter moves the other way at each point.
+        let dead = Param::effect_param("dead_time_s").unwrap();
+        let p = screen_points(
+            &knob(vec![
+                ParamSpec::new(dead, 0.0, 0.8),
+                ParamSpec::new(Param::PeakLongitudinal, peak - 0.5, peak + 0.5),
+            ]),
+            std::slice::from_ref(&m),
+        );
+        assert!(
+            (p[0][0] - 0.1).abs() < 1e-12 && (p[1][0] - 0.2).abs() < 1e-12,
+            "{p:?}"
+        );
+        assert!(
+            (p[0][1] - (peak - 0.125)).abs() < 1e-12 && (p[1][1] - (peak + 0.125)).abs() < 1e-12,
+            "{p:?}"
+        );
+    }
+
+    #[test]
+    fn a_value_outside_the_box_or_unlike_between_grounds_takes_the_quarters() {
+        let m = start();
+        let peak = m.terrain.friction.peak_longitudinal;
+        let outside = knob(vec![ParamSpec::new(
+            Param::PeakLongitudinal,
+            peak + 1.0,
+            peak + 2.0,
+        )]);
+        let p = screen_points(&outside, std::slice::from_ref(&m));
+        assert!(
+            (p[0][0] - (peak + 1.25)).abs() < 1e-12 && (p[1][0] - (peak + 1.75)).abs() < 1e-12,
+            "{p:?}"
+        );
+        let mut other = m.clone();
+        other.terrain.friction.peak_longitudinal = peak + 0.1;
+        let inside = knob(vec![ParamSpec::new(
+            Param::PeakLongitudinal,
+            peak - 1.0,
+            peak + 1.0,
+        )]);
+        let p = screen_points(&inside, &[m, other]);
+        assert!(
+            (p[0][0] - (peak - 0.5)).abs() < 1e-12 && (p[1][0] - (peak + 0.5)).abs() < 1e-12,
+            "{p:?}"
+        );
     }
 }
