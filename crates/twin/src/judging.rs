@@ -5,6 +5,7 @@ use crate::closed::PointScore;
 use crate::error::Result;
 use crate::event::TwinEvent;
 use crate::input::{Ground, RunLog};
+use crate::rule::{Choice, MOVES_A_TERM};
 use crate::screen::Screening;
 use crate::tune::Tuning;
 use drive_sim_calibration::ModelParams;
@@ -146,6 +147,10 @@ pub struct Shortfall {
     /// Knobs whose screening moved that term towards the robot's by at least a quarter of a
     /// threshold.
     pub moved_by: Vec<String>,
+    /// Those of `moved_by` the twin did not tune (the rule left them out, or the check did not
+    /// accept the tuning), each with why.
+    #[serde(default)]
+    pub not_tuned: Vec<String>,
     /// Tuned values that ended on their box's edge.
     pub at_bound: Vec<String>,
     /// The reason, in words.
@@ -173,6 +178,7 @@ pub(crate) fn shortfalls(
     label: &str,
     twin: &PointScore,
     screening: &Screening,
+    choice: &Choice,
     tuning: Option<&Tuning>,
     grounds: usize,
 ) -> Vec<Shortfall> {
@@ -207,15 +213,29 @@ pub(crate) fn shortfalls(
                     .knobs
                     .iter()
                     .filter(|k| {
-                        k.term_change
-                            .iter()
-                            .any(|(m, d)| m == n && if ratio || v > 0.0 { *d <= -0.25 } else { *d >= 0.25 })
+                        k.term_change.iter().any(|(m, d)| {
+                            m == n
+                                && if ratio || v > 0.0 {
+                                    *d <= -MOVES_A_TERM
+                                } else {
+                                    *d >= MOVES_A_TERM
+                                }
+                        })
                     })
                     .map(|k| k.knob.name.clone())
                     .collect(),
                 _ => Vec::new(),
             };
-            let why = explain(&c.criterion, value, ratio, &moved_by, &at_bound);
+            let not_tuned: Vec<String> = moved_by
+                .iter()
+                .filter_map(|k| not_tuned_why(k, screening, choice, tuning))
+                .collect();
+            let tuned: Vec<String> = moved_by
+                .iter()
+                .filter(|k| not_tuned_why(k, screening, choice, tuning).is_none())
+                .cloned()
+                .collect();
+            let why = explain(&c.criterion, value, ratio, &tuned, &not_tuned, &at_bound);
             Shortfall {
                 ground: j.ground.clone(),
                 judgement: label.to_string(),
@@ -223,6 +243,7 @@ pub(crate) fn shortfalls(
                 p: c.p,
                 term: value,
                 moved_by,
+                not_tuned,
                 at_bound: at_bound.clone(),
                 why,
             }
@@ -230,12 +251,44 @@ pub(crate) fn shortfalls(
         .collect()
 }
 
-/// Why a criterion still differs, in words.
+/// Why the twin does not carry `knob`'s change, in words (`None`: it was tuned and the check
+/// accepted the tuning).
+fn not_tuned_why(
+    knob: &str,
+    screening: &Screening,
+    choice: &Choice,
+    tuning: Option<&Tuning>,
+) -> Option<String> {
+    if choice.chosen.iter().any(|k| k == knob) {
+        return match tuning {
+            Some(t) if t.accepted => None,
+            _ => Some(format!(
+                "`{knob}` (tuned, but the check on fresh seeds did not accept the tuning)"
+            )),
+        };
+    }
+    let why = match choice.considered.iter().find(|c| c.knob == knob) {
+        Some(c) => c.why.clone(),
+        None => {
+            let gain = screening
+                .knobs
+                .iter()
+                .find(|k| k.knob.name == knob)
+                .map_or(f64::NAN, |k| k.gain);
+            format!("its screening points raised the loss as a whole, gain {gain:.2}")
+        }
+    };
+    Some(format!("`{knob}` (not tuned: {why})"))
+}
+
+/// Why a criterion still differs, in words: the knobs tuned that move it the right way, and
+/// those the screening saw move it that the twin does not carry.
 fn explain(
     criterion: &str,
     value: Option<f64>,
     ratio: bool,
     moved_by: &[String],
+    not_tuned: &[String],
     at_bound: &[String],
 ) -> String {
     let Some(v) = value else {
@@ -250,19 +303,31 @@ fn explain(
     } else {
         format!("the twin's is below the robot's ({v:+.2} thresholds)")
     };
-    if moved_by.is_empty() {
+    if moved_by.is_empty() && not_tuned.is_empty() {
         format!("{side}; no knob of the model moves it towards the robot's: the model lacks an effect or physics there")
-    } else if !at_bound.is_empty() {
+    } else if moved_by.is_empty() {
         format!(
-            "{side}; moved the right way by {}, and the search ended with {} on a bound: a box too small, or a stand-in for a missing effect",
-            moved_by.join(", "),
-            at_bound.join(", ")
+            "{side}; the screening moved it the right way with {}, which the twin does not carry",
+            not_tuned.join(", ")
         )
     } else {
-        format!(
-            "{side}; moved the right way by {}, which the search traded against the other terms",
-            moved_by.join(", ")
-        )
+        let besides = if not_tuned.is_empty() {
+            String::new()
+        } else {
+            format!("; the screening also moved it with {}", not_tuned.join(", "))
+        };
+        if at_bound.is_empty() {
+            format!(
+                "{side}; moved the right way by {}, which the search traded against the other terms{besides}",
+                moved_by.join(", ")
+            )
+        } else {
+            format!(
+                "{side}; moved the right way by {}, and the search ended with {} on a bound: a box too small, or a stand-in for a missing effect{besides}",
+                moved_by.join(", "),
+                at_bound.join(", ")
+            )
+        }
     }
 }
 
@@ -272,5 +337,74 @@ pub(crate) fn steps_text(steps: &str) -> String {
         "every step".into()
     } else {
         format!("the {steps} steps")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::closed::PointScore;
+    use crate::knobs::KnobInfo;
+    use crate::rule::Rule;
+    use crate::screen::KnobScreen;
+
+    fn knob(name: &str, gain: f64) -> KnobScreen {
+        KnobScreen {
+            knob: KnobInfo {
+                name: name.into(),
+                params: vec![name.into()],
+                terrain_side: false,
+            },
+            points: Vec::new(),
+            best: Some(0),
+            gain,
+            term_change: vec![(name.into(), -1.0)],
+        }
+    }
+
+    #[test]
+    fn a_knob_the_screening_saw_move_a_criterion_is_named_with_why_the_twin_lacks_it() {
+        let screening = Screening {
+            seeds: vec![0, 1],
+            start: PointScore {
+                loss: Some(10.0),
+                seed_losses: vec![Some(10.0); 2],
+                terms: Vec::new(),
+                error: None,
+            },
+            knobs: vec![knob("scatter", 3.0), knob("icr", -0.4), knob("drift", 0.5)],
+            runs: 0,
+        };
+        let choice = Rule::default().choose(&screening, 1, 1.0);
+        assert_eq!(choice.chosen, vec!["scatter"]);
+        // Tuned but not accepted, left out by the rule, and worse as a whole.
+        assert!(not_tuned_why("scatter", &screening, &choice, None)
+            .unwrap()
+            .contains("did not accept"));
+        let drift = not_tuned_why("drift", &screening, &choice, None).unwrap();
+        assert!(drift.contains("not tuned") && drift.contains("below"), "{drift}");
+        let icr = not_tuned_why("icr", &screening, &choice, None).unwrap();
+        assert!(icr.contains("raised the loss as a whole, gain -0.40"), "{icr}");
+
+        let only_untuned = explain(
+            "slip_vy_m_s map",
+            Some(1.2),
+            true,
+            &[],
+            std::slice::from_ref(&icr),
+            &[],
+        );
+        assert!(
+            only_untuned.contains("which the twin does not carry"),
+            "{only_untuned}"
+        );
+        assert!(!only_untuned.contains("lacks an effect"), "{only_untuned}");
+        let both = explain("median_rho", Some(-1.3), false, &["scatter".into()], &[icr], &[]);
+        assert!(
+            both.contains("moved the right way by scatter") && both.contains("also moved it with `icr`"),
+            "{both}"
+        );
+        let none = explain("median_rho", Some(-1.3), false, &[], &[], &[]);
+        assert!(none.contains("the model lacks an effect"), "{none}");
     }
 }

@@ -111,6 +111,7 @@ pub(crate) fn assemble(p: Parts) -> TwinReport {
                 label,
                 &pass.report.twin_score,
                 &pass.report.screening,
+                &pass.report.choice,
                 pass.report.tuning.as_ref(),
                 n,
             ));

@@ -12,14 +12,29 @@
 //!    ground). A knob whose term changes are nearly parallel to a knob already taken (cosine
 //!    above [`Rule::max_cosine`]) is left out: it explains the same difference the same way,
 //!    and two such knobs make a ridge the search cannot resolve.
-//! 3. The search's budget is [`Rule::evaluations_per_coordinate`] points per coordinate plus
+//! 3. Every term of the loss on which the calibrated model lies [`Rule::cover_beyond`]
+//!    thresholds or more from the robot, and which no knob taken moves towards the robot's,
+//!    gets the knob whose screening moved it there most (by at least [`MOVES_A_TERM`]), within
+//!    the same numbers of knobs and coordinates (not the cosine: that knob moves a term the
+//!    others do not), when that knob's best point did not raise the loss as a whole by more
+//!    than [`Rule::max_cover_harm`]. A gain on the whole loss at one step from the calibrated
+//!    value conflates the direction a knob moves a failing criterion with the size of the step:
+//!    the Husky's ICR offset moved its lateral-slip map the right way and the loss the wrong
+//!    way at an eighth of its box, and the search then found the value that helps. Terms are
+//!    taken largest first.
+//! 4. The search's budget is [`Rule::evaluations_per_coordinate`] points per coordinate plus
 //!    [`Rule::base_evaluations`], times the command's budget factor.
 
 use crate::screen::{KnobScreen, Screening};
 use serde::{Deserialize, Serialize};
 
+/// Smallest change of a loss term, in thresholds, that counts as moving it (the report's "moved
+/// the right way by" uses the same).
+pub const MOVES_A_TERM: f64 = 0.25;
+
 /// The rule's settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct Rule {
     /// Smallest gain a candidate knob shows, as a fraction of the calibrated model's loss...
     pub min_gain_fraction: f64,
@@ -35,6 +50,10 @@ pub struct Rule {
     pub evaluations_per_coordinate: usize,
     /// Search points besides.
     pub base_evaluations: usize,
+    /// A loss term this far from the robot's (thresholds) gets a knob that moves it.
+    pub cover_beyond: f64,
+    /// Most a knob taken for a term may have raised the whole loss at its best screening point.
+    pub max_cover_harm: f64,
 }
 
 impl Default for Rule {
@@ -47,6 +66,8 @@ impl Default for Rule {
             max_cosine: 0.95,
             evaluations_per_coordinate: 10,
             base_evaluations: 20,
+            cover_beyond: 1.0,
+            max_cover_harm: 1.0,
         }
     }
 }
@@ -75,7 +96,8 @@ pub struct Choice {
     pub rule_text: String,
     /// The knobs tuned, in the order taken.
     pub chosen: Vec<String>,
-    /// Every candidate with a positive gain, largest first, with the decision.
+    /// Every candidate with a positive gain, largest first, then the knobs step 3 weighed for a
+    /// term the calibrated model fails, with the decision.
     pub considered: Vec<Considered>,
     /// Coordinates of the search.
     pub coordinates: usize,
@@ -87,12 +109,15 @@ impl Rule {
     /// The rule in words (`twin.json`, the report).
     pub fn text(&self) -> String {
         format!(
-            "knobs whose best screening point lowers the loss by at least {:.0} % of the calibrated model's or by {} where that is less, largest gain first, at most {} knobs and {} search coordinates (a ground's knob once per ground), none whose term changes are parallel (cosine > {}) to one taken; {} search points per coordinate plus {}, times the budget factor",
+            "knobs whose best screening point lowers the loss by at least {:.0} % of the calibrated model's or by {} where that is less, largest gain first, at most {} knobs and {} search coordinates (a ground's knob once per ground), none whose term changes are parallel (cosine > {}) to one taken; then each term of the loss {} thresholds or more from the robot's that no knob taken moves towards it gets the knob that moves it most (by {} threshold or more), within the same numbers of knobs and coordinates, if that knob's best screening point raised the loss by at most {}; {} search points per coordinate plus {}, times the budget factor",
             100.0 * self.min_gain_fraction,
             self.min_gain_absolute,
             self.max_knobs,
             self.max_coordinates,
             self.max_cosine,
+            self.cover_beyond,
+            MOVES_A_TERM,
+            self.max_cover_harm,
             self.evaluations_per_coordinate,
             self.base_evaluations
         )
@@ -152,6 +177,7 @@ impl Rule {
                 },
             });
         }
+        self.cover(screening, grounds, &mut taken, &mut coordinates, &mut considered);
         let budget_points =
             (self.evaluations_per_coordinate * coordinates + self.base_evaluations) as f64 * budget;
         Choice {
@@ -161,6 +187,86 @@ impl Rule {
             considered,
             coordinates,
             max_evaluations: (budget_points.round() as usize).max(coordinates + 2),
+        }
+    }
+}
+
+impl Rule {
+    /// Step 3: a knob for each term the calibrated model fails that no knob taken moves.
+    fn cover<'a>(
+        &self,
+        screening: &'a Screening,
+        grounds: usize,
+        taken: &mut Vec<&'a KnobScreen>,
+        coordinates: &mut usize,
+        considered: &mut Vec<Considered>,
+    ) {
+        let l0 = screening.start.loss.unwrap_or(f64::NAN);
+        let mut failing: Vec<&(String, f64)> = screening
+            .start
+            .terms
+            .iter()
+            .filter(|(_, v)| v.abs() >= self.cover_beyond)
+            .collect();
+        failing.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+        for (term, v) in failing {
+            // How far a knob moves the term towards the robot's (positive: the right way).
+            let towards = |k: &KnobScreen| {
+                let d = k
+                    .term_change
+                    .iter()
+                    .find(|(n, _)| n == term)
+                    .map_or(0.0, |(_, d)| *d);
+                -d * v.signum()
+            };
+            if taken.iter().any(|t| towards(t) >= MOVES_A_TERM) {
+                continue;
+            }
+            let best = screening
+                .knobs
+                .iter()
+                .filter(|k| !taken.iter().any(|t| t.knob.name == k.knob.name))
+                .filter(|k| {
+                    k.gain.is_finite() && k.gain >= -self.max_cover_harm && towards(k) >= MOVES_A_TERM
+                })
+                .max_by(|a, b| towards(a).total_cmp(&towards(b)));
+            let Some(k) = best else { continue };
+            // No cosine test here: however parallel its changes are to a knob taken, this knob
+            // moves a term that one does not, which the search can tell them apart by.
+            let cost = k.knob.params.len() * if k.knob.terrain_side { grounds } else { 1 };
+            let blocked = if taken.len() >= self.max_knobs {
+                Some(format!("{} knobs taken already", self.max_knobs))
+            } else if *coordinates + cost > self.max_coordinates {
+                Some(format!(
+                    "its {cost} coordinates would exceed {} with the {coordinates} taken",
+                    self.max_coordinates
+                ))
+            } else {
+                None
+            };
+            let why = match &blocked {
+                None => format!(
+                    "moves `{term}` ({v:+.2} thresholds from the robot's) {:.2} towards it, which no knob taken does",
+                    towards(k)
+                ),
+                Some(b) => format!("would move `{term}` {:.2} towards the robot's, but {b}", towards(k)),
+            };
+            if blocked.is_none() {
+                taken.push(k);
+                *coordinates += cost;
+            }
+            let entry = Considered {
+                knob: k.knob.name.clone(),
+                gain: k.gain,
+                relative_gain: k.gain / l0,
+                chosen: blocked.is_none(),
+                why,
+            };
+            match considered.iter_mut().find(|c| c.knob == entry.knob) {
+                Some(c) if !c.chosen => *c = entry,
+                Some(_) => {}
+                None => considered.push(entry),
+            }
         }
     }
 }
@@ -265,6 +371,44 @@ mod tests {
         s.start.loss = Some(80.0);
         let c = Rule::default().choose(&s, 1, 1.0);
         assert_eq!(c.chosen, vec!["scatter", "radius"], "{:#?}", c.considered);
+    }
+
+    #[test]
+    fn a_term_far_from_the_robot_gets_the_knob_that_moves_it_unless_that_knob_harms_the_whole() {
+        let mut s = screening(vec![
+            knob("scatter", 1, false, 3.0, &[("t_area", 1.3), ("slip_vy", 0.0)]),
+            // Moves the lateral map most, but raised the loss by five thresholds.
+            knob("kinematics", 2, false, -5.0, &[("slip_vy", -0.9)]),
+            // Moves it less, and raised the loss by less than one threshold.
+            knob("icr", 1, false, -0.4, &[("slip_vy", -0.31)]),
+            knob("radius", 1, false, -0.2, &[("rho", 0.2)]),
+            // Parallel to the scatter (cosine 0.99), but it moves ρ, which the scatter does not.
+            knob("limit", 1, false, -0.3, &[("t_area", 3.0), ("rho", 0.52)]),
+        ]);
+        s.start.loss = Some(10.0);
+        s.start.terms = vec![
+            ("t_area".into(), -2.2),
+            ("slip_vy".into(), 1.16),
+            ("rho".into(), -1.3),
+            ("vx".into(), 0.4),
+        ];
+        let c = Rule::default().choose(&s, 1, 1.0);
+        // The area is covered by the scatter, ρ by the limit however parallel to it, the map
+        // by the ICR offset; the term within its threshold asks for nothing.
+        assert_eq!(c.chosen, vec!["scatter", "limit", "icr"], "{:#?}", c.considered);
+        let icr = c.considered.iter().find(|k| k.knob == "icr").unwrap();
+        assert!(icr.chosen && icr.why.contains("`slip_vy`"), "{}", icr.why);
+        assert!(c
+            .considered
+            .iter()
+            .all(|k| k.knob != "kinematics" && k.knob != "radius"));
+        assert_eq!(c.coordinates, 3);
+        assert_eq!(c.max_evaluations, 50);
+
+        // Every term within its threshold: the rule adds nothing to the gains' choice.
+        s.start.terms = vec![("t_area".into(), -0.9), ("slip_vy".into(), 0.8)];
+        let c = Rule::default().choose(&s, 1, 1.0);
+        assert_eq!(c.chosen, vec!["scatter"]);
     }
 
     #[test]
