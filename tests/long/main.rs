@@ -1,13 +1,14 @@
 //! The long integration tests, one module per concern, in one test binary: calibrations,
-//! discovery, `compare`, `judge`, `tune` and `twin` on generated and measured runs, each taking
-//! from seconds to a minute. Each binary of `tests/` links the whole pipeline; in one binary
+//! discovery, `compare`, `judge`, `tune` and `twin` on generated and measured runs, and the
+//! README's examples, each taking from seconds to a minute. Each binary of `tests/` links the whole pipeline; in one binary
 //! they share that link and the test harness keeps both cores busy until the last test, where
 //! binaries run one after the other each leave a core idle at their end
 //! (`cargo test --test long`; one module: `cargo test --test long judge::`).
 //!
-//! The measured-data calibrations (`tests/calibration_sim.rs`, `tests/calibration_measured.rs`)
-//! are a tier of their own outside `cargo test`, and the README's examples
-//! (`tests/readme_examples.rs`) keep their binary.
+//! The README's examples (`readme_examples`) run one command after another on one core: here
+//! the other tests fill the second. The measured-data calibrations
+//! (`tests/calibration_sim.rs`, `tests/calibration_measured.rs`) are a tier of their own outside
+//! `cargo test`.
 
 #[path = "../common/mod.rs"]
 mod common;
@@ -22,6 +23,7 @@ mod compare;
 mod discovery;
 mod discovery_families;
 mod judge;
+mod readme_examples;
 mod tune;
 mod twin;
 mod twin_joint;
