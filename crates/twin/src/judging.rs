@@ -5,7 +5,7 @@ use crate::closed::PointScore;
 use crate::error::Result;
 use crate::event::TwinEvent;
 use crate::input::{Ground, RunLog};
-use crate::rule::{Choice, MOVES_A_TERM};
+use crate::rule::{towards_robot, Choice, MOVES_A_TERM};
 use crate::screen::Screening;
 use crate::tune::Tuning;
 use drive_sim_calibration::ModelParams;
@@ -213,28 +213,23 @@ pub(crate) fn shortfalls(
                     .knobs
                     .iter()
                     .filter(|k| {
+                        // A map's term is a distance: only a decrease moves it the right way.
                         k.term_change.iter().any(|(m, d)| {
-                            m == n
-                                && if ratio || v > 0.0 {
-                                    *d <= -MOVES_A_TERM
-                                } else {
-                                    *d >= MOVES_A_TERM
-                                }
+                            m == n && towards_robot(*d, if ratio { 1.0 } else { v }) >= MOVES_A_TERM
                         })
                     })
                     .map(|k| k.knob.name.clone())
                     .collect(),
                 _ => Vec::new(),
             };
-            let not_tuned: Vec<String> = moved_by
-                .iter()
-                .filter_map(|k| not_tuned_why(k, screening, choice, tuning))
-                .collect();
-            let tuned: Vec<String> = moved_by
-                .iter()
-                .filter(|k| not_tuned_why(k, screening, choice, tuning).is_none())
-                .cloned()
-                .collect();
+            let mut tuned = Vec::new();
+            let mut not_tuned = Vec::new();
+            for k in &moved_by {
+                match not_tuned_why(k, screening, choice, tuning) {
+                    Some(why) => not_tuned.push(why),
+                    None => tuned.push(k.clone()),
+                }
+            }
             let why = explain(&c.criterion, value, ratio, &tuned, &not_tuned, &at_bound);
             Shortfall {
                 ground: j.ground.clone(),

@@ -134,7 +134,7 @@ impl Rule {
         let mut considered = Vec::new();
         for k in order {
             let relative = k.gain / l0;
-            let cost = k.knob.params.len() * if k.knob.terrain_side { grounds } else { 1 };
+            let cost = coordinates_of(k, grounds);
             let parallel = taken
                 .iter()
                 .find(|t| cosine(&t.term_change, &k.term_change) > self.max_cosine);
@@ -145,13 +145,8 @@ impl Rule {
                     k.gain,
                     100.0 * relative
                 )
-            } else if taken.len() >= self.max_knobs {
-                format!("{} knobs taken already", self.max_knobs)
-            } else if coordinates + cost > self.max_coordinates {
-                format!(
-                    "its {cost} coordinates would exceed {} with the {coordinates} taken",
-                    self.max_coordinates
-                )
+            } else if let Some(full) = self.full(taken.len(), coordinates, cost) {
+                full
             } else if let Some(t) = parallel {
                 format!(
                     "moves the loss's terms as `{}` does (cosine > {})",
@@ -217,7 +212,7 @@ impl Rule {
                     .iter()
                     .find(|(n, _)| n == term)
                     .map_or(0.0, |(_, d)| *d);
-                -d * v.signum()
+                towards_robot(d, *v)
             };
             if taken.iter().any(|t| towards(t) >= MOVES_A_TERM) {
                 continue;
@@ -233,17 +228,8 @@ impl Rule {
             let Some(k) = best else { continue };
             // No cosine test here: however parallel its changes are to a knob taken, this knob
             // moves a term that one does not, which the search can tell them apart by.
-            let cost = k.knob.params.len() * if k.knob.terrain_side { grounds } else { 1 };
-            let blocked = if taken.len() >= self.max_knobs {
-                Some(format!("{} knobs taken already", self.max_knobs))
-            } else if *coordinates + cost > self.max_coordinates {
-                Some(format!(
-                    "its {cost} coordinates would exceed {} with the {coordinates} taken",
-                    self.max_coordinates
-                ))
-            } else {
-                None
-            };
+            let cost = coordinates_of(k, grounds);
+            let blocked = self.full(taken.len(), *coordinates, cost);
             let why = match &blocked {
                 None => format!(
                     "moves `{term}` ({v:+.2} thresholds from the robot's) {:.2} towards it, which no knob taken does",
@@ -268,6 +254,38 @@ impl Rule {
                 None => considered.push(entry),
             }
         }
+    }
+}
+
+impl Rule {
+    /// Why one more knob of `cost` coordinates cannot be taken beside `knobs` knobs and
+    /// `coordinates` coordinates (`None`: it can).
+    fn full(&self, knobs: usize, coordinates: usize, cost: usize) -> Option<String> {
+        if knobs >= self.max_knobs {
+            Some(format!("{} knobs taken already", self.max_knobs))
+        } else if coordinates + cost > self.max_coordinates {
+            Some(format!(
+                "its {cost} coordinates would exceed {} with the {coordinates} taken",
+                self.max_coordinates
+            ))
+        } else {
+            None
+        }
+    }
+}
+
+/// The search coordinates a knob takes: a ground's knob one per ground.
+fn coordinates_of(k: &KnobScreen, grounds: usize) -> usize {
+    k.knob.params.len() * if k.knob.terrain_side { grounds } else { 1 }
+}
+
+/// How far a change `change` of a loss term at `term` moves it towards the robot's (positive:
+/// the right way), both in thresholds.
+pub(crate) fn towards_robot(change: f64, term: f64) -> f64 {
+    if term > 0.0 {
+        -change
+    } else {
+        change
     }
 }
 
