@@ -68,9 +68,11 @@ def main():
         y = o["yardsticks"][0]
         oor.append(f"| twin of {a} | {b} | {'indistinguishable' if o['indistinguishable'] else '**distinguishable**'}, p {o['loss']['p']:.3f} | "
                    f"{criterion_p(o, 'median_rho'):.2f} | {criterion_p(o, 'median_slip_vx'):.2f} | {criterion_p(o, 'median_slip_wz'):.2f} | "
-                   f"{o['loss']['real']:.2f} | {y['loss']:.2f} ({'reproduces' if y['reproduces'] else 'differs'}) |")
+                   f"{o['loss']['real']:.2f} | {y['loss']:.2f} ({'reproduces' if y['reproduces'] else 'differs'}) | "
+                   f"{'as close' if y['twin_as_close'] else '**farther**'}, p {y['p_twin_farther']:.3f} |")
     header = ["twin", "judged against", "judge", "p median ρ", "p median slip vx", "p median slip wz",
-              "twin's mean loss", "the robot's own other run: loss (compare's verdict)"]
+              "twin's mean loss", "the robot's own other run: loss (compare's verdict)",
+              "yardstick test: the twin's runs against the robot's own run"]
     table = ("| " + " | ".join(header) + " |\n|" + "---|" * len(header) + "\n" + "\n".join(oor) + "\n")
     with open(os.path.join(args.out, "out_of_run.md"), "w") as f:
         f.write(table)

@@ -136,11 +136,14 @@ pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
         opts: &opts,
     };
     let mut outcome = judge::judge(&request, &|e| print(e))?;
-    for other in &others {
-        outcome
-            .yardsticks
-            .push(judge::yardstick(&log, other, &opts, outcome.loss.real)?);
-    }
+    let other_refs: Vec<&drive_sim::log::DriveLog> = others.iter().collect();
+    outcome.yardsticks = judge::yardsticks(&judge::YardstickRequest {
+        real: &log,
+        others: &other_refs,
+        model: &model,
+        opts: &opts,
+        twin_mean_loss: outcome.loss.real,
+    })?;
     if !specs.is_empty() {
         outcome.intervals = interval::intervals(
             &IntervalRequest {

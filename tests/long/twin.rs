@@ -3,7 +3,9 @@
 //! - a run of a generator robot whose motors clip at 10 rad/s and whose body slips in turns
 //!   gives a twin that `judge` cannot tell from the steps its choice never saw;
 //! - that twin, judged on a run of the same robot on another ground (wider skid track, slower
-//!   wheels, an earlier clip), fails, and so does the robot's own run;
+//!   wheels, an earlier clip), fails, and so does the robot's own run; the yardstick test
+//!   finds that twin no farther from there than the robot's run it was made from, and farther
+//!   than the robot's second run on that ground;
 //! - the command end to end writes the twin's files, which run with no other option, and a
 //!   report that opens on the verdict;
 //! - bad input (logs of two robots, a run too short to split, a run with no steady window, an
@@ -16,7 +18,7 @@
 use crate::common;
 use common::generator::{write_drive_mcap, TestRobotSpec, Unmodelled};
 use drive_sim::calibration::twin::lift_effects;
-use drive_sim::compare::judge::{judge, yardstick, JudgeRequest};
+use drive_sim::compare::judge::{judge, yardsticks, JudgeRequest, YardstickRequest};
 use drive_sim::log::UseSteps;
 use drive_sim::robot::Robot;
 use drive_sim::terrain::Terrain;
@@ -140,11 +142,43 @@ fn a_twin_of_a_generator_run_passes_its_held_out_steps_and_is_told_from_another_
         &|_| {},
     )
     .unwrap();
-    let robot_itself = yardstick(&other, &first, &opts, differs.loss.real).unwrap();
-    eprintln!("{}", drive_sim::compare::judge::write::table(&differs));
+    // The robot's own runs beside it: its run on ground A, and a second run on ground B.
+    let second_b = write_drive_mcap(
+        &dir.path().join("ground_b_2.mcap"),
+        "ground_b_2",
+        "asphalt",
+        TestRobotSpec {
+            track_m: 3.2,
+            lag_s: 0.6,
+            ..TestRobotSpec::warthog_on_asphalt(29)
+        },
+        other_ground,
+        40,
+    );
+    let ys = yardsticks(&YardstickRequest {
+        real: &other,
+        others: &[&first, &second_b],
+        model: &model,
+        opts: &opts,
+        twin_mean_loss: differs.loss.real,
+    })
+    .unwrap();
+    let mut with_yardsticks = differs.clone();
+    with_yardsticks.yardsticks = ys.clone();
+    eprintln!("{}", drive_sim::compare::judge::write::table(&with_yardsticks));
     assert!(!differs.indistinguishable, "another ground: p {}", differs.loss.p);
-    // And there the robot's own run on ground A is far from it too.
+    // The robot's own run on ground A is far from it too, and the twin of that run is no
+    // farther from it than the run itself: the yardstick test does not reject.
+    let (robot_itself, same_ground) = (&ys[0], &ys[1]);
     assert!(!robot_itself.reproduces, "{robot_itself:?}");
+    assert_eq!(robot_itself.twin_run_losses.len(), 19);
+    assert!(robot_itself.twin_as_close, "{robot_itself:?}");
+    // The robot's second run on ground B is closer to the judged run than any run of the
+    // twin of ground A: the test rejects.
+    assert!(
+        !same_ground.twin_as_close && same_ground.p_twin_farther <= opts.alpha,
+        "{same_ground:?}"
+    );
 }
 
 /// Runs `drive-sim twin ARGS`, returning the exit code and stderr.

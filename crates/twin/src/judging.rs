@@ -9,7 +9,7 @@ use crate::rule::{towards_robot, Choice, MOVES_A_TERM};
 use crate::screen::Screening;
 use crate::tune::Tuning;
 use drive_sim_calibration::ModelParams;
-use drive_sim_compare::judge::{self, JudgeOptions, JudgeOutcome, JudgeRequest, DIFFERS};
+use drive_sim_compare::judge::{self, JudgeOptions, JudgeOutcome, JudgeRequest, YardstickRequest, DIFFERS};
 use drive_sim_log::{DriveLog, UseSteps};
 use serde::{Deserialize, Serialize};
 
@@ -63,10 +63,13 @@ pub(crate) fn judge_grounds(
             },
             &|_| {},
         )?;
-        for other in others {
-            let y = judge::yardstick(log, other, opts, outcome.loss.real)?;
-            outcome.yardsticks.push(y);
-        }
+        outcome.yardsticks = judge::yardsticks(&YardstickRequest {
+            real: log,
+            others,
+            model,
+            opts,
+            twin_mean_loss: outcome.loss.real,
+        })?;
         progress(&TwinEvent::Judged {
             what: &what,
             outcome: &outcome,

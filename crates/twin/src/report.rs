@@ -231,7 +231,7 @@ fn yardstick_words(j: &Judgement) -> String {
         .iter()
         .map(|y| {
             format!(
-                "; the robot's own other run `{}` has loss {} against it ({}), the twin's runs {:.2}",
+                "; the robot's own other run `{}` has loss {} against it ({}), the twin's runs {:.2}; the yardstick test (that run's loss ranked among {} runs of the twin as long as it): {} p {:.3}",
                 y.other,
                 y.loss.map_or("-".into(), |l| format!("{l:.2}")),
                 if y.reproduces {
@@ -239,7 +239,14 @@ fn yardstick_words(j: &Judgement) -> String {
                 } else {
                     "compare's verdict: differs"
                 },
-                y.twin_mean_loss
+                y.twin_mean_loss,
+                y.twin_run_losses.len(),
+                if y.twin_as_close {
+                    "no farther than the robot's own run,"
+                } else {
+                    "farther than the robot's own run,"
+                },
+                y.p_twin_farther
             )
         })
         .collect()

@@ -44,7 +44,7 @@ mod yardstick;
 pub use event::JudgeEvent;
 pub use outcome::{CandidateScore, CriterionTest, JudgeOutcome, LossTest, RunScore};
 pub use score::{criteria_of, monte_carlo_p};
-pub use yardstick::{check_same_ground, yardstick, Yardstick};
+pub use yardstick::{check_same_ground, p_farther, yardsticks, Yardstick, YardstickRequest};
 
 use crate::error::{Error, Result};
 use crate::real_steps::{check_run_steps, check_same_robot, real_steps, RealSteps};

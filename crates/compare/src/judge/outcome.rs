@@ -108,7 +108,7 @@ pub struct JudgeOutcome {
     pub intervals: Vec<interval::ParamInterval>,
     /// Other real runs of the same robot and ground compared with the judged steps as the
     /// twin's runs are: the robot's own difference (`judge --other-run`,
-    /// [`yardstick`](super::yardstick)); empty unless given.
+    /// [`yardsticks`](super::yardsticks)); empty unless given.
     #[serde(default)]
     pub yardsticks: Vec<super::Yardstick>,
 }

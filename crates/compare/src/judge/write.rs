@@ -17,7 +17,7 @@ fn yardsticks_table(o: &JudgeOutcome) -> String {
         return String::new();
     }
     let mut s = String::from(
-        "\nThe robot against itself (another real run of the same robot and ground, compared with the judged steps as each twin run is):\n\n| other real run | its loss | twin's mean loss | twin as close as the robot to itself | verdict on the other run | differs on | ρ difference (p Holm) |\n|---|---|---|---|---|---|---|\n",
+        "\nThe robot against itself (another real run of the same robot and ground, compared with the judged steps as each twin run is; the yardstick test ranks its loss among the losses of the twin's runs as long as it, and its p is small when the robot's own run is closer than the twin's runs):\n\n| other real run | its loss | twin's mean loss | twin as close as the robot to itself | yardstick test: p (twin runs) | verdict on the other run | differs on | ρ difference (p Holm) |\n|---|---|---|---|---|---|---|---|\n",
     );
     for y in &o.yardsticks {
         let rho = y
@@ -28,11 +28,12 @@ fn yardsticks_table(o: &JudgeOutcome) -> String {
                 format!("{:+.3} ({:.3})", m.difference, m.p_holm)
             });
         s.push_str(&format!(
-            "| {} | {} | {:.2} | {} | {} | {} | {rho} |\n",
+            "| {} | {} | {:.2} | {} | {} | {} | {} | {rho} |\n",
             y.other,
             y.loss.map_or("-".to_string(), |l| format!("{l:.2}")),
             y.twin_mean_loss,
             if y.twin_within { "yes" } else { "no" },
+            yardstick_test_words(y),
             if y.reproduces { "reproduces" } else { "differs" },
             if y.differs_on.is_empty() {
                 "-".to_string()
@@ -42,6 +43,29 @@ fn yardsticks_table(o: &JudgeOutcome) -> String {
         ));
     }
     s
+}
+
+/// The yardstick test's outcome in a table cell: "as close, p 0.350 (19 runs of 100 steps)".
+fn yardstick_test_words(y: &super::Yardstick) -> String {
+    if !y.p_twin_farther.is_finite() {
+        return "-".to_string();
+    }
+    format!(
+        "{}, p {:.3} ({} runs of {} steps{})",
+        if y.twin_as_close {
+            "as close"
+        } else {
+            "**farther**"
+        },
+        y.p_twin_farther,
+        y.twin_run_losses.len(),
+        y.twin_run_steps,
+        if y.twin_runs_failed > 0 {
+            format!(", {} failed", y.twin_runs_failed)
+        } else {
+            String::new()
+        }
+    )
 }
 
 /// The table: one row per criterion, the verdict first; then the other real runs, if any.
