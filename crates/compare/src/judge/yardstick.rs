@@ -31,6 +31,7 @@ use drive_sim_calibration::ModelParams;
 use drive_sim_log::{DriveLog, UseSteps};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// Another real run compared with the judged steps (`judge.json` → `yardsticks`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -105,7 +106,8 @@ pub fn yardsticks(req: &YardstickRequest) -> Result<Vec<Yardstick>> {
         },
         &opts.compare_options(),
     )?;
-    let mut twin_by_steps: Vec<(u32, TwinLosses)> = Vec::new();
+    // The twin's runs depend only on their length: other runs as long share them.
+    let mut twin_by_steps: BTreeMap<u32, TwinLosses> = BTreeMap::new();
     let mut out = Vec::new();
     for other in req.others {
         let all = real_steps(other, UseSteps::All, "--other-run", "compare with")?;
@@ -115,15 +117,9 @@ pub fn yardsticks(req: &YardstickRequest) -> Result<Vec<Yardstick>> {
         })?;
         let report = compare_prepared_sims(&prepared, std::slice::from_ref(&sim))?;
         let steps = all.analysed as u32;
-        if !twin_by_steps.iter().any(|(s, _)| *s == steps) {
-            let losses = twin_losses(&prepared, req.model, opts, steps);
-            twin_by_steps.push((steps, losses));
-        }
-        let twin = &twin_by_steps
-            .iter()
-            .find(|(s, _)| *s == steps)
-            .expect("just added")
-            .1;
+        let twin = twin_by_steps
+            .entry(steps)
+            .or_insert_with(|| twin_losses(&prepared, req.model, opts, steps));
         out.push(one(other, all.analysed, &report.sims[0], twin, req, steps));
     }
     Ok(out)
