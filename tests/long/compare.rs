@@ -300,6 +300,16 @@ fn an_exact_model_passes_the_wheel_maps_with_the_local_linear_smoother() {
 /// equation and random stream): against the simulated Warthog without one, `compare` says the
 /// simulated run lacks it and how much to add; the model with `wheel_speed_scatter` at that
 /// value no longer differs; and the generator without offsets is not flagged (the null case).
+/// `compare`'s options for the diagnostics beside the verdict (the step scatter, the turn
+/// memory): without the maps' permutation test, which plays no part in them (as in `tune` and
+/// `judge`) and was about a third of each comparison's time.
+fn diagnostic_opts() -> CompareOptions {
+    CompareOptions {
+        tf_permutations: 0,
+        ..CompareOptions::default()
+    }
+}
+
 #[test]
 fn the_step_scatter_a_model_lacks_is_measured_and_added() {
     use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};
@@ -319,7 +329,7 @@ fn the_step_scatter_a_model_lacks_is_measured_and_added() {
     let mut model = twin::lift_effects(&robot, &terrain).unwrap();
     let scatter_of = |real: &DriveLog, model: &drive_sim::calibration::ModelParams| {
         let sim = drive_sim::compare::tune::twin_run(model, 150, 11).unwrap();
-        let r = compare(input(real), &[input(&sim)], &CompareOptions::default()).unwrap();
+        let r = compare(input(real), &[input(&sim)], &diagnostic_opts()).unwrap();
         let d = r.sims[0].step_scatter.unwrap();
         eprintln!("{}", d.line());
         d
@@ -362,7 +372,7 @@ fn the_turn_memory_a_model_lacks_is_measured() {
     let mut model = twin::lift_effects(&robot, &terrain).unwrap();
     let memory_of = |real: &DriveLog, model: &drive_sim::calibration::ModelParams| {
         let sim = drive_sim::compare::tune::twin_run(model, 150, 11).unwrap();
-        let r = compare(input(real), &[input(&sim)], &CompareOptions::default()).unwrap();
+        let r = compare(input(real), &[input(&sim)], &diagnostic_opts()).unwrap();
         let d = r.sims[0].turn_memory.unwrap();
         eprintln!("{}", d.line());
         d

@@ -14,6 +14,12 @@ use drive_sim::compare::judge::{judge, JudgeOptions, JudgeOutcome, JudgeRequest,
 use drive_sim::log::{DriveLog, UseSteps};
 use drive_sim::terrain::Terrain;
 
+/// The runs' length for the null case and the inverted judge: 60 steps hold every criterion's
+/// statistics (the maps' cells, the hulls). Power needs more: on 60 steps the generator's clip
+/// makes every run differ, but not beyond every reference (the count's p 0.5), so the
+/// clipping robot is judged on 100.
+const STEPS: u32 = 60;
+
 /// Small but decisive: 9 references give p-values down to 0.1, the level of the test.
 fn opts() -> JudgeOptions {
     JudgeOptions {
@@ -28,16 +34,16 @@ fn opts() -> JudgeOptions {
     }
 }
 
-/// The generator's DRIVE run (100 steps), its motors clipping at `limit_rad_s`, and the model
+/// The generator's DRIVE run of `steps`, its motors clipping at `limit_rad_s`, and the model
 /// judged against it: the simulated Warthog on asphalt without a wheel-speed limit.
-fn generator_and_model(limit_rad_s: f64) -> (DriveLog, drive_sim::calibration::ModelParams) {
+fn generator_and_model(limit_rad_s: f64, steps: u32) -> (DriveLog, drive_sim::calibration::ModelParams) {
     let extra = Unmodelled {
         wheel_limit_rad_s: limit_rad_s,
         centripetal_s: -0.20,
         pose_yaw_noise_rad: 0.01,
         ..Unmodelled::default()
     };
-    let (log, robot) = drive_log_with("generator", TestRobotSpec::warthog_on_asphalt(3), extra, 100);
+    let (log, robot) = drive_log_with("generator", TestRobotSpec::warthog_on_asphalt(3), extra, steps);
     let (terrain, _) = Terrain::resolve("asphalt").unwrap();
     (log, twin::lift_effects(&robot, &terrain).unwrap())
 }
@@ -59,13 +65,13 @@ fn judged(real: &DriveLog, model: &drive_sim::calibration::ModelParams) -> Judge
 
 #[test]
 fn runs_of_the_model_itself_are_rejected_at_about_the_tests_level() {
-    let (_, model) = generator_and_model(10.0);
+    let (_, model) = generator_and_model(10.0, STEPS);
     // The null case three times: the model's own run (seeds the runs and references do not
     // use) in the real run's place. At level 0.1 a run is rejected with probability 0.1 at
     // most: 2 or more rejections of 3 has probability 0.028.
     let mut rejected = Vec::new();
     for seed in [777, 778, 779] {
-        let own = drive_sim::compare::tune::twin_run(&model, 100, seed).unwrap();
+        let own = drive_sim::compare::tune::twin_run(&model, STEPS, seed).unwrap();
         let null = judged(&own, &model);
         assert_eq!(null.criteria[0].criterion, DIFFERS);
         assert_eq!(null.references.len(), 9);
@@ -81,7 +87,7 @@ fn runs_of_the_model_itself_are_rejected_at_about_the_tests_level() {
 
 #[test]
 fn a_robot_whose_motors_clip_is_told_apart_from_a_model_without_a_limit() {
-    let (generator, model) = generator_and_model(10.0);
+    let (generator, model) = generator_and_model(10.0, 100);
     let j = judged(&generator, &model);
     assert!(!j.indistinguishable, "{:?}", j.loss);
     assert_eq!(j.real.fails[0], 4, "every run differs: {:?}", j.real.runs);
@@ -93,7 +99,7 @@ fn a_robot_whose_motors_clip_is_told_apart_from_a_model_without_a_limit() {
 
 #[test]
 fn bad_options_and_a_log_of_another_robot_are_refused_before_any_run() {
-    let (generator, model) = generator_and_model(10.0);
+    let (generator, model) = generator_and_model(10.0, STEPS);
     let bad = JudgeOptions {
         references: 2,
         ..opts()
@@ -181,9 +187,9 @@ fn the_command_prints_the_table_and_writes_its_files() {
 #[test]
 fn the_inverted_judge_gives_a_set_that_holds_the_true_limit() {
     use drive_sim::compare::judge::interval::{interval_specs, intervals, IntervalOptions, IntervalRequest};
-    let (_, mut model) = generator_and_model(10.0);
+    let (_, mut model) = generator_and_model(10.0, STEPS);
     model.effects.set("wheel_speed_saturation_rad_s", 10.0).unwrap();
-    let real = drive_sim::compare::tune::twin_run(&model, 100, 777).unwrap();
+    let real = drive_sim::compare::tune::twin_run(&model, STEPS, 777).unwrap();
     let generator = &real;
     let o = opts();
     let specs = interval_specs(&["wheel_speed_saturation_rad_s".into()], &[], &model, generator).unwrap();

@@ -23,7 +23,7 @@ use drive_sim::terrain::Terrain;
 
 const LIMIT_RAD_S: f64 = 10.0;
 
-/// The generator's DRIVE run (120 steps), its motors clipping at `limit_rad_s` (0: no limit).
+/// The generator's DRIVE run (80 steps), its motors clipping at `limit_rad_s` (0: no limit).
 fn generator_log(limit_rad_s: f64) -> (drive_sim::log::DriveLog, drive_sim::robot::Robot) {
     let extra = Unmodelled {
         wheel_limit_rad_s: limit_rad_s,
@@ -31,7 +31,7 @@ fn generator_log(limit_rad_s: f64) -> (drive_sim::log::DriveLog, drive_sim::robo
         pose_yaw_noise_rad: 0.01,
         ..Unmodelled::default()
     };
-    drive_log_with("generator", TestRobotSpec::warthog_on_asphalt(3), extra, 120)
+    drive_log_with("generator", TestRobotSpec::warthog_on_asphalt(3), extra, 80)
 }
 
 fn tuned(limit_rad_s: f64) -> drive_sim::compare::tune::TuneOutcome {
