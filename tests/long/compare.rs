@@ -147,7 +147,7 @@ fn another_terrain_differs() {
 fn the_terminal_names_the_clearest_body_against_wheels_difference() {
     let asphalt = log("warthog_asphalt");
     let ice = log("warthog_ice");
-    let opts = CompareOptions::default();
+    let opts = diagnostic_opts();
     let text = |sim: &DriveLog| {
         let r = compare(input(&asphalt), &[input(sim)], &opts).unwrap();
         drive_sim::compare::write::verdict_text(&r)
@@ -301,7 +301,7 @@ fn an_exact_model_passes_the_wheel_maps_with_the_local_linear_smoother() {
 /// simulated run lacks it and how much to add; the model with `wheel_speed_scatter` at that
 /// value no longer differs; and the generator without offsets is not flagged (the null case).
 /// `compare`'s options for the diagnostics beside the verdict (the step scatter, the turn
-/// memory): without the maps' permutation test, which plays no part in them (as in `tune` and
+/// memory, the breakdown by curvature): without the maps' permutation test, which plays no part in them (as in `tune` and
 /// `judge`) and was about a third of each comparison's time.
 fn diagnostic_opts() -> CompareOptions {
     CompareOptions {
