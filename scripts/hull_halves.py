@@ -20,7 +20,13 @@ the luck of the split, which no model chosen on one half can foresee in the othe
 
 Areas are unclipped hulls in (rad/s)², so they differ from `t_area_pct_wheels` (clipped by U,
 as a percentage of it) by that clipping and scale; the question here is which steps make the
-difference. Why: a twin judged on the even steps after being chosen on the odd ones cannot
+difference.
+
+With `--space body` the same questions are asked of the body frame: the commanded (vx, wz) and
+the reached ones (each step's steady state), each half's T hull clipped by U as `t_area_pct_body` is (U built from the
+summary's `nominal`: the wheel-speed square mapped to the body, cut by the largest speed and
+yaw rate), in percentage points of U's area; the whole run's value is printed beside the
+summary's `t_area_pct_body`, which it must equal. Why: a twin judged on the even steps after being chosen on the odd ones cannot
 cover area the odd steps never showed (README, "Can `compare` tell them apart?").
 """
 import argparse
@@ -55,6 +61,58 @@ def area(points):
     return 0.5 * abs(sum(h[i][0] * h[(i + 1) % n][1] - h[(i + 1) % n][0] * h[i][1] for i in range(n))) if n >= 3 else 0.0
 
 
+def clip(poly, a, c, d):
+    """The part of a convex polygon where a*x + c*y <= d (Sutherland-Hodgman, one half-plane)."""
+    out = []
+    n = len(poly)
+    for i in range(n):
+        p, q = poly[i], poly[(i + 1) % n]
+        fp, fq = a * p[0] + c * p[1] - d, a * q[0] + c * q[1] - d
+        if fp <= 0:
+            out.append(p)
+        if fp * fq < 0:
+            t = fp / (fp - fq)
+            out.append((p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])))
+    return out
+
+
+def clip_convex(poly, window):
+    """A convex polygon cut by a convex, counter-clockwise one."""
+    n = len(window)
+    for i in range(n):
+        (x0, y0), (x1, y1) = window[i], window[(i + 1) % n]
+        # Inside is left of the edge: -(y1-y0) x + (x1-x0) y >= -(y1-y0) x0 + (x1-x0) y0.
+        a, c = y1 - y0, -(x1 - x0)
+        poly = clip(poly, a, c, a * x0 + c * y0)
+        if not poly:
+            break
+    return poly
+
+
+def polygon_area(p):
+    n = len(p)
+    return 0.5 * abs(sum(p[i][0] * p[(i + 1) % n][1] - p[(i + 1) % n][0] * p[i][1] for i in range(n))) if n >= 3 else 0.0
+
+
+def u_body(nominal):
+    """U in the body frame (vx, wz), counter-clockwise: the wheel-speed square mapped to the body,
+    cut by the largest linear speed and yaw rate (the analysis' command space)."""
+    r, b, wm = nominal["wheel_radius_m"], nominal["baseline_m"], nominal["max_wheel_rad_s"]
+    to_b = lambda left, right: (r * (left + right) / 2.0, r * (right - left) / b)
+    poly = [to_b(-wm, -wm), to_b(wm, -wm), to_b(wm, wm), to_b(-wm, wm)]
+    if polygon_signed(poly) < 0:
+        poly.reverse()
+    vm, am = nominal["max_lin_m_s"], nominal["max_ang_rad_s"]
+    for a, c, d in [(1.0, 0.0, vm), (-1.0, 0.0, vm), (0.0, 1.0, am), (0.0, -1.0, am)]:
+        poly = clip(poly, a, c, d)
+    return poly
+
+
+def polygon_signed(p):
+    n = len(p)
+    return 0.5 * sum(p[i][0] * p[(i + 1) % n][1] - p[(i + 1) % n][0] * p[i][1] for i in range(n))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("summary")
@@ -64,29 +122,48 @@ def main():
     ap.add_argument("--u-half-width", type=float, default=16.67, help="U's half-width, rad/s (the Warthog's)")
     ap.add_argument("--tolerance", type=float, default=5.0, help="the target's T/U tolerance, pp of U")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--space", choices=["wheels", "body"], default="wheels",
+                    help="wheels: (left, right) rad/s, unclipped hulls; body: (vx, wz), hulls clipped by U")
     args = ap.parse_args()
     for d in json.load(open(args.summary))["datasets"]:
         steps = {}
         for r in d["rows"]:
-            if (r["window"] or 0) >= 1 and r["excluded"] is None:
+            # Wheels: each step's first steady window; body: its steady state (the mean of its
+            # steady windows, `window` null), the points `t_area_pct_body` is the hull of.
+            first = (r["window"] or 0) >= 1 if args.space == "wheels" else r["window"] is None
+            if first and r["excluded"] is None:
                 steps.setdefault(r["step"], r)
         half = {"odd": [k for k in sorted(steps) if k % 2 == 1], "even": [k for k in sorted(steps) if k % 2 == 0]}
-        cmd = lambda k: (steps[k]["cmd_left_rad_s"], steps[k]["cmd_right_rad_s"])
-        reached = lambda k: (steps[k]["left_rad_s"], steps[k]["right_rad_s"])
-        print(f"== {d['dataset']}")
+        if args.space == "body":
+            u = u_body(d["nominal"])
+            u_area = polygon_area(u)
+            cmd = lambda k: (steps[k]["cmd_vx_m_s"], steps[k]["cmd_wz_rad_s"])
+            reached = lambda k: (steps[k]["vx_m_s"], steps[k]["wz_rad_s"])
+            area = lambda pts: polygon_area(clip_convex(hull(pts), u)) / u_area * 100.0
+            unit = "% of U"
+            whole = area([reached(k) for k in steps])
+            print(f"== {d['dataset']} (body frame; the whole run's T {whole:.2f} % of U, "
+                  f"the summary's t_area_pct_body {d['t_area_pct_body']:.2f})")
+        else:
+            u_area = (2.0 * args.u_half_width) ** 2
+            cmd = lambda k: (steps[k]["cmd_left_rad_s"], steps[k]["cmd_right_rad_s"])
+            reached = lambda k: (steps[k]["left_rad_s"], steps[k]["right_rad_s"])
+            area = globals()["area"]
+            unit = "(rad/s)²"
+            print(f"== {d['dataset']}")
         for name, ks in half.items():
-            print(f"  {name:4} {len(ks):3} steps: S hull {area([cmd(k) for k in ks]):5.0f}, "
-                  f"T hull {area([reached(k) for k in ks]):5.0f} (rad/s)²")
+            print(f"  {name:4} {len(ks):3} steps: S hull {area([cmd(k) for k in ks]):5.1f}, "
+                  f"T hull {area([reached(k) for k in ks]):5.1f} {unit}")
         other = [reached(k) for k in half["odd" if args.half == "even" else "even"]]
         base = area(other)
         for k in half[args.half]:
             added = area(other + [reached(k)]) - base
             if added > args.min:
                 print(f"  {args.half} step {k}: command ({cmd(k)[0]:.1f}, {cmd(k)[1]:.1f}) reached "
-                      f"({reached(k)[0]:.1f}, {reached(k)[1]:.1f}) rad/s: adds {added:.0f} (rad/s)² to the other half's T hull")
+                      f"({reached(k)[0]:.2f}, {reached(k)[1]:.2f}): adds {added:.1f} {unit} to the other half's T hull")
         if args.halvings > 0:
-            u = (2.0 * args.u_half_width) ** 2
-            gap = lambda a, b: abs(area([reached(k) for k in a]) - area([reached(k) for k in b])) / u * 100.0
+            scale = 100.0 / u_area if args.space == "wheels" else 1.0
+            gap = lambda a, b: abs(area([reached(k) for k in a]) - area([reached(k) for k in b])) * scale
             split = gap(half["odd"], half["even"])
             rng = random.Random(args.seed)
             keys = sorted(steps)
