@@ -75,6 +75,8 @@ fn a_twin_of_a_generator_run_passes_its_held_out_steps_and_is_told_from_another_
         "held out: p {}",
         held.outcome.loss.p
     );
+    // A twin that passes needs no yardstick of the robot's own choosing steps.
+    assert!(held.outcome.yardsticks.is_empty());
     // The files: written, the report opening on the verdict, and a twin that runs with no
     // other option.
     for f in ["twin/robot.toml", "twin/terrain.toml", "twin.json", "twin.md"] {

@@ -86,6 +86,12 @@ pub(crate) fn judge_grounds(
 }
 
 /// The held-out or final judgements of every ground's twin against its own (pooled) runs.
+///
+/// Held out, when the judge tells the twin apart, the robot's own steps of the other half
+/// (those the twin was chosen on) are the yardstick: a twin cannot be asked to be closer to
+/// the judged half than the robot's other half is. One run's halves may differ by more than the
+/// twin's runs do (a split's luck, or variation the model lacks), and the yardstick test says
+/// whether they do.
 pub(crate) fn judge_own_grounds(
     grounds: &[Ground],
     models: &[ModelParams],
@@ -97,7 +103,27 @@ pub(crate) fn judge_own_grounds(
         .zip(models)
         .map(|(g, m)| (g.name.as_str(), &g.log, m, Vec::new()))
         .collect();
-    judge_grounds(&items, opts, opts.real_steps != UseSteps::All, progress)
+    let mut judged = judge_grounds(&items, opts, opts.real_steps != UseSteps::All, progress)?;
+    let Some(half) = opts.real_steps.other_half() else {
+        return Ok(judged);
+    };
+    // Only a twin the judge tells apart needs it (19 more runs of the twin): it says whether
+    // the robot's own steps would be told apart as well.
+    for ((j, g), m) in judged.iter_mut().zip(grounds).zip(models) {
+        if j.outcome.indistinguishable {
+            continue;
+        }
+        let mut choosing = half.select(&g.log);
+        choosing.meta.name = format!("{} ({} steps)", g.log.meta.name, half.as_str());
+        j.outcome.yardsticks = judge::yardsticks(&YardstickRequest {
+            real: &g.log,
+            others: &[&choosing],
+            model: m,
+            opts,
+            twin_mean_loss: j.outcome.loss.real,
+        })?;
+    }
+    Ok(judged)
 }
 
 /// A twin made without one run, judged on it.

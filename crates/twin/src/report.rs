@@ -186,10 +186,11 @@ fn answer(r: &TwinReport) -> String {
     for j in &r.held_out.judgements {
         let _ = writeln!(
             s,
-            "- Held out ({}: chosen on the odd steps, judged on the {} even steps it never saw): {}.",
+            "- Held out ({}: chosen on the odd steps, judged on the {} even steps it never saw): {}{}.",
             j.ground,
             j.outcome.real_steps_analysed,
-            verdict_line(j)
+            verdict_line(j),
+            yardstick_words(j, "steps the twin was chosen on")
         );
     }
     for j in &r.final_twin.judgements {
@@ -208,7 +209,7 @@ fn answer(r: &TwinReport) -> String {
                     l.run,
                     l.made_from.join(", "),
                     verdict_line(j),
-                    yardstick_words(j)
+                    yardstick_words(j, "other run")
                 );
             }
             None => {
@@ -224,14 +225,15 @@ fn answer(r: &TwinReport) -> String {
     s
 }
 
-/// The robot's own difference beside a judgement, in words.
-fn yardstick_words(j: &Judgement) -> String {
+/// The robot's own difference beside a judgement, in words; `what` names the robot's own
+/// steps compared (`other run`, `steps the twin was chosen on`).
+fn yardstick_words(j: &Judgement, what: &str) -> String {
     j.outcome
         .yardsticks
         .iter()
         .map(|y| {
             format!(
-                "; the robot's own other run `{}` has loss {} against it ({}), the twin's runs {:.2}; the yardstick test (that run's loss ranked among {} runs of the twin as long as it): {} p {:.3}",
+                "; the robot's own {what} (`{}`): loss {} against it ({}), the twin's runs {:.2}; the yardstick test (that loss ranked among {} runs of the twin as long): {} p {:.3}",
                 y.other,
                 y.loss.map_or("-".into(), |l| format!("{l:.2}")),
                 if y.reproduces {
@@ -242,9 +244,9 @@ fn yardstick_words(j: &Judgement) -> String {
                 y.twin_mean_loss,
                 y.twin_run_losses.len(),
                 if y.twin_as_close {
-                    "no farther than the robot's own run,"
+                    "no farther than the robot's own steps,"
                 } else {
-                    "farther than the robot's own run,"
+                    "farther than the robot's own steps,"
                 },
                 y.p_twin_farther
             )
