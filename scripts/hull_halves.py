@@ -55,10 +55,15 @@ def hull(points):
     return lower[:-1] + upper[:-1]
 
 
+def polygon_signed(p):
+    """Signed area of a polygon (shoelace): positive when counter-clockwise."""
+    n = len(p)
+    return 0.5 * sum(p[i][0] * p[(i + 1) % n][1] - p[(i + 1) % n][0] * p[i][1] for i in range(n)) if n >= 3 else 0.0
+
+
 def area(points):
-    h = hull(points)
-    n = len(h)
-    return 0.5 * abs(sum(h[i][0] * h[(i + 1) % n][1] - h[(i + 1) % n][0] * h[i][1] for i in range(n))) if n >= 3 else 0.0
+    """Area of the points' convex hull."""
+    return abs(polygon_signed(hull(points)))
 
 
 def clip(poly, a, c, d):
@@ -89,11 +94,6 @@ def clip_convex(poly, window):
     return poly
 
 
-def polygon_area(p):
-    n = len(p)
-    return 0.5 * abs(sum(p[i][0] * p[(i + 1) % n][1] - p[(i + 1) % n][0] * p[i][1] for i in range(n))) if n >= 3 else 0.0
-
-
 def u_body(nominal):
     """U in the body frame (vx, wz), counter-clockwise: the wheel-speed square mapped to the body,
     cut by the largest linear speed and yaw rate (the analysis' command space)."""
@@ -106,11 +106,6 @@ def u_body(nominal):
     for a, c, d in [(1.0, 0.0, vm), (-1.0, 0.0, vm), (0.0, 1.0, am), (0.0, -1.0, am)]:
         poly = clip(poly, a, c, d)
     return poly
-
-
-def polygon_signed(p):
-    n = len(p)
-    return 0.5 * sum(p[i][0] * p[(i + 1) % n][1] - p[(i + 1) % n][0] * p[i][1] for i in range(n))
 
 
 def main():
@@ -136,34 +131,34 @@ def main():
         half = {"odd": [k for k in sorted(steps) if k % 2 == 1], "even": [k for k in sorted(steps) if k % 2 == 0]}
         if args.space == "body":
             u = u_body(d["nominal"])
-            u_area = polygon_area(u)
+            u_area = abs(polygon_signed(u))
             cmd = lambda k: (steps[k]["cmd_vx_m_s"], steps[k]["cmd_wz_rad_s"])
             reached = lambda k: (steps[k]["vx_m_s"], steps[k]["wz_rad_s"])
-            area = lambda pts: polygon_area(clip_convex(hull(pts), u)) / u_area * 100.0
+            measure = lambda pts: abs(polygon_signed(clip_convex(hull(pts), u))) / u_area * 100.0
             unit = "% of U"
-            whole = area([reached(k) for k in steps])
+            whole = measure([reached(k) for k in steps])
             print(f"== {d['dataset']} (body frame; the whole run's T {whole:.2f} % of U, "
                   f"the summary's t_area_pct_body {d['t_area_pct_body']:.2f})")
         else:
             u_area = (2.0 * args.u_half_width) ** 2
             cmd = lambda k: (steps[k]["cmd_left_rad_s"], steps[k]["cmd_right_rad_s"])
             reached = lambda k: (steps[k]["left_rad_s"], steps[k]["right_rad_s"])
-            area = globals()["area"]
+            measure = area
             unit = "(rad/s)²"
             print(f"== {d['dataset']}")
         for name, ks in half.items():
-            print(f"  {name:4} {len(ks):3} steps: S hull {area([cmd(k) for k in ks]):5.1f}, "
-                  f"T hull {area([reached(k) for k in ks]):5.1f} {unit}")
+            print(f"  {name:4} {len(ks):3} steps: S hull {measure([cmd(k) for k in ks]):5.1f}, "
+                  f"T hull {measure([reached(k) for k in ks]):5.1f} {unit}")
         other = [reached(k) for k in half["odd" if args.half == "even" else "even"]]
-        base = area(other)
+        base = measure(other)
         for k in half[args.half]:
-            added = area(other + [reached(k)]) - base
+            added = measure(other + [reached(k)]) - base
             if added > args.min:
                 print(f"  {args.half} step {k}: command ({cmd(k)[0]:.1f}, {cmd(k)[1]:.1f}) reached "
                       f"({reached(k)[0]:.2f}, {reached(k)[1]:.2f}): adds {added:.1f} {unit} to the other half's T hull")
         if args.halvings > 0:
             scale = 100.0 / u_area if args.space == "wheels" else 1.0
-            gap = lambda a, b: abs(area([reached(k) for k in a]) - area([reached(k) for k in b])) * scale
+            gap = lambda a, b: abs(measure([reached(k) for k in a]) - measure([reached(k) for k in b])) * scale
             split = gap(half["odd"], half["even"])
             rng = random.Random(args.seed)
             keys = sorted(steps)

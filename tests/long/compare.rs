@@ -295,14 +295,9 @@ fn an_exact_model_passes_the_wheel_maps_with_the_local_linear_smoother() {
     assert!(local.iter().all(|r| *r <= 1.5), "{local:?}");
 }
 
-/// The step scatter beside the verdict, on an independent generator (`tests/common/generator.rs`)
-/// whose wheels settle off their targets by a new offset each step (sd 0.6 rad/s, its own
-/// equation and random stream): against the simulated Warthog without one, `compare` says the
-/// simulated run lacks it and how much to add; the model with `wheel_speed_scatter` at that
-/// value no longer differs; and the generator without offsets is not flagged (the null case).
 /// `compare`'s options for the diagnostics beside the verdict (the step scatter, the turn
-/// memory, the breakdown by curvature): without the maps' permutation test, which plays no part in them (as in `tune` and
-/// `judge`) and was about a third of each comparison's time.
+/// memory, the breakdown by curvature): without the maps' permutation test, which plays no part
+/// in them (as in `tune` and `judge`) and was about a third of each comparison's time.
 fn diagnostic_opts() -> CompareOptions {
     CompareOptions {
         tf_permutations: 0,
@@ -310,6 +305,11 @@ fn diagnostic_opts() -> CompareOptions {
     }
 }
 
+/// The step scatter beside the verdict, on an independent generator (`tests/common/generator.rs`)
+/// whose wheels settle off their targets by a new offset each step (sd 0.6 rad/s, its own
+/// equation and random stream): against the simulated Warthog without one, `compare` says the
+/// simulated run lacks it and how much to add; the model with `wheel_speed_scatter` at that
+/// value no longer differs; and the generator without offsets is not flagged (the null case).
 #[test]
 fn the_step_scatter_a_model_lacks_is_measured_and_added() {
     use common::generator::{drive_log_with, TestRobotSpec, Unmodelled};
