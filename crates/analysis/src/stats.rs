@@ -6,14 +6,22 @@ use serde::{Deserialize, Serialize};
 /// Quantile `q` in [0, 1] of already sorted values, by linear interpolation between order
 /// statistics (Hyndman & Fan type 7, the default of NumPy and R). NaN for an empty slice.
 pub fn quantile_sorted(sorted: &[f64], q: f64) -> f64 {
-    if sorted.is_empty() {
+    quantile_of_order_statistics(sorted.len(), q, |k| sorted[k])
+}
+
+/// Quantile `q` (type 7, as [`quantile_sorted`]) of `len` values given by their order
+/// statistics: `at(k)` is the `k`-th smallest, from 0. For a sorted list that is never built
+/// (a bootstrap resample read off counts). NaN when `len` is 0.
+pub fn quantile_of_order_statistics(len: usize, q: f64, mut at: impl FnMut(usize) -> f64) -> f64 {
+    if len == 0 {
         return f64::NAN;
     }
     let q = q.clamp(0.0, 1.0);
-    let h = (sorted.len() - 1) as f64 * q;
+    let h = (len - 1) as f64 * q;
     let lo = h.floor() as usize;
     let hi = h.ceil() as usize;
-    sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo])
+    let low = at(lo);
+    low + (h - lo as f64) * (at(hi) - low)
 }
 
 /// Finite values of `values`, sorted ascending.

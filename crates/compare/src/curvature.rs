@@ -18,7 +18,7 @@
 //! verdict: its differences are not in the Holm family of the `reproduces` verdict.
 
 use super::{two_sample_diffs, Pairing, StepRow};
-use drive_sim_analysis::bootstrap::{two_sided_p, Bootstrap, Interval};
+use drive_sim_analysis::bootstrap::{two_sided_p, Bootstrap, Interval, ResampledMedian};
 use drive_sim_analysis::stats;
 use serde::{Deserialize, Serialize};
 
@@ -130,10 +130,8 @@ fn values(row: &StepRow, g: WheelGeometry) -> [f64; 3] {
 }
 
 fn resampled_medians(v: &[f64], draws: &[Vec<usize>]) -> Vec<f64> {
-    draws
-        .iter()
-        .map(|d| stats::median(&d.iter().map(|&i| v[i]).collect::<Vec<_>>()))
-        .collect()
+    let mut median = ResampledMedian::new(v);
+    draws.iter().map(|d| median.of(d)).collect()
 }
 
 fn statistic(real: &[f64], sim: &[f64], pairing: Pairing, b: &Bootstrap, stream: u64) -> ClassStatistic {

@@ -1,6 +1,7 @@
 //! The scalar metrics `compare` puts side by side (median ρ and slips, T/U areas), computed from
 //! the analysed steps of a run, and their bootstrap resamples.
 
+use drive_sim_analysis::bootstrap::ResampledMedian;
 use drive_sim_analysis::{spaces, stats, Analysis};
 use drive_sim_model::kinematics::CommandSpace;
 
@@ -60,6 +61,16 @@ pub(crate) fn statistic(k: usize, rows: &[&StepRow], space: &CommandSpace) -> f6
     if k < 6 {
         return stats::median(&rows.iter().map(|r| r.values[k]).collect::<Vec<_>>());
     }
+    let (body, wheels) = t_areas(rows, space);
+    if k == 6 {
+        body
+    } else {
+        wheels
+    }
+}
+
+/// The T/U areas (body, wheels; % of U) of a set of steps.
+fn t_areas(rows: &[&StepRow], space: &CommandSpace) -> (f64, f64) {
     let col = |f: fn(&StepRow) -> (f64, f64)| rows.iter().map(|r| f(r)).collect::<Vec<_>>();
     let s = spaces::spaces(
         space,
@@ -69,27 +80,29 @@ pub(crate) fn statistic(k: usize, rows: &[&StepRow], space: &CommandSpace) -> f6
         col(|r| r.t_wheels),
         &rows.iter().map(|r| r.vy).collect::<Vec<_>>(),
     );
-    if k == 6 {
-        s.t_area_pct_body
-    } else {
-        s.t_area_pct_wheels
+    (s.t_area_pct_body, s.t_area_pct_wheels)
+}
+
+/// Resampled values of every metric on `rows` for each draw: the medians from the counts of
+/// each step drawn ([`ResampledMedian`]), both areas from one computation of the spaces.
+pub(crate) fn resampled(rows: &[StepRow], draws: &[Vec<usize>], space: &CommandSpace) -> Vec<Vec<f64>> {
+    let mut medians: Vec<ResampledMedian> = (0..6)
+        .map(|k| ResampledMedian::new(&rows.iter().map(|r| r.values[k]).collect::<Vec<_>>()))
+        .collect();
+    let mut out = vec![Vec::with_capacity(draws.len()); METRICS.len()];
+    for d in draws {
+        for (k, median) in medians.iter_mut().enumerate() {
+            out[k].push(median.of(d));
+        }
+        let (body, wheels) = t_areas(&pick(rows, d), space);
+        out[6].push(body);
+        out[7].push(wheels);
     }
+    out
 }
 
 fn pick<'a>(rows: &'a [StepRow], idx: &[usize]) -> Vec<&'a StepRow> {
     idx.iter().map(|&i| &rows[i]).collect()
-}
-
-/// Resampled values of every metric on `rows` for each draw.
-pub(crate) fn resampled(rows: &[StepRow], draws: &[Vec<usize>], space: &CommandSpace) -> Vec<Vec<f64>> {
-    (0..METRICS.len())
-        .map(|k| {
-            draws
-                .iter()
-                .map(|d| statistic(k, &pick(rows, d), space))
-                .collect()
-        })
-        .collect()
 }
 
 /// Differences `sim − real` of two independent sets of resampled statistics: every pair when
