@@ -149,10 +149,10 @@ impl Bootstrap {
 /// The median of resamples of one set of values, as sorting each resample gives it (type 7,
 /// the finite values only, NaN when a resample draws none), in O(n) per resample.
 ///
-/// Why: the bootstrap's medians were most of `compare`'s time, and `compare` is most of a
-/// twin's closed loop. With the values ranked once, a resample sorted is each ranked value
-/// repeated as often as it is drawn, so its middle order statistics come from a walk along
-/// the counts instead of a sort of a copy.
+/// Why: sorting a copy of each resample was about a tenth of a twin command's CPU (`perf
+/// record`), the largest cost after the physics. With the values ranked once, a resample
+/// sorted is each ranked value repeated as often as it is drawn, so its middle order
+/// statistics come from a walk along the counts instead of a sort of a copy.
 #[derive(Debug, Clone)]
 pub struct ResampledMedian {
     /// Each value's position among the finite values sorted (`None` when not finite).
