@@ -17,7 +17,11 @@
 //!    gets the knob whose screening moved it there most (by at least [`MOVES_A_TERM`]), within
 //!    the same numbers of knobs and coordinates (not the cosine: that knob moves a term the
 //!    others do not), when that knob's best point did not raise the loss as a whole by more
-//!    than [`Rule::max_cover_harm`]. A gain on the whole loss at one step from the calibrated
+//!    than [`Rule::max_cover_harm`], and when it pushes no term the calibrated model meets past
+//!    [`Rule::cover_beyond`]: a knob that meets one criterion by failing another trades them,
+//!    and a twin tuned on the choosing steps then carries the new failure to the steps it is
+//!    judged on (the Husky's yaw-rate limit moved its ρ the right way at an eighth of its box
+//!    and its body T/U area from 0.00 to 2.44 thresholds). A gain on the whole loss at one step from the calibrated
 //!    value conflates the direction a knob moves a failing criterion with the size of the step:
 //!    the Husky's ICR offset moved its lateral-slip map the right way and the loss the wrong
 //!    way at an eighth of its box, and the search then found the value that helps. Terms are
@@ -109,7 +113,7 @@ impl Rule {
     /// The rule in words (`twin.json`, the report).
     pub fn text(&self) -> String {
         format!(
-            "knobs whose best screening point lowers the loss by at least {:.0} % of the calibrated model's or by {} where that is less, largest gain first, at most {} knobs and {} search coordinates (a ground's knob once per ground), none whose term changes are parallel (cosine > {}) to one taken; then each term of the loss {} thresholds or more from the robot's that no knob taken moves towards it gets the knob that moves it most (by {} threshold or more), within the same numbers of knobs and coordinates, if that knob's best screening point raised the loss by at most {}; {} search points per coordinate plus {}, times the budget factor",
+            "knobs whose best screening point lowers the loss by at least {:.0} % of the calibrated model's or by {} where that is less, largest gain first, at most {} knobs and {} search coordinates (a ground's knob once per ground), none whose term changes are parallel (cosine > {}) to one taken; then each term of the loss {} thresholds or more from the robot's that no knob taken moves towards it gets the knob that moves it most (by {} threshold or more), within the same numbers of knobs and coordinates, if that knob's best screening point raised the loss by at most {} and pushed no term within {} thresholds of the robot's past them; {} search points per coordinate plus {}, times the budget factor",
             100.0 * self.min_gain_fraction,
             self.min_gain_absolute,
             self.max_knobs,
@@ -118,6 +122,7 @@ impl Rule {
             self.cover_beyond,
             MOVES_A_TERM,
             self.max_cover_harm,
+            self.cover_beyond,
             self.evaluations_per_coordinate,
             self.base_evaluations
         )
@@ -217,14 +222,40 @@ impl Rule {
             if taken.iter().any(|t| towards(t) >= MOVES_A_TERM) {
                 continue;
             }
-            let best = screening
-                .knobs
-                .iter()
-                .filter(|k| !taken.iter().any(|t| t.knob.name == k.knob.name))
-                .filter(|k| {
-                    k.gain.is_finite() && k.gain >= -self.max_cover_harm && towards(k) >= MOVES_A_TERM
-                })
-                .max_by(|a, b| towards(a).total_cmp(&towards(b)));
+            let movers = || {
+                screening
+                    .knobs
+                    .iter()
+                    .filter(|k| !taken.iter().any(|t| t.knob.name == k.knob.name))
+                    .filter(|k| {
+                        k.gain.is_finite() && k.gain >= -self.max_cover_harm && towards(k) >= MOVES_A_TERM
+                    })
+            };
+            let most = |a: &&KnobScreen, b: &&KnobScreen| towards(a).total_cmp(&towards(b));
+            let best = movers()
+                .filter(|k| breaks(k, &screening.start.terms, self.cover_beyond).is_none())
+                .max_by(most);
+            // The knob that moves the term most but meets it by failing another criterion is
+            // passed by, and the report says so: it trades one criterion for another.
+            let traded = movers()
+                .max_by(most)
+                .and_then(|k| breaks(k, &screening.start.terms, self.cover_beyond).map(|b| (k, b)));
+            if let Some((k, (broken, from, to))) = traded {
+                let why = format!(
+                    "would move `{term}` {:.2} towards the robot's, but pushes `{broken}` past its threshold ({from:+.2} -> {to:+.2})",
+                    towards(k)
+                );
+                note(
+                    considered,
+                    Considered {
+                        knob: k.knob.name.clone(),
+                        gain: k.gain,
+                        relative_gain: k.gain / l0,
+                        chosen: false,
+                        why,
+                    },
+                );
+            }
             let Some(k) = best else { continue };
             // No cosine test here: however parallel its changes are to a knob taken, this knob
             // moves a term that one does not, which the search can tell them apart by.
@@ -241,18 +272,16 @@ impl Rule {
                 taken.push(k);
                 *coordinates += cost;
             }
-            let entry = Considered {
-                knob: k.knob.name.clone(),
-                gain: k.gain,
-                relative_gain: k.gain / l0,
-                chosen: blocked.is_none(),
-                why,
-            };
-            match considered.iter_mut().find(|c| c.knob == entry.knob) {
-                Some(c) if !c.chosen => *c = entry,
-                Some(_) => {}
-                None => considered.push(entry),
-            }
+            note(
+                considered,
+                Considered {
+                    knob: k.knob.name.clone(),
+                    gain: k.gain,
+                    relative_gain: k.gain / l0,
+                    chosen: blocked.is_none(),
+                    why,
+                },
+            );
         }
     }
 }
@@ -272,6 +301,29 @@ impl Rule {
             None
         }
     }
+}
+
+/// Records what step 3 decided about a knob: its entry replaces the one of a knob the gains
+/// left out, and never that of a knob taken.
+fn note(considered: &mut Vec<Considered>, entry: Considered) {
+    match considered.iter_mut().find(|c| c.knob == entry.knob) {
+        Some(c) if !c.chosen => *c = entry,
+        Some(_) => {}
+        None => considered.push(entry),
+    }
+}
+
+/// The first term the calibrated model meets (within `beyond` thresholds of the robot's) that
+/// `k`'s best screening point pushes to `beyond` or past it, with the term before and after.
+fn breaks(k: &KnobScreen, start: &[(String, f64)], beyond: f64) -> Option<(String, f64, f64)> {
+    start.iter().find_map(|(name, v)| {
+        let d = k
+            .term_change
+            .iter()
+            .find(|(n, _)| n == name)
+            .map_or(0.0, |(_, d)| *d);
+        (v.abs() < beyond && (v + d).abs() >= beyond).then(|| (name.clone(), *v, v + d))
+    })
 }
 
 /// The search coordinates a knob takes: a ground's knob one per ground.
@@ -427,6 +479,43 @@ mod tests {
         s.start.terms = vec![("t_area".into(), -0.9), ("slip_vy".into(), 0.8)];
         let c = Rule::default().choose(&s, 1, 1.0);
         assert_eq!(c.chosen, vec!["scatter"]);
+    }
+
+    #[test]
+    fn a_knob_that_meets_one_criterion_by_failing_another_does_not_cover_it() {
+        let mut s = screening(vec![
+            knob("scatter", 1, false, 3.0, &[("wheels", 2.0)]),
+            // Moves ρ most, but takes the body's area from within its threshold to 2.4 beyond.
+            knob("limit", 1, false, -0.3, &[("rho", 0.52), ("body", 2.44)]),
+            // Moves ρ a little less and breaks nothing.
+            knob("torsion", 1, false, 0.5, &[("rho", 0.51), ("body", 0.3)]),
+        ]);
+        s.start.loss = Some(10.0);
+        s.start.terms = vec![
+            ("wheels".into(), -2.2),
+            ("rho".into(), -1.33),
+            ("body".into(), 0.0),
+        ];
+        let c = Rule::default().choose(&s, 1, 1.0);
+        assert_eq!(c.chosen, vec!["scatter", "torsion"], "{:#?}", c.considered);
+        let limit = c.considered.iter().find(|k| k.knob == "limit").unwrap();
+        assert!(
+            !limit.chosen
+                && limit
+                    .why
+                    .contains("pushes `body` past its threshold (+0.00 -> +2.44)"),
+            "{}",
+            limit.why
+        );
+        // With no other knob that moves ρ, the term stays uncovered rather than traded.
+        s.knobs.pop();
+        let c = Rule::default().choose(&s, 1, 1.0);
+        assert_eq!(c.chosen, vec!["scatter"], "{:#?}", c.considered);
+        // A term beyond its threshold already is not one the knob can break: the limit's move
+        // of the body's area from 1.2 to 3.6 is harm the loss as a whole weighs.
+        s.start.terms[2].1 = 1.2;
+        let c = Rule::default().choose(&s, 1, 1.0);
+        assert_eq!(c.chosen, vec!["scatter", "limit"], "{:#?}", c.considered);
     }
 
     #[test]
