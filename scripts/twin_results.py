@@ -3,11 +3,14 @@
 against the other asphalt run (out of run, with the robot's own difference beside it).
 
     python3 scripts/twin_results.py [--bin target/release/drive-sim] [--out out/twin_results]
-                                    [--datasets warthog_asphalt,...]
+                                    [--datasets warthog_asphalt,...] [--looks 10000,20000,...]
 
 Writes OUT/<dataset>/ (the twin command's files), OUT/out_of_run_<a>_on_<b>/ (judge), the table
 to OUT/table.md and every command to OUT/commands.txt; a twin whose twin.json exists is kept
-(delete OUT to start over).
+(delete OUT to start over). With --looks, each held-out twin (OUT/<dataset>/held_out/) is judged
+again on the even steps with each seed given (OUT/<dataset>/looks/seed_<S>/), and the p-values
+of those looks beside the command's own go to OUT/held_out_looks.md: one look's p-value, from 19
+references, is a draw.
 """
 import argparse
 import json
@@ -36,6 +39,7 @@ def main():
     ap.add_argument("--bin", default=DEFAULT_BIN)
     ap.add_argument("--out", default=os.path.join("out", "twin_results"))
     ap.add_argument("--datasets", default=",".join(DATASETS))
+    ap.add_argument("--looks", default="", help="seeds of further judgements of each held-out twin, comma-separated")
     args = ap.parse_args()
     runner = Runner(args.out)
     rows = []
@@ -75,6 +79,37 @@ def main():
               "yardstick test: the twin's runs against the robot's own run"]
     table = ("| " + " | ".join(header) + " |\n|" + "---|" * len(header) + "\n" + "\n".join(oor) + "\n")
     with open(os.path.join(args.out, "out_of_run.md"), "w") as f:
+        f.write(table)
+    print(table)
+    if args.looks:
+        looks(runner, args, [int(x) for x in args.looks.split(",")])
+
+
+def looks(runner, args, seeds):
+    """Each held-out twin judged again on its run's even steps with each of `seeds`."""
+    rows = []
+    for d in args.datasets.split(","):
+        out = os.path.join(args.out, d)
+        with open(os.path.join(out, "twin.json")) as f:
+            own = json.load(f)["held_out"]["judgements"][0]["outcome"]
+        held = os.path.join(out, "held_out")
+        ps = []
+        for seed in seeds:
+            look = os.path.join(out, "looks", f"seed_{seed}")
+            if not os.path.exists(os.path.join(look, "judge.json")):
+                runner.run([args.bin, "judge", os.path.join(MEASURED, d + ".csv"), "--real-steps", "even",
+                            "--robot", os.path.join(held, "robot.toml"), "--terrain", os.path.join(held, "terrain.toml"),
+                            "--seed", str(seed), "--out", look])
+            with open(os.path.join(look, "judge.json")) as f:
+                ps.append(json.load(f)["loss"]["p"])
+        alpha = own["options"]["alpha"]
+        every = [own["loss"]["p"]] + ps
+        passes = sum(p > alpha for p in every)
+        rows.append(f"| {d} | {own['loss']['p']:.3f} (seed {own['options']['seed']}) | "
+                    + " | ".join(f"{p:.3f}" for p in ps) + f" | {passes} of {len(every)} |")
+    header = ["run", "held out: the command's judgement"] + [f"seed {s}" for s in seeds] + ["p above 0.05"]
+    table = ("| " + " | ".join(header) + " |\n|" + "---|" * len(header) + "\n" + "\n".join(rows) + "\n")
+    with open(os.path.join(args.out, "held_out_looks.md"), "w") as f:
         f.write(table)
     print(table)
 

@@ -64,7 +64,7 @@ pub enum Command {
     /// A twin of the robot from its runs, with no option needed: calibrated by replay, the
     /// knobs that move it towards the robot measured in closed loop, tuned, checked on fresh
     /// seeds and judged on steps its choice never saw; writes twin/robot.toml, its terrain
-    /// file(s), twin.json and twin.md.
+    /// file(s), the held-out twin's held_out/, twin.json and twin.md.
     Twin(twin::TwinArgs),
     /// Lists the robots (built-in and ./robots/*.toml).
     Robots,

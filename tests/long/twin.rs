@@ -6,8 +6,9 @@
 //!   wheels, an earlier clip), fails, and so does the robot's own run; the yardstick test
 //!   finds that twin no farther from there than the robot's run it was made from, and farther
 //!   than the robot's second run on that ground;
-//! - the command end to end writes the twin's files, which run with no other option, and a
-//!   report that opens on the verdict;
+//! - the command end to end writes the twin's files, which run with no other option, the
+//!   held-out twin's, which judged again give the held-out verdict's losses, and a report that
+//!   opens on the verdict;
 //! - bad input (logs of two robots, a run too short to split, a run with no steady window, an
 //!   unknown knob) exits with code 2 before any long work, naming the log and what is missing.
 //!
@@ -79,9 +80,39 @@ fn a_twin_of_a_generator_run_passes_its_held_out_steps_and_is_told_from_another_
     assert!(held.outcome.yardsticks.is_empty());
     // The files: written, the report opening on the verdict, and a twin that runs with no
     // other option.
-    for f in ["twin/robot.toml", "twin/terrain.toml", "twin.json", "twin.md"] {
+    for f in [
+        "twin/robot.toml",
+        "twin/terrain.toml",
+        "held_out/robot.toml",
+        "held_out/terrain.toml",
+        "twin.json",
+        "twin.md",
+    ] {
         assert!(out.join(f).exists(), "{f} missing");
     }
+    // The held-out twin's files hold the model the judge ran on the even steps: judged again
+    // with the same options, it gives the same losses to the bit.
+    let first = drive_sim::log::read_log(&run_a).unwrap();
+    let held_model = lift_effects(
+        &Robot::resolve(out.join("held_out/robot.toml").to_str().unwrap())
+            .unwrap()
+            .0,
+        &Terrain::resolve(out.join("held_out/terrain.toml").to_str().unwrap())
+            .unwrap()
+            .0,
+    )
+    .unwrap();
+    let again = judge(
+        &JudgeRequest {
+            real: &first,
+            model: &held_model,
+            opts: &held.outcome.options,
+        },
+        &|_| {},
+    )
+    .unwrap();
+    assert_eq!(again.loss.real, held.outcome.loss.real);
+    assert_eq!(again.loss.references, held.outcome.loss.references);
     let md = std::fs::read_to_string(out.join("twin.md")).unwrap();
     let opening: Vec<&str> = md.lines().filter(|l| !l.trim().is_empty()).take(3).collect();
     assert!(
@@ -115,7 +146,6 @@ fn a_twin_of_a_generator_run_passes_its_held_out_steps_and_is_told_from_another_
     assert_eq!(ran.log.steps().len(), 20);
     // The same robot on another ground (wider skid track, slower wheels, an earlier clip): the
     // twin is told apart, and so is the robot's own run on ground A.
-    let first = drive_sim::log::read_log(&run_a).unwrap();
     let opts = options().judge_options(UseSteps::All);
     let other_ground = Unmodelled {
         wheel_limit_rad_s: 6.0,

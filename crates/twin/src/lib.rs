@@ -19,7 +19,9 @@
 //! The twin's files are `DIR/twin/robot.toml` and `DIR/twin/terrain.toml` (one ground) or
 //! `DIR/twin/terrain_<ground>.toml` (several), with every tuned value written in them:
 //! `drive-sim run --robot DIR/twin/robot.toml --terrain DIR/twin/terrain.toml` runs it.
-//! `DIR/twin.json` holds every stage's outcome and time; `DIR/twin.md` opens on the answer.
+//! The held-out twin, as judged on the even steps, is in `DIR/held_out/` in the same form, so
+//! that its verdict can be judged again with other seeds. `DIR/twin.json` holds every stage's
+//! outcome and time; `DIR/twin.md` opens on the answer.
 //!
 //! ```no_run
 //! use drive_sim_twin::{make_twin, TwinOptions, TwinRequest};
@@ -261,6 +263,7 @@ pub fn make_twin(req: &TwinRequest, progress: &(dyn Fn(&TwinEvent) + Sync)) -> R
     let written = write::write_twin(
         &write::Written {
             report: &report,
+            held: &held,
             fin: &fin,
             logs: &req.logs,
         },

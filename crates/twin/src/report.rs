@@ -308,6 +308,23 @@ pub fn markdown(r: &TwinReport) -> String {
             }
         );
     }
+    let terrains: Vec<String> = r
+        .grounds
+        .iter()
+        .map(|g| format!("`held_out/{}`", g.terrain_file))
+        .collect();
+    let _ = writeln!(
+        s,
+        "- `held_out/robot.toml` + {}: the held-out twin, chosen on the odd steps, as judged on the even ones{} (`drive-sim judge RUN --real-steps even --robot held_out/robot.toml --terrain held_out/{} --seed S` judges it again).",
+        terrains.join(", "),
+        r.held_out
+            .judgements
+            .first()
+            .map_or(String::new(), |j| format!(" with seed {}", j.outcome.options.seed)),
+        r.grounds
+            .first()
+            .map_or("terrain.toml", |g| g.terrain_file.as_str()),
+    );
     s
 }
 

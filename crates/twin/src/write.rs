@@ -1,5 +1,6 @@
 //! The twin's files: `twin/robot.toml` and its terrain file(s) with every fitted and tuned
-//! value commented, `twin.json` with its provenance, and `twin.md`.
+//! value commented, the held-out twin's in `held_out/` (the model judged on the steps its choice
+//! never saw, so that anyone can judge it again), `twin.json` with its provenance, and `twin.md`.
 
 use crate::error::{Error, Result};
 use crate::pass::Pass;
@@ -47,34 +48,49 @@ pub(crate) fn check_runs(
 /// What [`write_twin`] writes.
 pub(crate) struct Written<'a> {
     pub(crate) report: &'a TwinReport,
+    /// The held-out pass (its twins, as judged).
+    pub(crate) held: &'a Pass,
     /// The final pass (the models written).
     pub(crate) fin: &'a Pass,
     /// The log files given (the provenance's inputs).
     pub(crate) logs: &'a [PathBuf],
 }
 
+/// Which pass's twin a set of files holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Which {
+    /// Chosen on the odd steps, judged on the even ones: `held_out/`.
+    HeldOut,
+    /// Chosen on every step: `twin/`.
+    Final,
+}
+
+/// The folder of the held-out twin's files, beside `twin/`.
+pub(crate) const HELD_OUT_DIR: &str = "held_out";
+
 /// Writes the twin into `dir`; returns the files' names relative to it.
 pub(crate) fn write_twin(w: &Written, dir: &Path) -> Result<Vec<PathBuf>> {
     let r = w.report;
-    let n = r.grounds.len();
-    let twin_dir = dir.join("twin");
-    std::fs::create_dir_all(&twin_dir).map_err(|e| Error::io(&twin_dir, e))?;
     let mut names = Vec::new();
     for (g, check) in r.twin_checks.iter().enumerate() {
-        let model = if check.written == "tuned" {
+        let tuned = check.written == "tuned";
+        let model = if tuned {
             &w.fin.twin[g]
         } else {
             &w.fin.calibrated[g]
         };
-        let files = twin::twin_files(model, &provenance_of(w, g, check.written == "tuned"))?;
-        if g == 0 {
-            let path = twin_dir.join("robot.toml");
-            write_atomic(&path, files.robot_toml.as_bytes())?;
-            names.push(PathBuf::from("twin/robot.toml"));
-        }
-        let name = terrain_file(&check.ground, n);
-        write_atomic(&twin_dir.join(&name), files.terrain_toml.as_bytes())?;
-        names.push(PathBuf::from("twin").join(name));
+        names.extend(write_ground(w, Which::Final, g, model, tuned, &dir.join("twin"))?);
+    }
+    // The held-out twin as the judge ran it: tuned when its check accepted the tuning.
+    for (g, model) in w.held.twin.iter().enumerate() {
+        names.extend(write_ground(
+            w,
+            Which::HeldOut,
+            g,
+            model,
+            true,
+            &dir.join(HELD_OUT_DIR),
+        )?);
     }
     let json = dir.join("twin.json");
     let text = serde_json::to_string_pretty(r).map_err(|e| Error::json(&json, e))?;
@@ -93,15 +109,47 @@ pub(crate) fn write_twin(w: &Written, dir: &Path) -> Result<Vec<PathBuf>> {
     Ok(names)
 }
 
+/// Writes ground `g`'s files of one pass's twin into `folder` (the robot file with the first
+/// ground); returns their names relative to `folder`'s parent.
+fn write_ground(
+    w: &Written,
+    which: Which,
+    g: usize,
+    model: &ModelParams,
+    tuned: bool,
+    folder: &Path,
+) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(folder).map_err(|e| Error::io(folder, e))?;
+    let sub = PathBuf::from(folder.file_name().unwrap_or_default());
+    let files = twin::twin_files(model, &provenance_of(w, which, g, tuned))?;
+    let mut names = Vec::new();
+    if g == 0 {
+        write_atomic(&folder.join("robot.toml"), files.robot_toml.as_bytes())?;
+        names.push(sub.join("robot.toml"));
+    }
+    let ground = &w.report.grounds[g];
+    let name = terrain_file(&ground.name, w.report.grounds.len());
+    write_atomic(&folder.join(&name), files.terrain_toml.as_bytes())?;
+    names.push(sub.join(name));
+    Ok(names)
+}
+
 /// The comments of a ground's twin files: the fitted values with their intervals, the tuned
 /// ones with how they were chosen, and the judgements in the header.
-fn provenance_of(w: &Written, g: usize, tuned: bool) -> Provenance {
+fn provenance_of(w: &Written, which: Which, g: usize, tuned: bool) -> Provenance {
     let r = w.report;
-    let fin = &r.final_twin;
-    let cal = &fin.pass.calibration[g];
+    let (judged, pass) = match which {
+        Which::HeldOut => (&r.held_out, w.held),
+        Which::Final => (&r.final_twin, w.fin),
+    };
+    let cal = &judged.pass.calibration[g];
+    let made = match which {
+        Which::HeldOut => "Held-out twin made by `drive-sim twin` from the odd steps of",
+        Which::Final => "Twin made by `drive-sim twin` from",
+    };
     let mut header = vec![
         format!(
-            "Twin made by `drive-sim twin` from {} (ground `{}`), seed {}.",
+            "{made} {} (ground `{}`), seed {}.",
             r.runs
                 .iter()
                 .map(|x| x.dataset.as_str())
@@ -121,13 +169,17 @@ fn provenance_of(w: &Written, g: usize, tuned: bool) -> Provenance {
             r.options.budget
         ),
     ];
-    for j in r
-        .held_out
-        .judgements
-        .iter()
-        .chain(&fin.judgements)
-        .filter(|j| j.ground == cal.ground)
-    {
+    // The twin written names both judgements; the held-out twin only its own.
+    let judgements: Vec<_> = match which {
+        Which::HeldOut => r.held_out.judgements.iter().collect(),
+        Which::Final => r
+            .held_out
+            .judgements
+            .iter()
+            .chain(&r.final_twin.judgements)
+            .collect(),
+    };
+    for j in judgements.into_iter().filter(|j| j.ground == cal.ground) {
         header.push(format!(
             "Judged on {} of {}{}: {} (p {:.3}); see twin.md.",
             crate::judging::steps_text(&j.steps),
@@ -145,7 +197,7 @@ fn provenance_of(w: &Written, g: usize, tuned: bool) -> Provenance {
         header.push("The tuned model did not complete its closed-loop check: these are the calibrated model's values.".into());
     }
     header.push("[fit] comments: calibrated by replay (clustered sandwich over the training steps); [twin] comments: tuned in closed loop.".into());
-    let chosen = match (&fin.pass.tuning, tuned) {
+    let chosen = match (&judged.pass.tuning, tuned) {
         (Some(t), true) if t.accepted => t
             .values
             .iter()
@@ -183,7 +235,7 @@ fn provenance_of(w: &Written, g: usize, tuned: bool) -> Provenance {
             .iter()
             .map(|p| (p.clone(), cal.dataset.clone()))
             .collect(),
-        before: Some(w.fin.declared[g].clone()),
+        before: Some(pass.declared[g].clone()),
         chosen,
     }
 }
