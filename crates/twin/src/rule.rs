@@ -211,14 +211,7 @@ impl Rule {
         failing.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
         for (term, v) in failing {
             // How far a knob moves the term towards the robot's (positive: the right way).
-            let towards = |k: &KnobScreen| {
-                let d = k
-                    .term_change
-                    .iter()
-                    .find(|(n, _)| n == term)
-                    .map_or(0.0, |(_, d)| *d);
-                towards_robot(d, *v)
-            };
+            let towards = |k: &KnobScreen| towards_robot(change_of(k, term), *v);
             if taken.iter().any(|t| towards(t) >= MOVES_A_TERM) {
                 continue;
             }
@@ -245,16 +238,7 @@ impl Rule {
                     "would move `{term}` {:.2} towards the robot's, but pushes `{broken}` past its threshold ({from:+.2} -> {to:+.2})",
                     towards(k)
                 );
-                note(
-                    considered,
-                    Considered {
-                        knob: k.knob.name.clone(),
-                        gain: k.gain,
-                        relative_gain: k.gain / l0,
-                        chosen: false,
-                        why,
-                    },
-                );
+                note(considered, k, l0, false, why);
             }
             let Some(k) = best else { continue };
             // No cosine test here: however parallel its changes are to a knob taken, this knob
@@ -272,16 +256,7 @@ impl Rule {
                 taken.push(k);
                 *coordinates += cost;
             }
-            note(
-                considered,
-                Considered {
-                    knob: k.knob.name.clone(),
-                    gain: k.gain,
-                    relative_gain: k.gain / l0,
-                    chosen: blocked.is_none(),
-                    why,
-                },
-            );
+            note(considered, k, l0, blocked.is_none(), why);
         }
     }
 }
@@ -303,9 +278,16 @@ impl Rule {
     }
 }
 
-/// Records what step 3 decided about a knob: its entry replaces the one of a knob the gains
-/// left out, and never that of a knob taken.
-fn note(considered: &mut Vec<Considered>, entry: Considered) {
+/// Records what step 3 decided about knob `k` (`l0`: the calibrated model's loss): its entry
+/// replaces the one of a knob the gains left out, and never that of a knob taken.
+fn note(considered: &mut Vec<Considered>, k: &KnobScreen, l0: f64, chosen: bool, why: String) {
+    let entry = Considered {
+        knob: k.knob.name.clone(),
+        gain: k.gain,
+        relative_gain: k.gain / l0,
+        chosen,
+        why,
+    };
     match considered.iter_mut().find(|c| c.knob == entry.knob) {
         Some(c) if !c.chosen => *c = entry,
         Some(_) => {}
@@ -317,13 +299,17 @@ fn note(considered: &mut Vec<Considered>, entry: Considered) {
 /// `k`'s best screening point pushes to `beyond` or past it, with the term before and after.
 fn breaks(k: &KnobScreen, start: &[(String, f64)], beyond: f64) -> Option<(String, f64, f64)> {
     start.iter().find_map(|(name, v)| {
-        let d = k
-            .term_change
-            .iter()
-            .find(|(n, _)| n == name)
-            .map_or(0.0, |(_, d)| *d);
-        (v.abs() < beyond && (v + d).abs() >= beyond).then(|| (name.clone(), *v, v + d))
+        let to = v + change_of(k, name);
+        (v.abs() < beyond && to.abs() >= beyond).then(|| (name.clone(), *v, to))
     })
+}
+
+/// How much `k`'s best screening point changed the loss term `term` (0 when it has none).
+fn change_of(k: &KnobScreen, term: &str) -> f64 {
+    k.term_change
+        .iter()
+        .find(|(n, _)| n == term)
+        .map_or(0.0, |(_, d)| *d)
 }
 
 /// The search coordinates a knob takes: a ground's knob one per ground.

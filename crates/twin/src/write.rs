@@ -138,15 +138,15 @@ fn write_ground(
 /// ones with how they were chosen, and the judgements in the header.
 fn provenance_of(w: &Written, which: Which, g: usize, tuned: bool) -> Provenance {
     let r = w.report;
-    let (judged, pass) = match which {
-        Which::HeldOut => (&r.held_out, w.held),
-        Which::Final => (&r.final_twin, w.fin),
+    let (judged, pass, made) = match which {
+        Which::HeldOut => (
+            &r.held_out,
+            w.held,
+            "Held-out twin made by `drive-sim twin` from the odd steps of",
+        ),
+        Which::Final => (&r.final_twin, w.fin, "Twin made by `drive-sim twin` from"),
     };
     let cal = &judged.pass.calibration[g];
-    let made = match which {
-        Which::HeldOut => "Held-out twin made by `drive-sim twin` from the odd steps of",
-        Which::Final => "Twin made by `drive-sim twin` from",
-    };
     let mut header = vec![
         format!(
             "{made} {} (ground `{}`), seed {}.",
