@@ -316,6 +316,18 @@ impl SummaryRow {
     }
 }
 
+/// A step whose steady windows record another command beside the one it holds.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SteadyCommandChange {
+    /// Step index.
+    pub step: u32,
+    /// The command it holds (its slips are taken against it), with how many of the steady
+    /// samples record it.
+    pub held: drive_sim_log::HeldCommand,
+    /// Its last sample's command, rad/s.
+    pub last_cmd: WheelSpeeds,
+}
+
 /// Everything the pipeline computes on one log.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Analysis {
@@ -348,6 +360,11 @@ pub struct Analysis {
     /// Analysed steps whose command lies outside the declared command space U (the log's
     /// nominal limits do not describe what was commanded).
     pub commands_outside_u: usize,
+    /// Analysed steps whose steady windows record another command beside the one they hold
+    /// (a log recording the next step's command early): each is analysed under its held
+    /// command ([`drive_sim_log::held_command`]).
+    #[serde(default)]
+    pub steady_command_changes: Vec<SteadyCommandChange>,
     /// U, S, T and the area of T.
     pub spaces: Spaces,
     /// Maximum kinetic energy over U.
@@ -397,6 +414,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         _ => crosscheck.yaw_rate_source,
     };
     let steps = pipeline::step_results(&segments, &kin, source, &nominal);
+    let steady_command_changes = pipeline::steady_command_changes(&segments);
 
     let cols = pipeline::SteadyColumns::of(&steps);
     let stats = pipeline::slip_stats(&steps, &cols);
@@ -432,6 +450,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         stats,
         idd_rmse,
         commands_outside_u,
+        steady_command_changes,
         spaces,
         max_kinetic_energy,
         risk,

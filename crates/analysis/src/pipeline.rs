@@ -5,7 +5,7 @@
 
 use super::{
     bootstrap, crosscheck, mean_of, rho, risk, slip, smoother, spaces, AlongCommandStats, AnalysisParams,
-    MedianIntervals, SlipStats, SmootherParams, StepResult, SummaryRow, WindowResult,
+    MedianIntervals, SlipStats, SmootherParams, SteadyCommandChange, StepResult, SummaryRow, WindowResult,
 };
 use crate::crosscheck::{CrossCheck, CrossCheckParams, YawRateSource};
 use crate::error::{Error, Result};
@@ -15,7 +15,7 @@ use crate::slip::SlipRecord;
 use crate::smoother::{Grid, TransferFunctions};
 use crate::stats::BoxStats;
 use crate::velocity::{self, SampleKinematics};
-use drive_sim_log::{DriveLog, LogMeta, Nominal};
+use drive_sim_log::{held_command, DriveLog, LogMeta, Nominal};
 use drive_sim_model::kinematics::{BodyVelocity, CommandSpace, IdealDiffDrive, WheelSpeeds};
 
 /// The log's nominal model as the stages use it.
@@ -116,18 +116,32 @@ pub(crate) fn step_results(
         .collect()
 }
 
+/// The steps whose steady windows record another command beside the one they hold (see
+/// [`held_command`]), in step order.
+pub(crate) fn steady_command_changes(segments: &[StepSegment<'_>]) -> Vec<SteadyCommandChange> {
+    segments
+        .iter()
+        .filter_map(|seg| {
+            let samples = || seg.windows.iter().flat_map(|w| w.iter());
+            let held = held_command(samples())?;
+            let last_cmd = samples().last()?.m.cmd;
+            held.changes_in_steady().then_some(SteadyCommandChange {
+                step: seg.step,
+                held,
+                last_cmd,
+            })
+        })
+        .collect()
+}
+
 fn step_result(
     seg: &StepSegment<'_>,
     wins: &StepKinematics,
     source: YawRateSource,
     nominal: &NominalModel,
 ) -> StepResult {
-    // The held command: the last sample's (the transient window starts with the previous
-    // step's command for a few samples).
-    let cmd = wins
-        .last()
-        .and_then(|w| w.last())
-        .map(|s| s.cmd)
+    let cmd = held_command(seg.windows.iter().flat_map(|w| w.iter()))
+        .map(|h| h.cmd)
         .unwrap_or_default();
     let windows: Vec<WindowResult> = wins
         .iter()

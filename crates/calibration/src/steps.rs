@@ -5,7 +5,7 @@
 use crate::error::{Error, Result};
 use drive_sim_analysis::segment::{usable_steps, Exclusion, SegmentRules};
 use drive_sim_analysis::stats::interquartile_mean;
-use drive_sim_log::{DriveLog, Pose, Sample};
+use drive_sim_log::{held_command, DriveLog, Pose, Sample};
 use drive_sim_model::effects::term::{PastStep, HISTORY_STEPS};
 use drive_sim_model::effects::StepContext;
 use drive_sim_model::geometry::wrap_angle;
@@ -67,7 +67,7 @@ pub struct StepStart {
     /// Encoder wheel speeds at the first sample: the previous step's steady end when this
     /// step follows it (see [`step_start_in`]), else the first sample's reading.
     pub wheels: WheelSpeeds,
-    /// The previous step's command (its last sample's), or the wheels at the start when
+    /// The previous step's held command ([`held_command`]), or the wheels at the start when
     /// the previous step is not in the log.
     pub previous_cmd: WheelSpeeds,
     /// The commands of the log's steps before this one through the filters of a plant's
@@ -135,8 +135,8 @@ pub fn step_start_in(
     // are the protocol's input, not a measurement.
     let mut ctx = StepContext::default();
     for earlier in all.iter().filter(|s| s.step < step.step) {
-        if let Some(last) = earlier.samples.last() {
-            ctx = ctx.next(last.m.cmd, duration_s(earlier.samples));
+        if let Some(held) = held_command(earlier.samples) {
+            ctx = ctx.next(held.cmd, duration_s(earlier.samples));
         }
     }
     start.filtered_cmd = ctx.filtered_cmd;
@@ -148,10 +148,10 @@ pub fn step_start_in(
     else {
         return Ok(start);
     };
-    let Some(last) = prev.samples.last() else {
+    let Some(held) = held_command(prev.samples) else {
         return Ok(start);
     };
-    start.previous_cmd = last.m.cmd;
+    start.previous_cmd = held.cmd;
     let first = &step.samples[0];
     if !may_measure(prev.step) {
         return Ok(start);

@@ -5,7 +5,7 @@
 
 use crate::errors::SignalWatch;
 use drive_sim_model::kinematics::WheelSpeeds;
-use drive_sim_model::measurement::{Frame, FrameSink, Phase, Sample};
+use drive_sim_model::measurement::{held_command, Frame, FrameSink, Phase, Sample};
 use drive_sim_model::Error;
 use drive_sim_protocol::sampler::{Sampler, SamplingContext};
 use pyo3::exceptions::PyKeyboardInterrupt;
@@ -116,7 +116,7 @@ impl<'a> Collector<'a> {
             step,
             attempts: attempt + 1,
             stamp_s: last.stamp_s,
-            cmd: last.m.cmd,
+            cmd: held_command(all.iter().copied()).map_or(last.m.cmd, |h| h.cmd),
             enc: WheelSpeeds::new(mean(&|s| s.m.enc.left_rad_s), mean(&|s| s.m.enc.right_rad_s)),
             imu_wz_rad_s: mean(&|s| s.m.imu.wz_rad_s),
             vx_m_s: wmean(&|v| v.vx_m_s),

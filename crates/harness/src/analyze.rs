@@ -133,6 +133,18 @@ pub fn analyze_logs(opts: &AnalyzeOptions, progress: &mut dyn FnMut(AnalyzeEvent
                 log.meta.name, e.step, e.reason
             )));
         }
+        if !a.steady_command_changes.is_empty() {
+            let steps: Vec<String> = a
+                .steady_command_changes
+                .iter()
+                .map(|c| c.step.to_string())
+                .collect();
+            progress(AnalyzeEvent::Note(&format!(
+                "{}: the steady windows of step(s) {} record another command in a few samples (the next step's, recorded early): each is analysed under the command it holds (summary.json, `steady_command_changes`)",
+                log.meta.name,
+                steps.join(", ")
+            )));
+        }
         done.push((summary, a));
     }
     // The folder appears whole, or (on any error above) not at all.

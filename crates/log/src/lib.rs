@@ -27,8 +27,8 @@ pub mod readers;
 pub mod ros_msgs;
 
 pub use drive_sim_model::measurement::{
-    DriveLog, Frame, FrameSink, GroundTruth, ImuReading, Interruption, LogMeta, Measurement, Nominal, Origin,
-    Phase, Pose, Sample, UseSteps,
+    held_command, DriveLog, Frame, FrameSink, GroundTruth, HeldCommand, ImuReading, Interruption, LogMeta,
+    Measurement, Nominal, Origin, Phase, Pose, Sample, UseSteps,
 };
 
 /// Reads a DRIVE log that declares its robot and terrain itself: a measured `.csv` (with its

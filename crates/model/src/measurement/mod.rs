@@ -160,6 +160,70 @@ impl Sample {
     }
 }
 
+/// The command a step holds, and how firmly the log records it ([`held_command`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct HeldCommand {
+    /// The command, rad/s.
+    pub cmd: WheelSpeeds,
+    /// Samples of the steady windows that record it.
+    pub samples: usize,
+    /// Samples of the steady windows (0: the step has none, and `cmd` is its last sample's).
+    pub steady_samples: usize,
+}
+
+impl HeldCommand {
+    /// The steady windows record another command beside the held one.
+    pub fn changes_in_steady(&self) -> bool {
+        self.samples < self.steady_samples
+    }
+}
+
+/// The command a step holds: among the samples of its steady windows (window 1 and later), the
+/// command recorded for the most of them (a tie goes to the one recorded last); the last
+/// sample's when the step has no steady sample. `None` for no sample.
+///
+/// Not simply the last sample's: the transient window starts with the previous step's command
+/// for a few samples, and some real logs record the next step's command in the last samples of
+/// a step (`warthog_asphalt_b`, steps 88 to 99; `husky_2023`, 89 and 194 to 199), where the
+/// encoders still answer the command held for the other 77 to 79 of the 80 steady samples.
+/// Taking the last sample's paired those steps' steady state with the next step's command.
+pub fn held_command<'a>(samples: impl IntoIterator<Item = &'a Sample>) -> Option<HeldCommand> {
+    // (command, samples recording it, index of its last sample); a step holds one or two.
+    let mut seen: Vec<(WheelSpeeds, usize, usize)> = Vec::with_capacity(2);
+    let mut last = None;
+    let mut steady = 0;
+    for (i, s) in samples.into_iter().enumerate() {
+        last = Some(s.m.cmd);
+        if s.window == 0 {
+            continue;
+        }
+        steady += 1;
+        let same = |c: &WheelSpeeds| {
+            c.left_rad_s.to_bits() == s.m.cmd.left_rad_s.to_bits()
+                && c.right_rad_s.to_bits() == s.m.cmd.right_rad_s.to_bits()
+        };
+        match seen.iter_mut().find(|(c, _, _)| same(c)) {
+            Some(e) => {
+                e.1 += 1;
+                e.2 = i;
+            }
+            None => seen.push((s.m.cmd, 1, i)),
+        }
+    }
+    let Some(&(cmd, n, _)) = seen.iter().max_by_key(|(_, n, at)| (*n, *at)) else {
+        return last.map(|cmd| HeldCommand {
+            cmd,
+            samples: 0,
+            steady_samples: 0,
+        });
+    };
+    Some(HeldCommand {
+        cmd,
+        samples: n,
+        steady_samples: steady,
+    })
+}
+
 /// Receives each frame as it is produced (e.g. an MCAP writer), and progress notifications.
 ///
 /// Defined here, below the protocol that calls it and the log writers that implement it.
@@ -174,5 +238,60 @@ impl FrameSink for Vec<Frame> {
     fn frame(&mut self, frame: &Frame) -> crate::Result<()> {
         self.push(*frame);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A step of three 4-sample windows whose commands are given per window.
+    fn step(cmds: [&[(f64, f64)]; 3]) -> Vec<Sample> {
+        let mut out = Vec::new();
+        for (w, window) in cmds.iter().enumerate() {
+            for (k, &(l, r)) in window.iter().enumerate() {
+                out.push(Sample {
+                    step: 7,
+                    window: w as u32,
+                    k: k as u32,
+                    t_in_step_s: 0.0,
+                    stamp_s: 0.0,
+                    m: Measurement {
+                        cmd: WheelSpeeds::new(l, r),
+                        ..Measurement::default()
+                    },
+                });
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn the_held_command_is_the_steady_windows_most_recorded_not_the_last_samples() {
+        let (prev, held, next) = ((1.0, 2.0), (-3.9, 6.0), (4.9, 13.9));
+        // The transient starts with the previous command; the last two samples record the
+        // next step's (a log recording it early).
+        let s = step([
+            &[prev, prev, held, held],
+            &[held, held, held, held],
+            &[held, held, next, next],
+        ]);
+        let h = held_command(&s).unwrap();
+        assert_eq!(h.cmd, WheelSpeeds::new(-3.9, 6.0));
+        assert_eq!((h.samples, h.steady_samples), (6, 8));
+        assert!(h.changes_in_steady());
+        // One command over the steady windows: held firmly.
+        let s = step([&[prev, held], &[held, held], &[held, held]]);
+        let h = held_command(&s).unwrap();
+        assert_eq!(h.cmd, WheelSpeeds::new(-3.9, 6.0));
+        assert!(!h.changes_in_steady());
+        // A tie goes to the command recorded last.
+        let s = step([&[prev], &[held, held], &[next, next]]);
+        assert_eq!(held_command(&s).unwrap().cmd, WheelSpeeds::new(4.9, 13.9));
+        // No steady sample: the last sample's; no sample: none.
+        let s = step([&[prev, held], &[], &[]]);
+        let h = held_command(&s).unwrap();
+        assert_eq!((h.cmd, h.steady_samples), (WheelSpeeds::new(-3.9, 6.0), 0));
+        assert!(held_command(&[]).is_none());
     }
 }

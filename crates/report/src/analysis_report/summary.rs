@@ -32,6 +32,9 @@ struct DatasetSummary<'a> {
     median_ci95: &'a drive_sim_analysis::MedianIntervals,
     idd_rmse: &'a drive_sim_model::kinematics::BodyVelocity,
     commands_outside_u: usize,
+    /// Steps whose steady windows record another command beside the one they hold (analysed
+    /// under the held one).
+    steady_command_changes: &'a [drive_sim_analysis::SteadyCommandChange],
     t_area_pct_body: f64,
     t_area_pct_wheels: f64,
     lateral_speed: &'a drive_sim_analysis::spaces::LateralSpeed,
@@ -64,6 +67,7 @@ impl<'a> DatasetSummary<'a> {
             median_ci95: &a.median_ci95,
             idd_rmse: &a.idd_rmse,
             commands_outside_u: a.commands_outside_u,
+            steady_command_changes: &a.steady_command_changes,
             t_area_pct_body: a.spaces.t_area_pct_body,
             t_area_pct_wheels: a.spaces.t_area_pct_wheels,
             lateral_speed: &a.spaces.lateral,
