@@ -203,6 +203,36 @@ fn known_slips_are_recovered() {
 }
 
 #[test]
+fn the_next_command_recorded_early_changes_nothing_but_the_note() {
+    // The same run, with the last two samples of steps 2 and 5 (and the last step's last one)
+    // recording the next step's command, as warthog_asphalt_b and husky_2023 do: the robot
+    // did not see it (encoders, poses and IMU are the same samples), so every step's command,
+    // slips and ρ must come out as before, and the note must name exactly those steps.
+    let clean = frames(good());
+    let mut early = clean.clone();
+    let per_step = 120;
+    for (step, n) in [(2usize, 2usize), (5, 2), (CMDS.len() - 1, 1)] {
+        let next = CMDS.get(step + 1).copied().unwrap_or((0.0, 0.0));
+        let end = (step + 1) * per_step;
+        for f in &mut early[end - n..end] {
+            f.m.cmd = WheelSpeeds::new(next.0, next.1);
+        }
+    }
+    let a = analyze(&DriveLog::from_frames(meta(), &clean), &quick()).unwrap();
+    let b = analyze(&DriveLog::from_frames(meta(), &early), &quick()).unwrap();
+    assert!(a.steady_command_changes.is_empty());
+    let noted: Vec<(u32, usize, usize)> = b
+        .steady_command_changes
+        .iter()
+        .map(|c| (c.step, c.held.samples, c.held.steady_samples))
+        .collect();
+    assert_eq!(noted, vec![(2, 78, 80), (5, 78, 80), (7, 79, 80)]);
+    assert_eq!(a.steps, b.steps);
+    assert_eq!(a.stats, b.stats);
+    assert_eq!(a.rows, b.rows);
+}
+
+#[test]
 fn crosscheck_detects_an_inverted_imu() {
     let log = DriveLog::from_frames(
         meta(),
