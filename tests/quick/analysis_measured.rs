@@ -157,8 +157,10 @@ fn steady_wheel_slip_matches_hand_arithmetic() {
                 continue;
             }
             let s: u32 = r[cs].parse().unwrap();
-            let e = by_step.entry(s).or_insert((0.0, 0.0, 0.0, 0.0, 0));
-            (e.0, e.1) = most_recorded_command(&rows, cs, cw, (cl, cr), s);
+            let e = by_step.entry(s).or_insert_with(|| {
+                let (l, r) = most_recorded_command(&rows, cs, cw, (cl, cr), s);
+                (l, r, 0.0, 0.0, 0)
+            });
             e.2 += r[el].parse::<f64>().unwrap();
             e.3 += r[er].parse::<f64>().unwrap();
             e.4 += 1;

@@ -5,7 +5,8 @@
 //! implementations:
 //!
 //! * [`smooth_exact`]: the definition, one kernel evaluation per (sample, grid point),
-//!   O(s · grid). The reference.
+//!   O(s · grid); Σ diagonal makes each evaluation a product of two factors taken once per
+//!   grid column and row, O(s · (n_vx + n_wz)) exponentials. The reference.
 //! * [`smooth_fast`]: linear (bilinear) binning of the samples onto a lattice of spacing
 //!   `h = σ / bins_per_sigma` (independent of the output grid), a separable Gaussian
 //!   convolution truncated at `K σ` on that lattice (Σ diagonal makes the kernel separable:
@@ -188,6 +189,14 @@ fn check_inputs(points: &[(f64, f64)], channels: &[&[f64]]) {
 
 /// Reference smoother: `Σ k_i g_i / Σ k_i` by direct summation at every grid point in U.
 /// Points whose value is not finite are skipped (in every channel).
+///
+/// Σ is diagonal, so the kernel is the product of one factor per axis:
+/// `k_i(ū) = exp(−Δv²/2σ_v²) · exp(−Δw²/2σ_w²)`. Each factor depends on one grid coordinate
+/// only, so the `exp`s are taken once per (sample, grid column) and (sample, grid row), and a
+/// kernel evaluation is one product: the sum is the definition's, with `s · (n_vx + n_wz)`
+/// exponentials instead of `s · grid`, which made them most of the cost (an `exp` costs
+/// [`EXP_COST_IN_MACS`] multiply-adds). The product differs from the exponential of the sum
+/// by a few units in the last place.
 pub fn smooth_exact(
     grid: &Grid,
     cov: &KernelCovariance,
@@ -203,33 +212,52 @@ pub fn smooth_exact(
     let (ivx, iwz) = (0.5 / cov.var_vx, 0.5 / cov.var_wz);
     let nv = grid.vx_m_s.len();
     let nc = channels.len();
-    let per_point: Vec<(f64, Vec<f64>)> = (0..grid.len())
-        .into_par_iter()
-        .map(|g| {
-            if !grid.inside[g] {
-                return (0.0, vec![f64::NAN; nc]);
-            }
-            let (gv, gw) = (grid.vx_m_s[g % nv], grid.wz_rad_s[g / nv]);
-            let mut d = 0.0;
-            let mut n = vec![0.0; nc];
-            for &i in &keep {
-                let (dv, dw) = (points[i].0 - gv, points[i].1 - gw);
-                let k = (-(dv * dv * ivx + dw * dw * iwz)).exp();
-                d += k;
-                for (c, ch) in channels.iter().enumerate() {
-                    n[c] += k * ch[i];
+    // Per grid point: Σ k_i and, per channel, Σ k_i g_i, summed block of samples after block
+    // (so that the factors of a block, `(n_vx + n_wz) · EXACT_BLOCK` values, bound the memory).
+    let mut sums: Vec<(f64, Vec<f64>)> = (0..grid.len()).map(|_| (0.0, vec![0.0; nc])).collect();
+    for block in keep.chunks(EXACT_BLOCK) {
+        let m = block.len();
+        // The kernel's factor along each axis: one row of `m` per grid abscissa (ordinate).
+        let factors = |axis: &[f64], coordinate: fn(&(f64, f64)) -> f64, inv: f64| -> Vec<f64> {
+            axis.iter()
+                .flat_map(|&g| {
+                    block.iter().map(move |&i| {
+                        let d = coordinate(&points[i]) - g;
+                        (-(d * d * inv)).exp()
+                    })
+                })
+                .collect()
+        };
+        let along_vx = factors(&grid.vx_m_s, |p| p.0, ivx);
+        let along_wz = factors(&grid.wz_rad_s, |p| p.1, iwz);
+        let values: Vec<Vec<f64>> = channels
+            .iter()
+            .map(|c| block.iter().map(|&i| c[i]).collect())
+            .collect();
+        sums.par_iter_mut()
+            .enumerate()
+            .filter(|(g, _)| grid.inside[*g])
+            .for_each(|(g, (d, n))| {
+                let (j, k) = (g % nv, g / nv);
+                let kv = &along_vx[j * m..(j + 1) * m];
+                let kw = &along_wz[k * m..(k + 1) * m];
+                let weights: Vec<f64> = kv.iter().zip(kw).map(|(a, b)| a * b).collect();
+                *d += weights.iter().sum::<f64>();
+                for (n, ch) in n.iter_mut().zip(&values) {
+                    *n += dot(&weights, ch);
                 }
-            }
-            let v = n.iter().map(|x| if d > 0.0 { x / d } else { f64::NAN }).collect();
-            (d, v)
-        })
-        .collect();
+            });
+    }
     let mut values = vec![Vec::with_capacity(grid.len()); nc];
     let mut weight_sum = Vec::with_capacity(grid.len());
-    for (d, v) in per_point {
+    for (g, (d, n)) in sums.into_iter().enumerate() {
         weight_sum.push(d);
-        for c in 0..nc {
-            values[c].push(v[c]);
+        for (c, n) in n.into_iter().enumerate() {
+            values[c].push(if grid.inside[g] && d > 0.0 {
+                n / d
+            } else {
+                f64::NAN
+            });
         }
     }
     Smoothed {
@@ -238,6 +266,10 @@ pub fn smooth_exact(
         error_bound: None,
     }
 }
+
+/// Samples per block of [`smooth_exact`]: its factors take `(n_vx + n_wz) · 2048 · 8` bytes
+/// (32 MiB on a 1001² grid), and a run's steps or samples fit in one or a few blocks.
+const EXACT_BLOCK: usize = 2048;
 
 /// One lattice axis: spacing `h = σ / bins_per_sigma`, `n` nodes from `origin`; the output
 /// region (covering the grid's range) is nodes `half .. half + n_out`, `half` = the kernel's
@@ -462,15 +494,16 @@ pub enum SmootherMethod {
     Fast,
 }
 
-/// Cost model of the choice in [`smooth`]: one kernel evaluation (an `exp`) of the exact
-/// smoother costs about this many multiply-adds of the fast one's convolution (measured by
-/// `benches/smoother.rs`: ~14 ns per evaluation vs ~0.3 ns per multiply-add on the 2-core
-/// development machine).
+/// Cost model of the choice in [`smooth`]: one `exp` of the exact smoother's kernel factors
+/// costs about this many multiply-adds of the fast one's convolution (measured by
+/// `benches/smoother.rs` when each kernel evaluation was an `exp`: ~14 ns per evaluation vs
+/// ~0.3 ns per multiply-add on the 2-core development machine).
 pub const EXP_COST_IN_MACS: f64 = 40.0;
 
 /// Smooths with whichever implementation is cheaper: the fast smoother's cost depends on its
 /// lattice (about `(3 + channels) · lattice · taps` multiply-adds, independent of `s` and of
-/// the grid), the exact one's on `s · grid points in U`. With the paper's settings (a few
+/// the grid), the exact one's on `s · grid points in U` (`2 + channels` multiply-adds each)
+/// and `s · (n_vx + n_wz)` exponentials. With the paper's settings (a few
 /// hundred samples on a 0.1 grid) the exact smoother wins; with 10⁵ samples or a fine grid the
 /// fast one does.
 pub fn smooth(
@@ -571,7 +604,10 @@ pub fn choose_method(
     n_channels: usize,
 ) -> SmootherMethod {
     let inside = grid.inside.iter().filter(|&&b| b).count() as f64;
-    let exact_cost = s as f64 * inside * (1.0 + n_channels as f64 / 4.0) * EXP_COST_IN_MACS;
+    // The exact smoother: the kernel's factors (an `exp` per sample and grid column or row),
+    // then per (sample, grid point) their product, its sum and one multiply-add per channel.
+    let axes = (grid.vx_m_s.len() + grid.wz_rad_s.len()) as f64;
+    let exact_cost = s as f64 * (axes * EXP_COST_IN_MACS + inside * (2.0 + n_channels as f64));
     let axis = |v: &[f64], var: f64| {
         let h = var.sqrt() / fast.bins_per_sigma;
         let taps = 2.0 * fast.truncation_sigmas * fast.bins_per_sigma + 1.0;
@@ -645,6 +681,68 @@ mod tests {
             choose_method(&fine, &cov, &fast, 100_000, 1),
             SmootherMethod::Fast
         );
+    }
+
+    /// The definition summed directly, one `exp` per (sample, grid point): the oracle of
+    /// [`smooth_exact`]'s factored kernel.
+    fn smooth_by_definition(
+        grid: &Grid,
+        cov: &KernelCovariance,
+        points: &[(f64, f64)],
+        channel: &[f64],
+    ) -> (Vec<f64>, Vec<f64>) {
+        let nv = grid.vx_m_s.len();
+        (0..grid.len())
+            .map(|g| {
+                if !grid.inside[g] {
+                    return (0.0, f64::NAN);
+                }
+                let (gv, gw) = (grid.vx_m_s[g % nv], grid.wz_rad_s[g / nv]);
+                let (mut d, mut n) = (0.0, 0.0);
+                for (p, y) in points.iter().zip(channel) {
+                    if !(p.0.is_finite() && p.1.is_finite() && y.is_finite()) {
+                        continue;
+                    }
+                    let (dv, dw) = (p.0 - gv, p.1 - gw);
+                    let k = (-0.5 * (dv * dv / cov.var_vx + dw * dw / cov.var_wz)).exp();
+                    d += k;
+                    n += k * y;
+                }
+                (d, if d > 0.0 { n / d } else { f64::NAN })
+            })
+            .unzip()
+    }
+
+    /// The factored kernel sums what the definition sums, over several blocks of samples, with
+    /// samples of non-finite values skipped and grid points outside U left empty.
+    #[test]
+    fn exact_is_the_definition_over_several_blocks() {
+        let grid = Grid::over_space(&space(), 0.5, 0.5);
+        let cov = KernelCovariance {
+            var_vx: 0.64,
+            var_wz: 0.25,
+        };
+        let mut pts = samples(2 * EXACT_BLOCK + 17, 5);
+        let mut y: Vec<f64> = pts.iter().map(|p| (p.0 * 1.3).sin() + p.1 * p.1).collect();
+        pts[3].0 = f64::NAN;
+        y[EXACT_BLOCK + 1] = f64::INFINITY;
+        let got = smooth_exact(&grid, &cov, &pts, &[&y]);
+        let (d, v) = smooth_by_definition(&grid, &cov, &pts, &y);
+        assert!(grid.inside.iter().any(|&i| !i));
+        for g in 0..grid.len() {
+            if !grid.inside[g] {
+                assert_eq!(got.weight_sum[g], 0.0);
+                assert!(got.values[0][g].is_nan());
+                continue;
+            }
+            assert!((got.weight_sum[g] - d[g]).abs() <= 1e-12 * d[g], "{g}");
+            assert!(
+                (got.values[0][g] - v[g]).abs() <= 1e-10,
+                "{g}: {} {}",
+                got.values[0][g],
+                v[g]
+            );
+        }
     }
 
     #[test]
