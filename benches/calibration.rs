@@ -13,7 +13,7 @@ use drive_sim::calibration::{
 use drive_sim::log::csv::read_measured_csv;
 use std::time::Instant;
 
-const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured");
+const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/measured");
 
 fn run(name: &str, factory: &dyn PlantFactory, optimizer: Optimizer) -> (f64, f64, f64, bool) {
     let log = read_measured_csv(format!("{DATA}/{name}.csv")).expect("measured dataset");
