@@ -234,19 +234,24 @@ pub fn smooth_exact(
             .iter()
             .map(|c| block.iter().map(|&i| c[i]).collect())
             .collect();
+        // One buffer of kernel weights per worker, refilled at each grid point.
         sums.par_iter_mut()
             .enumerate()
             .filter(|(g, _)| grid.inside[*g])
-            .for_each(|(g, (d, n))| {
-                let (j, k) = (g % nv, g / nv);
-                let kv = &along_vx[j * m..(j + 1) * m];
-                let kw = &along_wz[k * m..(k + 1) * m];
-                let weights: Vec<f64> = kv.iter().zip(kw).map(|(a, b)| a * b).collect();
-                *d += weights.iter().sum::<f64>();
-                for (n, ch) in n.iter_mut().zip(&values) {
-                    *n += dot(&weights, ch);
-                }
-            });
+            .for_each_init(
+                || Vec::with_capacity(m),
+                |weights, (g, (d, n))| {
+                    let (j, k) = (g % nv, g / nv);
+                    let kv = &along_vx[j * m..(j + 1) * m];
+                    let kw = &along_wz[k * m..(k + 1) * m];
+                    weights.clear();
+                    weights.extend(kv.iter().zip(kw).map(|(a, b)| a * b));
+                    *d += weights.iter().sum::<f64>();
+                    for (n, ch) in n.iter_mut().zip(&values) {
+                        *n += dot(weights, ch);
+                    }
+                },
+            );
     }
     let mut values = vec![Vec::with_capacity(grid.len()); nc];
     let mut weight_sum = Vec::with_capacity(grid.len());
