@@ -53,6 +53,23 @@ impl TestRobotSpec {
         }
     }
 
+    /// The calibration's honesty checks' robot (`tests/long/calibration_uncertainty.rs`, the
+    /// standard errors of `tests/statistics/standard_errors.rs`): the Warthog's geometry, a
+    /// left motor at 85 % of its command, and noise like the measured runs', so that the
+    /// fitted gains carry standard errors of a few percent.
+    pub fn uneven_motors(seed: u64) -> Self {
+        Self {
+            radius_m: 0.3,
+            track_m: 1.08,
+            lag_s: 0.15,
+            gain: [0.85, 1.0],
+            enc_noise: 0.15,
+            pose_noise: 0.02,
+            imu_noise: 0.03,
+            seed,
+        }
+    }
+
     /// The discovery cases' robot (`tests/long/discovery.rs`, the randomized benchmark, the joint
     /// calibration of `tests/long/twin_joint.rs`): the
     /// Warthog's geometry, the generator's lag, and noise low enough that a missing effect

@@ -3,6 +3,8 @@
 
 #[allow(dead_code)] // not every test crate that includes this module generates data
 pub mod generator;
+#[allow(dead_code)] // the judge's cases, used by the long tests and the statistics tier
+pub mod judging;
 
 use drive_sim::calibration::CalibrationReport;
 

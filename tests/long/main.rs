@@ -7,8 +7,9 @@
 //!
 //! The README's examples (`readme_examples`) run one command after another on one core: here
 //! the other tests fill the second. The measured-data calibrations
-//! (`tests/calibration_sim.rs`, `tests/calibration_measured.rs`) are a tier of their own outside
-//! `cargo test`.
+//! (`tests/calibration_sim.rs`, `tests/calibration_measured.rs`) and the measurements of the
+//! methods' statistical properties (`tests/statistics/`) are tiers of their own outside `cargo
+//! test`.
 
 #[path = "../common/mod.rs"]
 mod common;

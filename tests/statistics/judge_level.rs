@@ -1,0 +1,33 @@
+//! The judge's level, measured: runs of the model itself in the real run's place, with seeds
+//! neither its runs nor its references use, are rejected about as often as the test's level
+//! says. CI holds one such run (`tests/long/judge.rs`); this counts several.
+
+use crate::common;
+use common::judging::{generator_and_model, judged_with, opts, STEPS};
+use drive_sim::compare::judge::JudgeOptions;
+use drive_sim::compare::judge::DIFFERS;
+
+/// The null case six times, each with its own seeds for the twin's runs and references, so that
+/// the six judgements are independent. At level 0.1 a run is rejected with probability 0.1 at
+/// most: 3 or more rejections of 6 has probability 0.016.
+#[test]
+fn runs_of_the_model_itself_are_rejected_at_about_the_tests_level() {
+    let (_, model) = generator_and_model(10.0, STEPS);
+    let mut rejected = Vec::new();
+    let seeds = [777, 778, 779, 780, 781, 782];
+    for (k, seed) in seeds.into_iter().enumerate() {
+        let own = drive_sim::compare::tune::twin_run(&model, STEPS, seed).unwrap();
+        let o = JudgeOptions {
+            seed: 100 * k as u64,
+            ..opts()
+        };
+        let null = judged_with(&own, &model, &o);
+        assert_eq!(null.criteria[0].criterion, DIFFERS);
+        eprintln!("seed {seed}: p {}", null.loss.p);
+        if !null.indistinguishable {
+            rejected.push(seed);
+        }
+    }
+    eprintln!("rejected {} of {}: {rejected:?}", rejected.len(), seeds.len());
+    assert!(rejected.len() <= 2, "rejected for seeds {rejected:?}");
+}
