@@ -6,7 +6,13 @@
 //!   where the interval starts to exclude zero);
 //! - a T/U area: the difference over the area tolerance (5 percentage points), its verdict
 //!   (its bootstrap interval is not a test, see [`super::compare`]);
-//! - a transfer function: its RMS over the yardstick, divided by the tolerance (1.5×).
+//! - a transfer function: its RMS over the yardstick, divided by the tolerance (1.5×);
+//! - the step scatter: the difference over the gap at which the two runs' intervals stop
+//!   overlapping, at least its tolerance (0.1 rad/s per wheel), where `compare` calls it
+//!   different ([`crate::scatter::ScatterDiff::scaled_difference`]). Why in the loss though not
+//!   in the verdict: a search that does not see the scatter sets a knob that makes it (the
+//!   step offset `wheel_speed_scatter`) for what it does to the other terms, and a twin then
+//!   scatters far more than its robot, or keeps none where the robot has it.
 //!
 //! The loss is the sum of the squared terms: a run meeting every criterion of the verdict has
 //! every term at most about 1, a run failing one has at least one term above 1. A metric
@@ -66,6 +72,12 @@ pub fn loss(c: &SimComparison, opts: &CompareOptions) -> Loss {
         terms.push(LossTerm {
             name: t.channel.clone(),
             value: (t.points > 0 && t.ratio.is_finite()).then(|| t.ratio / opts.tf_tolerance),
+        });
+    }
+    if let Some(d) = &c.step_scatter {
+        terms.push(LossTerm {
+            name: crate::judge::STEP_SCATTER.into(),
+            value: d.scaled_difference(),
         });
     }
     let total = terms.iter().filter_map(|t| t.value).map(|v| v * v).sum();
@@ -173,6 +185,53 @@ mod tests {
         assert_eq!(l.term("slip_vx_m_s"), Some(1.0));
         assert_eq!(l.terms.len(), 3);
         assert!((l.total - 3.0).abs() < 1e-12, "{}", l.total);
+    }
+
+    fn scatter(v: f64, lower: f64, upper: f64) -> drive_sim_analysis::scatter::StepScatter {
+        drive_sim_analysis::scatter::StepScatter {
+            pairs: 20,
+            wheel_rad_s: Some(v),
+            ci95: Some(Interval {
+                lower,
+                upper,
+                level: 0.95,
+            }),
+            ..Default::default()
+        }
+    }
+
+    /// The step scatter's term is 1 where `compare` starts to call the scatters different:
+    /// the intervals just miss, at least the tolerance apart; beyond it the term grows, and
+    /// a scatter the twin lacks counts as one it has too much.
+    #[test]
+    fn the_step_scatter_term_is_one_where_compare_calls_it_different() {
+        let opts = CompareOptions::default();
+        let with = |real, sim| {
+            let mut c = comparison(vec![], vec![]);
+            c.step_scatter = Some(crate::scatter::ScatterDiff::new(real, sim));
+            loss(&c, &opts)
+        };
+        // Real 0.28 [0.26, 0.34], twin 0.42 [0.40, 0.50]: the gap at which the intervals stop
+        // overlapping is (0.34 − 0.28) + (0.42 − 0.40) = 0.08, below the tolerance 0.1: the
+        // term is 0.14 / 0.1.
+        let l = with(scatter(0.28, 0.26, 0.34), scatter(0.42, 0.40, 0.50));
+        assert!((l.term("step_scatter").unwrap() - 1.4).abs() < 1e-12);
+        // A twin without scatter: 0.05 [0.03, 0.09] against 0.48 [0.31, 0.65]; gap
+        // (0.48 − 0.31) + (0.09 − 0.05) = 0.21.
+        let l = with(scatter(0.48, 0.31, 0.65), scatter(0.05, 0.03, 0.09));
+        assert!((l.term("step_scatter").unwrap() + 0.43 / 0.21).abs() < 1e-12);
+        // At the edge: the intervals just touch, 0.2 apart.
+        let d = crate::scatter::ScatterDiff::new(scatter(0.3, 0.2, 0.4), scatter(0.5, 0.4, 0.6));
+        assert!((d.scaled_difference().unwrap() - 1.0).abs() < 1e-12);
+        assert!(!d.differs);
+        let d = crate::scatter::ScatterDiff::new(scatter(0.3, 0.2, 0.4), scatter(0.51, 0.41, 0.61));
+        assert!(d.scaled_difference().unwrap() > 1.0 && d.differs);
+        // Without an estimate: named, nothing added.
+        let mut none = scatter(0.3, 0.2, 0.4);
+        none.wheel_rad_s = None;
+        let l = with(none, scatter(0.3, 0.2, 0.4));
+        assert_eq!(l.term("step_scatter"), None);
+        assert_eq!(l.total, 0.0);
     }
 
     #[test]

@@ -54,6 +54,29 @@ impl ScatterDiff {
         }
     }
 
+    /// The difference in scatter (simulated − real) scaled to be 1 where [`Self::differs`]
+    /// starts to hold: over the larger of [`SCATTER_TOLERANCE_RAD_S`] and the gap at which the
+    /// two intervals stop overlapping (the real interval's half towards the simulated estimate
+    /// plus the simulated interval's half towards the real one). `None` without both
+    /// estimates and intervals. The term of `compare`'s loss for the step scatter.
+    pub fn scaled_difference(&self) -> Option<f64> {
+        let (Some(r), Some(s), Some(ri), Some(si)) = (
+            self.real.wheel_rad_s,
+            self.sim.wheel_rad_s,
+            self.real.ci95,
+            self.sim.ci95,
+        ) else {
+            return None;
+        };
+        let gap = if s >= r {
+            (ri.upper - r) + (s - si.lower)
+        } else {
+            (r - ri.lower) + (si.upper - s)
+        };
+        let scale = gap.max(SCATTER_TOLERANCE_RAD_S);
+        ((s - r).is_finite() && scale.is_finite()).then(|| (s - r) / scale)
+    }
+
     /// One line for the verdict's text.
     pub fn line(&self) -> String {
         let est = |s: &StepScatter| match (s.wheel_rad_s, s.ci95) {

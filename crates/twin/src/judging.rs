@@ -188,7 +188,7 @@ pub struct Shortfall {
 
 /// The loss term a criterion of the judge is about (`None`: outside the loss).
 fn term_of(criterion: &str) -> Option<String> {
-    if criterion == DIFFERS || criterion == judge::STEP_SCATTER || criterion == judge::TURN_MEMORY {
+    if criterion == DIFFERS || criterion == judge::TURN_MEMORY {
         return None;
     }
     if let Some(channel) = criterion.strip_suffix(" map") {

@@ -61,8 +61,9 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 pub const REFERENCE_SEED_OFFSET: u64 = 5000;
 /// The verdict's criterion name: the run is not called "reproduces".
 pub const DIFFERS: &str = "differs";
-/// The step scatter's criterion name ([`crate::scatter`]): outside the verdict, counted
-/// like the others so that a twin without the real run's step-to-step scatter shows it.
+/// The step scatter's criterion name ([`crate::scatter`]), and its term's in the loss:
+/// outside the verdict, counted like the others so that a twin without the real run's
+/// step-to-step scatter shows it.
 pub const STEP_SCATTER: &str = "step_scatter";
 /// The turn memory's criterion name ([`crate::turn_memory`]): outside the verdict,
 /// counted like the step scatter.
