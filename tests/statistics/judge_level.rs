@@ -4,8 +4,7 @@
 
 use crate::common;
 use common::judging::{generator_and_model, judged_with, opts, STEPS};
-use drive_sim::compare::judge::JudgeOptions;
-use drive_sim::compare::judge::DIFFERS;
+use drive_sim::compare::judge::{JudgeOptions, DIFFERS};
 
 /// The null case six times, each with its own seeds for the twin's runs and references, so that
 /// the six judgements are independent. At level 0.1 a run is rejected with probability 0.1 at

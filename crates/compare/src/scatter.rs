@@ -1,5 +1,6 @@
-//! The step scatter of both runs side by side (a diagnostic, not part of the verdict): how far
-//! apart two steps with nearly the same command land in each ([`drive_sim_analysis::scatter`]).
+//! The step scatter of both runs side by side (not part of the verdict; a term of the loss,
+//! [`ScatterDiff::scaled_difference`]): how far apart two steps with nearly the same command
+//! land in each ([`drive_sim_analysis::scatter`]).
 //!
 //! Why beside the verdict: the verdict's statistics are medians, hull areas and smoothed maps,
 //! which a step-level offset barely moves (it is zero-mean, and a smoother averages it out),
