@@ -38,6 +38,25 @@ fn a_robot_whose_motors_clip_is_told_apart_from_a_model_without_a_limit() {
     assert_eq!(j.real.fails[0], 4, "every run differs: {:?}", j.real.runs);
     assert!((j.criteria[0].p - 0.1).abs() < 1e-12, "{}", j.criteria[0].p);
     assert!((j.loss.p - 0.1).abs() < 1e-12, "{:?}", j.loss);
+    // The loss term by term: each candidate's terms add up to its mean loss (every run forms
+    // every term here), and the term on which the real run is farthest lies beyond every
+    // reference, as the loss does.
+    for c in std::iter::once(&j.real).chain(&j.references) {
+        let sum: f64 = c.term_means.iter().filter_map(|t| t.mean_square).sum();
+        assert!(
+            (sum - c.mean_loss).abs() < 1e-9 * c.mean_loss.max(1.0),
+            "{sum} against {}",
+            c.mean_loss
+        );
+    }
+    let worst = j
+        .loss
+        .terms
+        .iter()
+        .filter(|t| t.real.is_some())
+        .max_by(|a, b| a.real.unwrap().total_cmp(&b.real.unwrap()))
+        .unwrap();
+    assert!((worst.p - 0.1).abs() < 1e-12, "{:?}", j.loss.terms);
     // Same seeds, same judgement.
     assert_eq!(judged(&generator, &model), j);
 }

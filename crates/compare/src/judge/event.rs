@@ -122,6 +122,7 @@ mod tests {
             runs: Vec::new(),
             fails: vec![0],
             mean_loss: 2740.678,
+            term_means: Vec::new(),
         };
         let reference = JudgeEvent::Reference {
             done: 2,

@@ -42,7 +42,7 @@ pub mod write;
 mod yardstick;
 
 pub use event::JudgeEvent;
-pub use outcome::{CandidateScore, CriterionTest, JudgeOutcome, LossTest, RunScore};
+pub use outcome::{CandidateScore, CriterionTest, JudgeOutcome, LossTest, RunScore, TermMean, TermTest};
 pub use score::{criteria_of, monte_carlo_p};
 pub use yardstick::{check_same_ground, p_farther, yardsticks, Yardstick, YardstickRequest};
 
@@ -223,6 +223,7 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&JudgeEvent) + Sync)) -> Res
         real: real_score.mean_loss,
         p: monte_carlo_p(real_score.mean_loss, &ref_losses),
         references: ref_losses,
+        terms: score::term_tests(&real_score, &references),
     };
     let outcome = JudgeOutcome {
         dataset: real.meta.name.clone(),

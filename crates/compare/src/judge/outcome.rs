@@ -32,6 +32,36 @@ pub struct CandidateScore {
     pub fails: Vec<usize>,
     /// Mean loss of the runs.
     pub mean_loss: f64,
+    /// Each term of the loss, its square's mean over the runs (the terms' means add up to
+    /// `mean_loss` where every run forms every term), in the loss's order.
+    #[serde(default)]
+    pub term_means: Vec<TermMean>,
+}
+
+/// One term of the loss over a candidate's runs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TermMean {
+    /// The term's name ([`crate::loss::LossTerm::name`]).
+    pub name: String,
+    /// Mean of its square over the runs that formed it; `None` when none did.
+    pub mean_square: Option<f64>,
+}
+
+/// One term of the loss tested as the loss is: the real run's mean square among the
+/// references'. Not a test of its own (the loss decides, and 14 terms at 5 % flag some of a
+/// perfect twin's): it says which terms make the real run extreme when the loss does.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TermTest {
+    /// The term's name.
+    pub name: String,
+    /// Mean square of the term over the runs against the real run.
+    pub real: Option<f64>,
+    /// The same against each reference, averaged over the references that formed it.
+    pub reference_mean: Option<f64>,
+    /// Largest of the references'.
+    pub reference_max: Option<f64>,
+    /// Monte Carlo p-value, as the loss's ([`super::monte_carlo_p`]); NaN without a value.
+    pub p: f64,
 }
 
 /// One criterion's test.
@@ -62,6 +92,10 @@ pub struct LossTest {
     /// Monte Carlo p-value: (1 + references with a mean loss at least the real's) /
     /// (references + 1).
     pub p: f64,
+    /// The loss term by term: where the real run's mean loss comes from, against the twin's
+    /// own runs in its place.
+    #[serde(default)]
+    pub terms: Vec<TermTest>,
 }
 
 /// Everything [`judge`](super::judge) found (`judge.json`).

@@ -1,7 +1,9 @@
 //! Scoring the twin's runs against a candidate (the real run or one of the twin's own runs), and
 //! the Monte Carlo tests of the scores.
 
-use super::{CandidateScore, CriterionTest, RunScore, DIFFERS, STEP_SCATTER, TURN_MEMORY};
+use super::{
+    CandidateScore, CriterionTest, RunScore, TermMean, TermTest, DIFFERS, STEP_SCATTER, TURN_MEMORY,
+};
 use crate::error::Result;
 use crate::{compare_prepared_sims, CompareOptions, Input, PreparedReal, PreparedSim, SimComparison};
 use drive_sim_analysis::bootstrap::holm;
@@ -64,7 +66,21 @@ pub(super) fn score(
     let mut names = Vec::new();
     let mut fails: Vec<usize> = Vec::new();
     let mut runs = Vec::new();
+    // Each term's squares over the runs, in the order the first run names them.
+    let mut squares: Vec<(String, Vec<f64>)> = Vec::new();
     for (sim_seed, c) in sim_seeds.iter().zip(&report.sims) {
+        for t in c.loss.iter().flat_map(|l| &l.terms) {
+            let k = match squares.iter().position(|(n, _)| *n == t.name) {
+                Some(k) => k,
+                None => {
+                    squares.push((t.name.clone(), Vec::new()));
+                    squares.len() - 1
+                }
+            };
+            if let Some(v) = t.value {
+                squares[k].1.push(v * v);
+            }
+        }
         let crit = criteria_of(c);
         if names.is_empty() {
             names = crit.iter().map(|(n, _)| n.clone()).collect();
@@ -93,9 +109,40 @@ pub(super) fn score(
             runs,
             fails,
             mean_loss,
+            term_means: squares
+                .into_iter()
+                .map(|(name, v)| TermMean {
+                    name,
+                    mean_square: (!v.is_empty()).then(|| drive_sim_analysis::stats::mean(&v)),
+                })
+                .collect(),
         },
         names,
     ))
+}
+
+/// Each term of the loss tested as the loss is ([`TermTest`]): the real run's mean square
+/// ranked among the references' ([`monte_carlo_p`]), the terms in the real run's order.
+pub(super) fn term_tests(real: &CandidateScore, references: &[CandidateScore]) -> Vec<TermTest> {
+    let of = |c: &CandidateScore, name: &str| {
+        c.term_means
+            .iter()
+            .find(|t| t.name == name)
+            .and_then(|t| t.mean_square)
+    };
+    real.term_means
+        .iter()
+        .map(|t| {
+            let refs: Vec<f64> = references.iter().filter_map(|c| of(c, &t.name)).collect();
+            TermTest {
+                name: t.name.clone(),
+                real: t.mean_square,
+                reference_mean: (!refs.is_empty()).then(|| drive_sim_analysis::stats::mean(&refs)),
+                reference_max: refs.iter().copied().reduce(f64::max),
+                p: t.mean_square.map_or(f64::NAN, |r| monte_carlo_p(r, &refs)),
+            }
+        })
+        .collect()
 }
 
 /// Each criterion's test: how many runs fail it against the real run, against each reference,
@@ -149,6 +196,56 @@ pub(super) fn criteria_at_most(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn candidate(terms: &[(&str, Option<f64>)]) -> CandidateScore {
+        CandidateScore {
+            label: "reference".into(),
+            seed: None,
+            steps: 10,
+            runs: Vec::new(),
+            fails: Vec::new(),
+            mean_loss: 0.0,
+            term_means: terms
+                .iter()
+                .map(|(n, v)| TermMean {
+                    name: n.to_string(),
+                    mean_square: *v,
+                })
+                .collect(),
+        }
+    }
+
+    /// Each term is ranked among the references that formed it, in the real run's order; a
+    /// term the real run could not form has no p.
+    #[test]
+    fn terms_are_ranked_as_the_loss_is() {
+        let real = candidate(&[
+            ("median_rho", Some(3.0)),
+            ("slip_vx_m_s", Some(0.5)),
+            ("step_scatter", None),
+        ]);
+        let refs = [
+            candidate(&[("median_rho", Some(1.0)), ("slip_vx_m_s", Some(0.4))]),
+            candidate(&[("median_rho", Some(4.0)), ("slip_vx_m_s", None)]),
+            candidate(&[
+                ("median_rho", Some(2.0)),
+                ("slip_vx_m_s", Some(0.9)),
+                ("step_scatter", Some(1.0)),
+            ]),
+            candidate(&[("median_rho", Some(0.5)), ("slip_vx_m_s", Some(0.1))]),
+        ];
+        let t = term_tests(&real, &refs);
+        assert_eq!(t.len(), 3);
+        assert_eq!(t[0].name, "median_rho");
+        // One of four references at least 3.0: (1 + 1) / 5.
+        assert!((t[0].p - 0.4).abs() < 1e-12);
+        assert_eq!(t[0].reference_max, Some(4.0));
+        assert!((t[0].reference_mean.unwrap() - 1.875).abs() < 1e-12);
+        // Three references formed the map's term, one of them at least 0.5: (1 + 1) / 4.
+        assert!((t[1].p - 0.5).abs() < 1e-12);
+        assert!(t[2].p.is_nan() && t[2].real.is_none());
+        assert_eq!(t[2].reference_max, Some(1.0));
+    }
 
     #[test]
     fn monte_carlo_p_by_hand() {

@@ -114,6 +114,7 @@ pub fn table(o: &JudgeOutcome) -> String {
             }
         ));
     }
+    s.push_str(&terms_table(o));
     if !o.short_on.is_empty() {
         s.push_str(&format!(
             "\nShort on (Holm-adjusted p ≤ {}): {}\n",
@@ -134,6 +135,33 @@ pub fn table(o: &JudgeOutcome) -> String {
     }
     if !o.intervals.is_empty() {
         s.push_str(&intervals_table(o));
+    }
+    s
+}
+
+/// The loss term by term: where the real run's mean loss comes from (empty for a judgement
+/// written before the terms were).
+pub fn terms_table(o: &JudgeOutcome) -> String {
+    if o.loss.terms.is_empty() {
+        return String::new();
+    }
+    let n = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
+    let mut s = String::from(
+        "\nThe loss term by term (each term's square, its mean over the twin's runs; p: the real run's ranked among the twin's own runs as the loss's is, a diagnostic of where the loss comes from, not a test):\n\n| term | against the real run | against the twin's runs: mean (largest) | p |\n|---|---|---|---|\n",
+    );
+    for t in &o.loss.terms {
+        s.push_str(&format!(
+            "| {} | {} | {} ({}) | {} |\n",
+            t.name,
+            n(t.real),
+            n(t.reference_mean),
+            n(t.reference_max),
+            if t.p.is_finite() {
+                format!("{:.3}", t.p)
+            } else {
+                "-".into()
+            }
+        ));
     }
     s
 }
