@@ -53,12 +53,13 @@ def main():
             r = json.load(f)
         held, held_flags = verdict(r["held_out"]["judgements"][0])
         fin, fin_flags = verdict(r["final"]["judgements"][0])
-        tuned = r["final"]["pass"]["tuning"]
-        knobs = ", ".join(r["final"]["pass"]["choice"]["chosen"]) or "-"
-        accepted = "accepted" if tuned and tuned["accepted"] else "not accepted"
-        rows.append(f"| {d} | {held} | {held_flags} | {fin} | {fin_flags} | {knobs} ({accepted}) | {r['seconds']:.0f} s |")
+        final = r["final"]["pass"]
+        rounds = [round_text(final["choice"], final["tuning"])]
+        if final.get("refinement"):
+            rounds.append(round_text(final["refinement"]["choice"], final["refinement"]["tuning"]))
+        rows.append(f"| {d} | {held} | {held_flags} | {fin} | {fin_flags} | {'; then '.join(rounds)} | {r['seconds']:.0f} s |")
     write_table(args.out, ["run", "held out (chosen on odd, judged on even)", "flagged", "twin written (all steps, not held out)",
-                           "flagged", "tuned (final)", "wall time"], rows)
+                           "flagged", "tuned (final: first round; then the second, from the tuned twin)", "wall time"], rows)
     oor = []
     for a, b in OUT_OF_RUN:
         twin = os.path.join(args.out, a, "twin")
@@ -83,6 +84,14 @@ def main():
     print(table)
     if args.looks:
         looks(runner, args, [int(x) for x in args.looks.split(",")])
+
+
+def round_text(choice, tuning):
+    """A round of the final pass: the knobs it tuned and whether its check accepted them."""
+    knobs = ", ".join(choice["chosen"]) or "-"
+    if not choice["chosen"]:
+        return knobs
+    return f"{knobs} ({'accepted' if tuning and tuning['accepted'] else 'not accepted'})"
 
 
 def looks(runner, args, seeds):

@@ -10,7 +10,9 @@
 //!   held-out twin's, which judged again give the held-out verdict's losses, and a report that
 //!   opens on the verdict;
 //! - bad input (logs of two robots, a run too short to split, a run with no steady window, an
-//!   unknown knob) exits with code 2 before any long work, naming the log and what is missing.
+//!   unknown knob) exits with code 2 before any long work, naming the log and what is missing;
+//! - a first round's accepted tuning (a generator whose steps scatter) is followed by a second
+//!   round over the other knobs, screened from the tuned twin.
 //!
 //! The runs are short (40 steps, 20 per half), the search's budget a quarter of the default and
 //! each judgement 4 runs of the twin against 19 references, so the file runs in about two
@@ -127,6 +129,24 @@ fn a_twin_of_a_generator_run_passes_its_held_out_steps_and_is_told_from_another_
         serde_json::from_str(&std::fs::read_to_string(out.join("twin.json")).unwrap()).unwrap();
     assert!(json["provenance"]["version"].is_string());
     assert!(json["final"]["pass"]["times"].as_array().unwrap().len() >= 3);
+    // A tuning the check accepted is followed by a second round from the tuned twin, over the
+    // knobs the first did not tune; its rule takes at most two.
+    for pass in [&r.held_out.pass, &r.final_twin.pass] {
+        let accepted = pass.tuning.as_ref().is_some_and(|t| t.accepted);
+        assert_eq!(pass.refinement.is_some(), accepted, "{:?}", pass.choice.chosen);
+        if let Some(rf) = &pass.refinement {
+            assert_eq!(
+                rf.screening.knobs.len() + pass.choice.chosen.len(),
+                pass.screening.knobs.len()
+            );
+            assert!(rf
+                .screening
+                .knobs
+                .iter()
+                .all(|k| !pass.choice.chosen.contains(&k.knob.name)));
+            assert!(rf.choice.chosen.len() <= 2);
+        }
+    }
     let robot = Robot::resolve(out.join("twin/robot.toml").to_str().unwrap())
         .unwrap()
         .0;
@@ -354,4 +374,69 @@ fn a_start_covers_the_commands_and_declares_the_saturation_the_encoders_show() {
         Some(12.7)
     );
     assert!(notes.iter().all(|n| !n.contains("declared")), "{notes:?}");
+}
+
+/// A second round runs from the tuned twin when the first round's check accepts its tuning:
+/// over the pool's other knobs, with the refinement's rule, and the twin written carries what
+/// either round's check accepted. The generator's steps scatter (an offset per step, which a
+/// calibration by replay does not fit and the first round tunes); the pool is three knobs, so
+/// that the rounds are short.
+#[test]
+fn a_second_round_screens_the_other_knobs_from_the_tuned_twin() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("scattered.mcap");
+    write_drive_mcap(
+        &run,
+        "scattered",
+        "asphalt",
+        TestRobotSpec::warthog_on_asphalt(3),
+        Unmodelled {
+            step_offset_rad_s: 1.5,
+            ..ground_a()
+        },
+        60,
+    );
+    let req = TwinRequest {
+        logs: vec![run],
+        out: dir.path().join("twin"),
+        input: Default::default(),
+        options: TwinOptions {
+            budget: 1.0,
+            ..options()
+        },
+        knobs: Some(vec![
+            "wheel_speed_scatter".into(),
+            "centripetal_slip".into(),
+            "body_lag".into(),
+        ]),
+    };
+    let twin = make_twin(&req, &|e| eprintln!("{e}")).unwrap();
+    for pass in [&twin.report.held_out.pass, &twin.report.final_twin.pass] {
+        // The first round tunes the scatter, and its check accepts it.
+        assert_eq!(pass.choice.chosen, ["wheel_speed_scatter"]);
+        assert!(pass.tuning.as_ref().unwrap().accepted);
+        // The second screens the two others from the tuned twin, whose loss it starts from.
+        let rf = pass
+            .refinement
+            .as_ref()
+            .expect("a second round after an accepted tuning");
+        let mut others: Vec<&str> = rf.screening.knobs.iter().map(|k| k.knob.name.as_str()).collect();
+        others.sort_unstable();
+        assert_eq!(others, ["body_lag", "centripetal_slip"]);
+        assert_eq!(rf.choice.rule, drive_sim::twin::rule::Rule::refinement());
+        assert!(rf.choice.chosen.len() <= 2);
+        assert_eq!(rf.tuning.is_some(), !rf.choice.chosen.is_empty());
+        assert!(pass.times.iter().any(|t| t.stage == "refine"));
+        // The start of the second round is the tuned twin: on the first round's search seeds
+        // it scores below the calibrated model.
+        let first = pass.screening.start.loss.unwrap();
+        let second = rf.screening.start.loss.unwrap();
+        assert!(
+            second < first,
+            "second round's start {second} against the calibrated {first}"
+        );
+    }
+    // The twin written carries the scatter the first round tuned.
+    let robot = std::fs::read_to_string(dir.path().join("twin/twin/robot.toml")).unwrap();
+    assert!(robot.contains("wheel_speed_scatter_rad_s = "), "{robot}");
 }

@@ -40,6 +40,11 @@ pub enum TwinEvent<'a> {
         /// What it found.
         event: &'a CalibrationEvent,
     },
+    /// The second round starts, from the twin tuned for these knobs.
+    Refining {
+        /// The first round's knobs.
+        tuned: &'a [String],
+    },
     /// The screening starts.
     Screening {
         /// Knobs in the pool.
@@ -108,10 +113,17 @@ impl fmt::Display for TwinEvent<'_> {
             }
             Self::PassStarted { pass, steps } => write!(f, "{pass}: on the {} steps", steps.as_str()),
             Self::Calibration { event } => write!(f, "calibrate: {event}"),
+            Self::Refining { tuned } => write!(
+                f,
+                "refine: the other knobs screened again from the twin tuned for {}",
+                tuned.join(", ")
+            ),
             Self::Screening { knobs, runs } => write!(
                 f,
-                "screen: {knobs} knobs of the model, each at {} points an eighth of its box from its calibrated value ({runs} DRIVE runs)",
-                crate::screen::POINTS_PER_KNOB
+                "screen: {knobs} knobs of the model, each at {} points {} and {} of its box from its calibrated value ({runs} DRIVE runs)",
+                crate::screen::POINTS_PER_KNOB,
+                crate::screen::SCREEN_STEP,
+                crate::screen::FINE_SCREEN_STEP
             ),
             Self::KnobScreened { screen } => {
                 let best = screen
@@ -135,7 +147,7 @@ impl fmt::Display for TwinEvent<'_> {
                 if choice.chosen.is_empty() {
                     write!(
                         f,
-                        "choose: no knob lowers the loss enough: the twin is the calibrated model"
+                        "choose: no knob lowers the loss enough: the twin stays the model it was screened from"
                     )
                 } else {
                     write!(
@@ -161,7 +173,7 @@ impl fmt::Display for TwinEvent<'_> {
                 if check.accepted {
                     "accepted"
                 } else {
-                    "not accepted: the twin stays the calibrated model"
+                    "not accepted: the twin stays the model the search started from"
                 }
             ),
             Self::Judging { what } => write!(f, "judge: {what}"),

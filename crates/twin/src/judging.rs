@@ -1,10 +1,10 @@
 //! The judgements of a twin: `judge` on steps its choice never saw, on the steps of the twin
 //! written, on a run left out, and what still differs and why.
 
-use crate::closed::PointScore;
 use crate::error::Result;
 use crate::event::TwinEvent;
 use crate::input::{Ground, RunLog};
+use crate::pass::PassReport;
 use crate::rule::{towards_robot, Choice, MOVES_A_TERM};
 use crate::screen::Screening;
 use crate::tune::Tuning;
@@ -202,15 +202,10 @@ fn term_of(criterion: &str) -> Option<String> {
 
 /// What a pass leaves for one judgement: the criteria it flags, each with the twin's term,
 /// the knobs that move it the right way and the values on their bound.
-pub(crate) fn shortfalls(
-    j: &Judgement,
-    label: &str,
-    twin: &PointScore,
-    screening: &Screening,
-    choice: &Choice,
-    tuning: Option<&Tuning>,
-    grounds: usize,
-) -> Vec<Shortfall> {
+pub(crate) fn shortfalls(j: &Judgement, label: &str, pass: &PassReport, grounds: usize) -> Vec<Shortfall> {
+    let twin = &pass.twin_score;
+    let (screening, choice, tuning) = (&pass.screening, &pass.choice, pass.tuning.as_ref());
+    let refinement = pass.refinement.as_ref();
     let prefix = |t: &str| {
         if grounds > 1 {
             format!("{}: {t}", j.ground)
@@ -218,15 +213,14 @@ pub(crate) fn shortfalls(
             t.to_string()
         }
     };
+    // Both rounds' tuned values.
     let at_bound: Vec<String> = tuning
-        .map(|t| {
-            t.values
-                .iter()
-                .filter(|v| v.at_bound)
-                .map(|v| format!("{} = {:.4} on [{}, {}]", v.name, v.chosen, v.lower, v.upper))
-                .collect()
-        })
-        .unwrap_or_default();
+        .into_iter()
+        .chain(refinement.and_then(|r| r.tuning.as_ref()))
+        .flat_map(|t| &t.values)
+        .filter(|v| v.at_bound)
+        .map(|v| format!("{} = {:.4} on [{}, {}]", v.name, v.chosen, v.lower, v.upper))
+        .collect();
     j.outcome
         .criteria
         .iter()
@@ -237,24 +231,31 @@ pub(crate) fn shortfalls(
                 .as_ref()
                 .and_then(|n| twin.terms.iter().find(|(m, _)| m == n).map(|(_, v)| *v));
             let ratio = c.criterion.ends_with(" map");
-            let moved_by: Vec<String> = match (&name, value) {
-                (Some(n), Some(v)) => screening
-                    .knobs
-                    .iter()
-                    .filter(|k| {
-                        // A map's term is a distance: only a decrease moves it the right way.
-                        k.term_change.iter().any(|(m, d)| {
-                            m == n && towards_robot(*d, if ratio { 1.0 } else { v }) >= MOVES_A_TERM
-                        })
-                    })
-                    .map(|k| k.knob.name.clone())
-                    .collect(),
-                _ => Vec::new(),
-            };
+            // Knobs either round's screening saw move the term the right way.
+            let mut moved_by: Vec<String> = Vec::new();
+            if let (Some(n), Some(v)) = (&name, value) {
+                let screenings = std::iter::once(screening).chain(refinement.map(|r| &r.screening));
+                for k in screenings.flat_map(|s| &s.knobs) {
+                    // A map's term is a distance: only a decrease moves it the right way.
+                    let moves = k.term_change.iter().any(|(m, d)| {
+                        m == n && towards_robot(*d, if ratio { 1.0 } else { v }) >= MOVES_A_TERM
+                    });
+                    if moves && !moved_by.contains(&k.knob.name) {
+                        moved_by.push(k.knob.name.clone());
+                    }
+                }
+            }
             let mut tuned = Vec::new();
             let mut not_tuned = Vec::new();
             for k in &moved_by {
-                match not_tuned_why(k, screening, choice, tuning) {
+                // A knob the first round does not carry was screened again by the second, whose
+                // decision is the last word.
+                let first = not_tuned_why(k, screening, choice, tuning);
+                let why = match (first, refinement) {
+                    (Some(_), Some(r)) => not_tuned_why(k, &r.screening, &r.choice, r.tuning.as_ref()),
+                    (first, _) => first,
+                };
+                match why {
                     Some(why) => not_tuned.push(why),
                     None => tuned.push(k.clone()),
                 }

@@ -106,15 +106,7 @@ pub(crate) fn assemble(p: Parts) -> TwinReport {
     let mut cannot = Vec::new();
     for (label, pass, judgements) in [("held out", held, &held_j), ("final", fin, &fin_j)] {
         for j in judgements {
-            cannot.extend(shortfalls(
-                j,
-                label,
-                &pass.report.twin_score,
-                &pass.report.screening,
-                &pass.report.choice,
-                pass.report.tuning.as_ref(),
-                n,
-            ));
+            cannot.extend(shortfalls(j, label, &pass.report, n));
         }
     }
     let mut times: Vec<StageTime> = Vec::new();
@@ -404,50 +396,74 @@ fn changed(s: &mut String, r: &TwinReport) {
         s.push('\n');
     }
     match &p.tuning {
-        Some(t) => {
-            let _ = writeln!(
-                s,
-                "Tuned in closed loop ({} points; loss {} → {:.2} on seeds {:?}); check on fresh seeds: reduction {:.2} ± {:.2} (SE), **{}**:\n",
-                t.evaluated.len(),
-                t.start_loss.map_or("-".into(), |l| format!("{l:.2}")),
-                t.chosen_loss,
-                t.seeds,
-                t.check.mean_reduction,
-                t.check.se,
-                if t.accepted { "accepted" } else { "not accepted: the twin is the calibrated model" }
-            );
-            s.push_str("| value | ground | calibrated | chosen | box | profile interval | near-best range | on a bound |\n|---|---|---|---|---|---|---|---|\n");
-            for v in &t.values {
-                let _ = writeln!(
-                    s,
-                    "| `{}` ({}) | {} | {} | {:.4} | [{:.4}, {:.4}] | {} | {} | {} |",
-                    v.name,
-                    v.unit,
-                    v.ground.as_deref().unwrap_or("all"),
-                    if v.calibrated.is_finite() {
-                        format!("{:.4}", v.calibrated)
-                    } else {
-                        "off".into()
-                    },
-                    v.chosen,
-                    v.lower,
-                    v.upper,
-                    v.interval.map_or("not pinned".into(), |[a, b]| {
-                        let mark = match v.interval_fit {
-                            Some(drive_sim_calibration::surface::SurfaceFit::Separable) => " ¹",
-                            _ => "",
-                        };
-                        format!("[{a:.4}, {b:.4}]{mark}")
-                    }),
-                    v.near_best
-                        .map_or("-".into(), |[a, b]| format!("[{a:.4}, {b:.4}]")),
-                    if v.at_bound { "yes" } else { "no" }
-                );
-            }
-            s.push_str("\n(profile interval: the values whose loss, on a quadratic fitted to the search's points nearest the best and minimised over the other tuned values, lies within twice the check's standard error of its minimum; marked ¹ where the full quadratic had no minimum and the one without cross terms was used, the others held at their minimum; \"not pinned\": the fitted surface has no minimum along it. Near-best range: the values of the search's points whose loss lies within twice the check's standard error of the best, a set of evaluated points.)\n");
-        }
+        Some(t) => tuning_table(s, t, "calibrated model"),
         None => s.push_str("Nothing tuned: no knob lowered the loss enough in the screening (below).\n"),
     }
+    if let Some(rf) = &p.refinement {
+        let chosen = &rf.choice.chosen;
+        let _ = writeln!(
+            s,
+            "\nThen a second round from the tuned twin: the {} other knobs screened again as below ({} DRIVE runs; the tuned twin's loss there: {}), and the rule at most {} knobs and {} coordinates: {}.\n",
+            rf.screening.knobs.len(),
+            rf.screening.runs,
+            rf.screening.start.loss.map_or("-".into(), |l| format!("{l:.2}")),
+            rf.choice.rule.max_knobs,
+            rf.choice.rule.max_coordinates,
+            if chosen.is_empty() {
+                "no knob lowered its loss enough".to_string()
+            } else {
+                format!("tuned {}", chosen.join(", "))
+            }
+        );
+        if let Some(t) = &rf.tuning {
+            tuning_table(s, t, "first round's twin");
+        }
+    }
+}
+
+/// One round's tuning: its search, its check and each value; `start` names the model it
+/// started from.
+fn tuning_table(s: &mut String, t: &crate::tune::Tuning, start: &str) {
+    let _ = writeln!(
+        s,
+        "Tuned in closed loop ({} points; loss {} → {:.2} on seeds {:?}); check on fresh seeds: reduction {:.2} ± {:.2} (SE), **{}**:\n",
+        t.evaluated.len(),
+        t.start_loss.map_or("-".into(), |l| format!("{l:.2}")),
+        t.chosen_loss,
+        t.seeds,
+        t.check.mean_reduction,
+        t.check.se,
+        if t.accepted { "accepted".to_string() } else { format!("not accepted: the twin is the {start}") }
+    );
+    s.push_str("| value | ground | calibrated | chosen | box | profile interval | near-best range | on a bound |\n|---|---|---|---|---|---|---|---|\n");
+    for v in &t.values {
+        let _ = writeln!(
+            s,
+            "| `{}` ({}) | {} | {} | {:.4} | [{:.4}, {:.4}] | {} | {} | {} |",
+            v.name,
+            v.unit,
+            v.ground.as_deref().unwrap_or("all"),
+            if v.calibrated.is_finite() {
+                format!("{:.4}", v.calibrated)
+            } else {
+                "off".into()
+            },
+            v.chosen,
+            v.lower,
+            v.upper,
+            v.interval.map_or("not pinned".into(), |[a, b]| {
+                let mark = match v.interval_fit {
+                    Some(drive_sim_calibration::surface::SurfaceFit::Separable) => " ¹",
+                    _ => "",
+                };
+                format!("[{a:.4}, {b:.4}]{mark}")
+            }),
+            v.near_best
+                .map_or("-".into(), |[a, b]| format!("[{a:.4}, {b:.4}]")),
+            if v.at_bound { "yes" } else { "no" }
+        );
+    }
+    s.push_str("\n(profile interval: the values whose loss, on a quadratic fitted to the search's points nearest the best and minimised over the other tuned values, lies within twice the check's standard error of its minimum; marked ¹ where the full quadratic had no minimum and the one without cross terms was used, the others held at their minimum; \"not pinned\": the fitted surface has no minimum along it. Near-best range: the values of the search's points whose loss lies within twice the check's standard error of the best, a set of evaluated points.)\n");
 }
 
 /// How the knobs were chosen.
@@ -456,10 +472,11 @@ fn choice(s: &mut String, r: &TwinReport) {
     let sc = &r.final_twin.pass.screening;
     let _ = writeln!(
         s,
-        "\n## How the knobs were chosen (the twin written)\n\nEach of the {} knobs of the model was set at {} points, each parameter moved by {} of its box either side of its calibrated value (the box's quarters where that value is off or outside the box), and run in closed loop on seeds {:?} ({} DRIVE runs); the calibrated model's loss there: {}. The rule: {}.\n",
+        "\n## How the knobs were chosen (the twin written)\n\nEach of the {} knobs of the model was set at {} points, each parameter moved by {} and by {} of its box either side of its calibrated value (the box's quarters and two of its eighths where that value is off or outside the box), and run in closed loop on seeds {:?} ({} DRIVE runs); the calibrated model's loss there: {}. The rule: {}.\n",
         sc.knobs.len(),
         crate::screen::POINTS_PER_KNOB,
         crate::screen::SCREEN_STEP,
+        crate::screen::FINE_SCREEN_STEP,
         sc.seeds,
         sc.runs,
         sc.start.loss.map_or("-".into(), |l| format!("{l:.2}")),

@@ -76,6 +76,21 @@ impl Default for Rule {
     }
 }
 
+impl Rule {
+    /// The rule of the second round ([`crate::pass`]'s refinement), from the tuned twin: the
+    /// same gains and tests, at most 2 knobs and 2 coordinates. Why so few: what is left after
+    /// the first round is a correction of a knob or two that mattered only once the first
+    /// round's were set (the Warthog's lateral friction on asphalt), and the command's time
+    /// target leaves room for a short second search, not a second full one.
+    pub fn refinement() -> Self {
+        Self {
+            max_knobs: 2,
+            max_coordinates: 2,
+            ..Self::default()
+        }
+    }
+}
+
 /// What the rule decided about one knob.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Considered {

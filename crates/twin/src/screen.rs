@@ -11,16 +11,26 @@ use drive_sim_calibration::ModelParams;
 use drive_sim_compare::tune::search::design;
 use serde::{Deserialize, Serialize};
 
-/// Points of a knob's box run by the screening, one on each side of the calibrated value.
-pub const POINTS_PER_KNOB: usize = 2;
+/// Points of a knob's box run by the screening: two on each side of the calibrated value, one
+/// [`SCREEN_STEP`] of its box away and one [`FINE_SCREEN_STEP`].
+pub const POINTS_PER_KNOB: usize = 4;
 
-/// How far each screening point moves a parameter from its calibrated value, as a fraction of
-/// its box. The calibration by replay leaves most parameters near the robot's, and what the
-/// closed loop adds is a correction: points far out (the box's quarters) measured the knob
-/// where it is worst, and a knob whose good value lay close by looked harmful (the Husky's
+/// How far the outer screening points move a parameter from its calibrated value, as a
+/// fraction of its box. The calibration by replay leaves most parameters near the robot's, and
+/// what the closed loop adds is a correction: points far out (the box's quarters) measured the
+/// knob where it is worst, and a knob whose good value lay close by looked harmful (the Husky's
 /// ICR offset scored 15.2 and 27.2 at its quarters against 10.4 calibrated), or did not run at
 /// all. The search that follows covers the whole box.
 pub const SCREEN_STEP: f64 = 0.125;
+
+/// How far the inner screening points move it: a quarter of [`SCREEN_STEP`]. Why a second,
+/// finer pair: a multiplier whose box spans a wide ratio moves the robot a lot in an eighth of
+/// it. The lateral friction's multiplier (`turning_resistance_scale`, box [0.2, 5]) moves 0.6
+/// in an eighth; from a tuned Warthog twin of asphalt, 0.4 and 1.6 both raise the loss, while
+/// 0.85 brings its yaw rate in pivots and turns in place, 25 % short of the robot's, part of
+/// the way back and lowers it. The second round of the measured Warthog runs' twins takes it
+/// at that point (`docs/results/twins.md`, "The rule").
+pub const FINE_SCREEN_STEP: f64 = SCREEN_STEP / 4.0;
 
 /// One point of a knob's screening.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -99,15 +109,15 @@ pub(crate) fn knob_values(knob: &Knob, z: &[f64]) -> Vec<f64> {
 /// The knob's screening points, in its units.
 ///
 /// A parameter whose calibrated value `c` lies in its box (a limit that is off, or values that
-/// differ between grounds, do not) moves by `SCREEN_STEP` of its box to either side: `c + d`
-/// at the first point and `c − d` at the second, the signs alternating between a knob's
-/// parameters so that the two points do not move them all together; a side beyond the box is
-/// replaced by a second step on the other side. Any other parameter takes the Halton design's
-/// second and third points (the quarters of its box; the first point, the middle, is often the
-/// calibrated value itself).
+/// differ between grounds, do not) moves by `SCREEN_STEP` of its box to either side at the
+/// first two points, `c + d` and `c − d`, and by `FINE_SCREEN_STEP` at the next two, the signs
+/// alternating between a knob's parameters so that a pair does not move them all together; a
+/// side beyond the box is replaced by a second step on the other side. Any other parameter
+/// takes the Halton design's second to fifth points (the quarters of its box, then two of its
+/// eighths; the first point, the middle, is often the calibrated value itself).
 pub(crate) fn screen_points(knob: &Knob, starts: &[ModelParams]) -> [Vec<f64>; POINTS_PER_KNOB] {
     let far = design(knob.specs.len(), POINTS_PER_KNOB + 1);
-    let mut points = [Vec::new(), Vec::new()];
+    let mut points: [Vec<f64>; POINTS_PER_KNOB] = Default::default();
     for (j, spec) in knob.specs.iter().enumerate() {
         let of = |m: &ModelParams| {
             let v = spec.param.get(m);
@@ -121,8 +131,8 @@ pub(crate) fn screen_points(knob: &Knob, starts: &[ModelParams]) -> [Vec<f64>; P
         let c = starts.first().map_or(f64::NAN, of);
         let same = starts.iter().all(|m| of(m) == c);
         let (lo, hi) = (spec.lower, spec.upper);
-        let pair = if same && c.is_finite() && (lo..=hi).contains(&c) {
-            let d = SCREEN_STEP * (hi - lo);
+        let beside = |step: f64| {
+            let d = step * (hi - lo);
             let (a, b) = if c + d > hi {
                 (c - d, c - 2.0 * d)
             } else if c - d < lo {
@@ -131,16 +141,21 @@ pub(crate) fn screen_points(knob: &Knob, starts: &[ModelParams]) -> [Vec<f64>; P
                 (c + d, c - d)
             };
             if j % 2 == 0 {
-                (a, b)
+                [a, b]
             } else {
-                (b, a)
+                [b, a]
             }
-        } else {
-            let at = |z: f64| lo + z * (hi - lo);
-            (at(far[1][j]), at(far[2][j]))
         };
-        points[0].push(pair.0);
-        points[1].push(pair.1);
+        let values: [f64; POINTS_PER_KNOB] = if same && c.is_finite() && (lo..=hi).contains(&c) {
+            let [a, b] = beside(SCREEN_STEP);
+            let [e, f] = beside(FINE_SCREEN_STEP);
+            [a, b, e, f]
+        } else {
+            std::array::from_fn(|i| lo + far[i + 1][j] * (hi - lo))
+        };
+        for (p, v) in points.iter_mut().zip(values) {
+            p.push(v);
+        }
     }
     points
 }
@@ -264,7 +279,7 @@ mod tests {
     }
 
     #[test]
-    fn points_sit_an_eighth_of_the_box_either_side_of_the_calibrated_value() {
+    fn points_sit_an_eighth_and_a_thirty_second_of_the_box_either_side_of_the_calibrated_value() {
         let m = start();
         let peak = m.terrain.friction.peak_longitudinal;
         let p = screen_points(
@@ -277,6 +292,9 @@ mod tests {
         );
         assert!((p[0][0] - (peak + 0.125)).abs() < 1e-12, "{p:?}");
         assert!((p[1][0] - (peak - 0.125)).abs() < 1e-12, "{p:?}");
+        // The inner pair: a thirty-second of the box either side.
+        assert!((p[2][0] - (peak + 0.03125)).abs() < 1e-12, "{p:?}");
+        assert!((p[3][0] - (peak - 0.03125)).abs() < 1e-12, "{p:?}");
         // At the lower bound both points step inwards.
         let p = screen_points(
             &knob(vec![ParamSpec::new(Param::PeakLongitudinal, peak, peak + 1.0)]),
@@ -284,6 +302,10 @@ mod tests {
         );
         assert!(
             (p[0][0] - (peak + 0.125)).abs() < 1e-12 && (p[1][0] - (peak + 0.25)).abs() < 1e-12,
+            "{p:?}"
+        );
+        assert!(
+            (p[2][0] - (peak + 0.03125)).abs() < 1e-12 && (p[3][0] - (peak + 0.0625)).abs() < 1e-12,
             "{p:?}"
         );
         // An effect the model does not run starts from its neutral value (dead time 0), and a
@@ -318,6 +340,11 @@ mod tests {
         let p = screen_points(&outside, std::slice::from_ref(&m));
         assert!(
             (p[0][0] - (peak + 1.25)).abs() < 1e-12 && (p[1][0] - (peak + 1.75)).abs() < 1e-12,
+            "{p:?}"
+        );
+        // Then two of the eighths.
+        assert!(
+            (p[2][0] - (peak + 1.125)).abs() < 1e-12 && (p[3][0] - (peak + 1.625)).abs() < 1e-12,
             "{p:?}"
         );
         let mut other = m.clone();

@@ -3,10 +3,12 @@
 //! The search is `tune`'s: a Halton design over the knobs' box and a Nelder–Mead simplex from
 //! its best point, every point run on the same seeds ([`drive_sim_compare::tune::search`]). It
 //! starts from each knob's best screening point. A robot knob is one coordinate shared by
-//! every ground; a ground's knob is one coordinate per ground. The check runs the calibrated
-//! model and the choice on seeds the search never used, paired by seed, and keeps the choice
+//! every ground; a ground's knob is one coordinate per ground. The check runs the model the
+//! search started from (the calibrated one, or in a pass's second round the twin the first
+//! tuned) and the choice on seeds the search never used, paired by seed, and keeps the choice
 //! only when its loss reduction exceeds twice its standard error
-//! ([`drive_sim_compare::tune::check_rule`]); otherwise the twin stays the calibrated model.
+//! ([`drive_sim_compare::tune::check_rule`]); otherwise the twin stays the model it started
+//! from.
 
 use crate::closed::Closed;
 use crate::event::TwinEvent;
@@ -75,7 +77,7 @@ pub struct Tuning {
     pub seeds: Vec<u64>,
     /// The tuned values.
     pub values: Vec<TunedValue>,
-    /// The calibrated model's loss on the search's seeds.
+    /// The start model's loss on the search's seeds (the calibrated model's in a first round).
     pub start_loss: Option<f64>,
     /// The best point's.
     pub chosen_loss: f64,
@@ -155,7 +157,7 @@ impl Space {
 /// What [`tune`] works on.
 pub(crate) struct TuneInput<'a> {
     pub(crate) closed: &'a Closed<'a>,
-    /// The calibrated model of each ground.
+    /// The model of each ground the search starts from (calibrated, or the first round's twin).
     pub(crate) starts: &'a [ModelParams],
     /// The knobs the rule chose, from the pool.
     pub(crate) knobs: Vec<&'a Knob>,

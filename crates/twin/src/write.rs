@@ -197,9 +197,16 @@ fn provenance_of(w: &Written, which: Which, g: usize, tuned: bool) -> Provenance
         header.push("The tuned model did not complete its closed-loop check: these are the calibrated model's values.".into());
     }
     header.push("[fit] comments: calibrated by replay (clustered sandwich over the training steps); [twin] comments: tuned in closed loop.".into());
-    let chosen = match (&judged.pass.tuning, tuned) {
-        (Some(t), true) if t.accepted => t
-            .values
+    // Both rounds' values, each round's when its check accepted it.
+    let rounds = judged
+        .pass
+        .tuning
+        .iter()
+        .chain(judged.pass.refinement.as_ref().and_then(|r| r.tuning.as_ref()))
+        .filter(|t| tuned && t.accepted);
+    let chosen = rounds
+        .flat_map(|t| {
+            t.values
             .iter()
             .filter(|v| v.ground.as_deref().is_none_or(|gr| gr == cal.ground))
             .map(|v| {
@@ -225,9 +232,8 @@ fn provenance_of(w: &Written, which: Which, g: usize, tuned: bool) -> Provenance
                     ),
                 )
             })
-            .collect(),
-        _ => Vec::new(),
-    };
+        })
+        .collect();
     Provenance {
         header,
         fitted: cal
