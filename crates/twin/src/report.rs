@@ -482,6 +482,27 @@ fn choice(s: &mut String, r: &TwinReport) {
         sc.start.loss.map_or("-".into(), |l| format!("{l:.2}")),
         c.rule_text
     );
+    considered_table(s, c);
+    if let Some(rf) = &r.final_twin.pass.refinement {
+        let _ = writeln!(
+            s,
+            "\nThe second round, from the twin the first round tuned: the {} other knobs screened the same way on the same seeds ({} DRIVE runs); the tuned twin's loss there: {}. The same rule with at most {} knobs and {} coordinates, the gains over the tuned twin's loss.\n",
+            rf.screening.knobs.len(),
+            rf.screening.runs,
+            rf.screening.start.loss.map_or("-".into(), |l| format!("{l:.2}")),
+            rf.choice.rule.max_knobs,
+            rf.choice.rule.max_coordinates
+        );
+        considered_table(s, &rf.choice);
+    }
+}
+
+/// One round's knobs with a gain, and what the rule decided of each.
+fn considered_table(s: &mut String, c: &crate::rule::Choice) {
+    if c.considered.is_empty() {
+        s.push_str("No knob lowered the loss at its screening points.\n");
+        return;
+    }
     s.push_str("| knob | gain | of the loss | decision |\n|---|---|---|---|\n");
     for k in &c.considered {
         let _ = writeln!(
