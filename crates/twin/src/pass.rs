@@ -113,16 +113,6 @@ pub struct Refinement {
     pub tuning: Option<Tuning>,
 }
 
-impl Refinement {
-    /// The knobs the twin carries from this round: tuned, and the check accepted them.
-    pub fn carried(&self) -> &[String] {
-        match &self.tuning {
-            Some(t) if t.accepted => &self.choice.chosen,
-            _ => &[],
-        }
-    }
-}
-
 /// A pass's outcome: the report and the models.
 pub(crate) struct Pass {
     pub(crate) report: PassReport,
