@@ -224,24 +224,24 @@ pub(crate) fn run_pass(req: &PassRequest, progress: &(dyn Fn(&TwinEvent) + Sync)
         check_seeds: &check_seeds,
     };
     let (tuning, twin) = round.tune(&calibrated, &screening, &choice, progress);
-    timed("tune", t0);
-    let refinement = match &tuning {
-        Some(t) if t.accepted => {
-            let t0 = Instant::now();
-            let r = round.refine(&twin, &choice.chosen, req, progress);
-            timed("refine", t0);
-            Some(r)
-        }
-        _ => None,
+    // The twin's score on the check's seeds belongs to the last stage that changed it.
+    let score = |twin: &Vec<ModelParams>| {
+        closed
+            .score(std::slice::from_ref(twin), &check_seeds, &names)
+            .remove(0)
     };
-    let twin = match &refinement {
-        Some((_, m)) => m.clone(),
-        None => twin,
+    let (refinement, twin, twin_score) = if tuning.as_ref().is_some_and(|t| t.accepted) {
+        timed("tune", t0);
+        let t0 = Instant::now();
+        let (r, twin) = round.refine(&twin, &choice.chosen, req, progress);
+        let twin_score = score(&twin);
+        timed("refine", t0);
+        (Some(r), twin, twin_score)
+    } else {
+        let twin_score = score(&twin);
+        timed("tune", t0);
+        (None, twin, twin_score)
     };
-    let refinement = refinement.map(|(r, _)| r);
-    let twin_score = closed
-        .score(std::slice::from_ref(&twin), &check_seeds, &names)
-        .remove(0);
     Ok(Pass {
         report: PassReport {
             steps: req.steps.as_str().to_string(),

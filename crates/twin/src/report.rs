@@ -403,12 +403,7 @@ fn changed(s: &mut String, r: &TwinReport) {
         let chosen = &rf.choice.chosen;
         let _ = writeln!(
             s,
-            "\nThen a second round from the tuned twin: the {} other knobs screened again as below ({} DRIVE runs; the tuned twin's loss there: {}), and the rule at most {} knobs and {} coordinates: {}.\n",
-            rf.screening.knobs.len(),
-            rf.screening.runs,
-            rf.screening.start.loss.map_or("-".into(), |l| format!("{l:.2}")),
-            rf.choice.rule.max_knobs,
-            rf.choice.rule.max_coordinates,
+            "\nThen a second round from the tuned twin (how, below): {}.\n",
             if chosen.is_empty() {
                 "no knob lowered its loss enough".to_string()
             } else {
