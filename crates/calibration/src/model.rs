@@ -158,11 +158,6 @@ impl PlantFactory for SimFactory {
             ),
             ParamSpec::new(Param::PeakLateral, f.sliding_lateral, top(f.peak_lateral)),
             ParamSpec::new(Param::PeakSlipRatio, 0.02, 0.5),
-            // The tyre's lateral compliance sets how a pivot shares its slip between the
-            // sides; terrain files only estimate it, and the turns of a replay see it. The box
-            // spans what tyres show (3 to 20 degrees), so that it cannot stand in for a body
-            // drift the model's tyres could not make.
-            ParamSpec::new(Param::PeakSlipAngle, 0.05, 0.35),
             ParamSpec::new(Param::RollingCoefficient, 0.0, 0.3),
             ParamSpec::new(Param::TimeConstant, 0.02, 1.5),
         ]

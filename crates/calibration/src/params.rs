@@ -15,8 +15,6 @@ pub enum Param {
     PeakLateral,
     /// Terrain: slip ratio at the friction peak.
     PeakSlipRatio,
-    /// Terrain: slip angle at the lateral friction peak, rad (the tyre's lateral compliance).
-    PeakSlipAngle,
     /// Terrain: rolling-resistance coefficient.
     RollingCoefficient,
     /// Robot: baseline (wheel separation), m; the kinematic model's effective baseline.
@@ -45,7 +43,6 @@ impl Param {
             Self::PeakLongitudinal => "terrain.friction.peak_longitudinal".into(),
             Self::PeakLateral => "terrain.friction.peak_lateral".into(),
             Self::PeakSlipRatio => "terrain.friction.peak_slip_ratio".into(),
-            Self::PeakSlipAngle => "terrain.friction.peak_slip_angle_rad".into(),
             Self::RollingCoefficient => "terrain.resistance.rolling_coefficient".into(),
             Self::Baseline => "robot.wheels.baseline_m".into(),
             Self::TimeConstant => "robot.powertrain.time_constant_s".into(),
@@ -65,11 +62,9 @@ impl Param {
     /// ([`Effect::on_terrain`]).
     pub fn on_terrain(&self) -> bool {
         match self {
-            Self::PeakLongitudinal
-            | Self::PeakLateral
-            | Self::PeakSlipRatio
-            | Self::PeakSlipAngle
-            | Self::RollingCoefficient => true,
+            Self::PeakLongitudinal | Self::PeakLateral | Self::PeakSlipRatio | Self::RollingCoefficient => {
+                true
+            }
             Self::Baseline | Self::TimeConstant => false,
             Self::Effect { .. } => self.effect().is_some_and(|e| e.on_terrain()),
         }
@@ -81,7 +76,6 @@ impl Param {
             Self::PeakLongitudinal | Self::PeakLateral | Self::PeakSlipRatio | Self::RollingCoefficient => {
                 "-"
             }
-            Self::PeakSlipAngle => "rad",
             Self::Baseline => "m",
             Self::TimeConstant => "s",
             Self::Effect { .. } => self.def().map_or("-", |d| d.unit),
@@ -127,7 +121,6 @@ impl Param {
             Self::PeakLongitudinal => m.terrain.friction.peak_longitudinal,
             Self::PeakLateral => m.terrain.friction.peak_lateral,
             Self::PeakSlipRatio => m.terrain.friction.peak_slip_ratio,
-            Self::PeakSlipAngle => m.terrain.friction.peak_slip_angle_rad,
             Self::RollingCoefficient => m.terrain.resistance.rolling_coefficient,
             Self::Baseline => m.robot.wheels.baseline_m,
             Self::TimeConstant => m.robot.powertrain.time_constant_s,
@@ -152,7 +145,6 @@ impl Param {
             Self::PeakLongitudinal => m.terrain.friction.peak_longitudinal = v,
             Self::PeakLateral => m.terrain.friction.peak_lateral = v,
             Self::PeakSlipRatio => m.terrain.friction.peak_slip_ratio = v,
-            Self::PeakSlipAngle => m.terrain.friction.peak_slip_angle_rad = v,
             Self::RollingCoefficient => m.terrain.resistance.rolling_coefficient = v,
             Self::Baseline => m.robot.wheels.baseline_m = v,
             Self::TimeConstant => m.robot.powertrain.time_constant_s = v,
@@ -307,17 +299,6 @@ mod tests {
         assert_eq!(dead.unit(), "s");
         assert_eq!(dead.neutral(), Some(0.0));
         assert_eq!(Param::PeakLateral.name(), "terrain.friction.peak_lateral");
-        // The tyre's slip angle at its lateral peak: a property of the ground, in radians.
-        let angle = [ParamSpec::new(Param::PeakSlipAngle, 0.05, 0.35)];
-        let m = p.with_values(&angle, &[0.3]).unwrap();
-        assert_eq!(m.terrain.friction.peak_slip_angle_rad, 0.3);
-        assert_eq!(m.values_of(&angle), vec![0.3]);
-        assert_eq!(
-            Param::PeakSlipAngle.name(),
-            "terrain.friction.peak_slip_angle_rad"
-        );
-        assert_eq!(Param::PeakSlipAngle.unit(), "rad");
-        assert!(Param::PeakSlipAngle.on_terrain());
     }
 
     #[test]

@@ -64,8 +64,6 @@ pub fn calibrate_timed(
             },
         )
     })?;
-    // The later stages refit only the base parameters the training steps determine.
-    let base_specs = &baseline.specs.clone();
     let (screening, screened) = screen(ctx, &mut timings, setup.pool, base_specs)?;
     let (selection, discovery) = select(ctx, &mut timings, &baseline, screened, base_specs)?;
     let final_fit = timings.time("final fit", || {
