@@ -200,22 +200,7 @@ pub(crate) fn run_pass(req: &PassRequest, progress: &(dyn Fn(&TwinEvent) + Sync)
         .filter(|k| req.knobs.is_none_or(|only| only.contains(&k.name)))
         .collect();
     let seed = req.opts.seed;
-    let t0 = Instant::now();
-    let screening = screen(
-        &ScreenInput {
-            closed: &closed,
-            starts: &calibrated,
-            knobs: &knobs,
-            seeds: &[seed, seed + 1],
-            names: &names,
-        },
-        progress,
-    );
-    timed("screen", t0);
-    let choice = Rule::default().choose(&screening, req.grounds.len(), req.opts.budget);
-    progress(&TwinEvent::Chosen { choice: &choice });
     let check_seeds: Vec<u64> = (0..3).map(|i| seed + CHECK_SEED_OFFSET + i).collect();
-    let t0 = Instant::now();
     let round = Round {
         closed: &closed,
         knobs: &knobs,
@@ -223,6 +208,12 @@ pub(crate) fn run_pass(req: &PassRequest, progress: &(dyn Fn(&TwinEvent) + Sync)
         seed,
         check_seeds: &check_seeds,
     };
+    let t0 = Instant::now();
+    let screening = round.screen(&calibrated, &knobs, progress);
+    timed("screen", t0);
+    let choice = Rule::default().choose(&screening, req.grounds.len(), req.opts.budget);
+    progress(&TwinEvent::Chosen { choice: &choice });
+    let t0 = Instant::now();
     let (tuning, twin) = round.tune(&calibrated, &screening, &choice, progress);
     // The twin's score on the check's seeds belongs to the last stage that changed it.
     let score = |twin: &Vec<ModelParams>| {
@@ -273,6 +264,25 @@ struct Round<'a> {
 }
 
 impl Round<'_> {
+    /// Screens `knobs` from `starts` on the pass's two screening seeds.
+    fn screen(
+        &self,
+        starts: &[ModelParams],
+        knobs: &[Knob],
+        progress: &(dyn Fn(&TwinEvent) + Sync),
+    ) -> Screening {
+        screen(
+            &ScreenInput {
+                closed: self.closed,
+                starts,
+                knobs,
+                seeds: &[self.seed, self.seed + 1],
+                names: self.names,
+            },
+            progress,
+        )
+    }
+
     /// Tunes `choice`'s knobs from `starts` (nothing when it chose none); the tuning and the
     /// twin (`starts` unless the check accepted the tuning).
     fn tune(
@@ -322,16 +332,7 @@ impl Round<'_> {
             .filter(|k| !tuned.contains(&k.name))
             .cloned()
             .collect();
-        let screening = screen(
-            &ScreenInput {
-                closed: self.closed,
-                starts: twin,
-                knobs: &rest,
-                seeds: &[self.seed, self.seed + 1],
-                names: self.names,
-            },
-            progress,
-        );
+        let screening = self.screen(twin, &rest, progress);
         let choice = Rule::refinement().choose(&screening, req.grounds.len(), req.opts.budget);
         progress(&TwinEvent::Chosen { choice: &choice });
         let (tuning, twin) = self.tune(twin, &screening, &choice, progress);
