@@ -225,25 +225,6 @@ fn more_turning_resistance_turns_slower() {
 }
 
 #[test]
-fn tyres_that_keep_their_grip_along_the_wheel_while_scrubbing_turn_more() {
-    // A pivot: the left side held still, the right driven. On one friction ellipse both sides'
-    // tyres scrub sideways and lose their grip along the wheel with it, so the sides' pull
-    // apart turns the body less than with the sideslip weighed less in traction.
-    let pivot = |effects: &[(&str, f64)]| {
-        let (_, mut s) = setup("warthog", "asphalt", effects);
-        let run = hold(&mut s, WheelSpeeds::new(0.0, 6.0), 5.0);
-        mean_tail(&run, 40, |x| x.1.wz_rad_s)
-    };
-    let (ellipse, weighed) = (pivot(&[]), pivot(&[("traction_sideslip_weight", 0.5)]));
-    assert!(weighed > 1.05 * ellipse, "turns more: {weighed} vs {ellipse}");
-    assert_eq!(
-        pivot(&[("traction_sideslip_weight", 1.0)]),
-        ellipse,
-        "1 is the model unchanged"
-    );
-}
-
-#[test]
 fn torsion_springs_back_after_a_slow_turn() {
     // A slow turn in place winds up the tyres; when the command stops, the chassis rotates
     // back (yaw rate changes sign). Without the effect it just stops.

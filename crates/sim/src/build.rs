@@ -196,7 +196,7 @@ impl Simulator {
             time_constant_s: robot.powertrain.time_constant_s * mods.time_constant_scale,
             com_height_m: b.com_height_m,
             sinkage_m: suspension.sinkage_m,
-            tyre: TyreParams::new(terrain, radius_m, w.width_m, &mods),
+            tyre: TyreParams::new(terrain, radius_m, w.width_m, mods.lateral_friction_scale),
             nominal: robot.idd(),
             effects,
             mods,

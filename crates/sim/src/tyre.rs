@@ -6,11 +6,7 @@
 //! `σ = |(s / s_peak, tan α / tan α_peak)|`, the coefficient is `μ_peak (2σ - σ²)` up to the peak
 //! (`σ = 1`) and `μ_slide + (μ_peak - μ_slide) / (1 + ((σ - 1) / 2)²)` beyond. The force points
 //! against the normalised slip vector, scaled by each direction's coefficient (friction ellipse).
-//! The `traction_sideslip_weight` effect `c` weighs the slip angle less in the longitudinal
-//! force: it sees `σ_x = |(s / s_peak, c tan α / tan α_peak)|` and points along
-//! `(s, c tan α)`, so a tyre scrubbing sideways keeps more of its grip along the wheel.
 
-use drive_sim_model::effects::PlantModifiers;
 use drive_sim_model::terrain::Terrain;
 
 /// Speed below which slip ratio and slip angle are regularised, m/s. Below it the friction
@@ -42,17 +38,12 @@ pub struct TyreParams {
     pub bulldoze_long_n: f64,
     /// Bulldozing force of one wheel against lateral motion, N.
     pub bulldoze_lat_n: f64,
-    /// Weight of the slip angle in the longitudinal force's combined slip (1: one friction
-    /// ellipse for both forces; the `traction_sideslip_weight` effect).
-    pub sideslip_weight_x: f64,
 }
 
 impl TyreParams {
-    /// Coefficients of `terrain` for a wheel of `radius_m` and `width_m`, with the contact
-    /// effects of `mods` applied (the lateral friction's multiplier, the sideslip's weight in
-    /// traction).
-    pub fn new(terrain: &Terrain, radius_m: f64, width_m: f64, mods: &PlantModifiers) -> Self {
-        let lateral_scale = mods.lateral_friction_scale;
+    /// Coefficients of `terrain` for a wheel of `radius_m` and `width_m`, with the lateral
+    /// friction scaled by `lateral_scale` (the turning-resistance effect).
+    pub fn new(terrain: &Terrain, radius_m: f64, width_m: f64, lateral_scale: f64) -> Self {
         let f = &terrain.friction;
         let r = &terrain.resistance;
         let z = r.sinkage_m.min(radius_m);
@@ -69,7 +60,6 @@ impl TyreParams {
             churning_s_m: r.churning_drag_s_m,
             bulldoze_long_n: r.bulldozing_pressure_pa * width_m * z,
             bulldoze_lat_n: r.bulldozing_pressure_pa * chord_m * z,
-            sideslip_weight_x: mods.traction_sideslip_weight,
         }
     }
 }
@@ -82,14 +72,6 @@ fn mu_over_sigma(peak: f64, slide: f64, sigma: f64) -> f64 {
         let d = 0.5 * (sigma - 1.0);
         (slide + (peak - slide) / (1.0 + d * d)) / sigma
     }
-}
-
-/// The longitudinal force's normalised slip and slip norm with the slip angle weighed by
-/// [`TyreParams::sideslip_weight_x`] (`nx`, `ny`: the normalised slips). Both are positive
-/// wherever the slip is, as the weight is.
-fn longitudinal_slip(p: &TyreParams, sx: f64, sy: f64, nx: f64, ny: f64) -> (f64, f64) {
-    let c2 = p.sideslip_weight_x * p.sideslip_weight_x;
-    ((nx * nx + c2 * ny * ny).sqrt(), (sx * sx + c2 * sy * sy).sqrt())
 }
 
 /// Saturating sign, linear below [`REG_SPEED_M_S`].
@@ -150,14 +132,10 @@ pub fn contact_force(
         (0.0, 0.0)
     } else {
         let k = load_n * sigma / s;
-        let fy = k * mu_over_sigma(p.mu_y_peak, p.mu_y_slide, sigma) * sy;
-        let fx = if p.sideslip_weight_x == 1.0 {
-            k * mu_over_sigma(p.mu_x_peak, p.mu_x_slide, sigma) * sx
-        } else {
-            let (sigma_x, s_x) = longitudinal_slip(p, sx, sy, nx, ny);
-            load_n * sigma_x / s_x * mu_over_sigma(p.mu_x_peak, p.mu_x_slide, sigma_x) * sx
-        };
-        (fx, fy)
+        (
+            k * mu_over_sigma(p.mu_x_peak, p.mu_x_slide, sigma) * sx,
+            k * mu_over_sigma(p.mu_y_peak, p.mu_y_slide, sigma) * sy,
+        )
     };
     let bx = -p.bulldoze_long_n * reg_sign(vx);
     let by = -p.bulldoze_lat_n * reg_sign(vy);
@@ -275,30 +253,12 @@ pub fn contact_force_and_jacobian(
             jac[0][k] = load_n * (dmux * dsigma * ux + mux * dux);
             jac[1][k] = load_n * (dmuy * dsigma * uy + muy * duy);
         }
-        if p.sideslip_weight_x != 1.0 {
-            // The longitudinal force on its own combined slip.
-            let c2 = p.sideslip_weight_x * p.sideslip_weight_x;
-            let (sigma_x, s_x) = longitudinal_slip(p, sx, sy, nx, ny);
-            let (mux, dmux) = mu_and_slope(p.mu_x_peak, p.mu_x_slide, sigma_x);
-            let ux = sx / s_x;
-            for k in 0..3 {
-                let ds_x = (sx * d_sx[k] + c2 * sy * d_sy[k]) / s_x;
-                let dsigma_x =
-                    (nx * d_sx[k] / p.slip_ratio_peak + c2 * ny * d_sy[k] / p.tan_slip_angle_peak) / sigma_x;
-                let dux = (d_sx[k] - ux * ds_x) / s_x;
-                jac[0][k] = load_n * (dmux * dsigma_x * ux + mux * dux);
-            }
-        }
         // Same association as `contact_force`, for the same rounding.
         let k = load_n * sigma / s;
-        let fy = k * mu_over_sigma(p.mu_y_peak, p.mu_y_slide, sigma) * sy;
-        let fx = if p.sideslip_weight_x == 1.0 {
-            k * mu_over_sigma(p.mu_x_peak, p.mu_x_slide, sigma) * sx
-        } else {
-            let (sigma_x, s_x) = longitudinal_slip(p, sx, sy, nx, ny);
-            load_n * sigma_x / s_x * mu_over_sigma(p.mu_x_peak, p.mu_x_slide, sigma_x) * sx
-        };
-        (fx, fy)
+        (
+            k * mu_over_sigma(p.mu_x_peak, p.mu_x_slide, sigma) * sx,
+            k * mu_over_sigma(p.mu_y_peak, p.mu_y_slide, sigma) * sy,
+        )
     };
     let bx = -p.bulldoze_long_n * reg_sign(vx);
     let by = -p.bulldoze_lat_n * reg_sign(vy);
@@ -325,7 +285,7 @@ mod tests {
 
     fn params() -> TyreParams {
         let (t, _) = Terrain::resolve("asphalt").unwrap();
-        TyreParams::new(&t, 0.3, 0.3, &PlantModifiers::default())
+        TyreParams::new(&t, 0.3, 0.3, 1.0)
     }
 
     #[test]
@@ -376,16 +336,10 @@ mod tests {
         };
         for terrain in ["asphalt", "ice", "mud", "sand"] {
             let (t, _) = Terrain::resolve(terrain).unwrap();
-            let mods = PlantModifiers {
-                lateral_friction_scale: 0.8,
-                ..PlantModifiers::default()
-            };
-            let mut p = TyreParams::new(&t, 0.3, 0.3, &mods);
+            let p = TyreParams::new(&t, 0.3, 0.3, 0.8);
             let mut checked = 0;
             for _ in 0..400 {
                 let (n, vx, vy, w) = (rnd(0.0, 3000.0), rnd(-4.0, 4.0), rnd(-2.0, 2.0), rnd(-15.0, 15.0));
-                // Half the points with the sideslip weighed less in traction.
-                p.sideslip_weight_x = if rnd(0.0, 1.0) < 0.5 { 1.0 } else { rnd(0.05, 1.0) };
                 let torsion = (rnd(0.0, 1.0) < 0.3).then(|| (rnd(-0.3, 0.3), rnd(0.0, 2.0)));
                 let lateral = torsion.map(|(t, _)| t);
                 let (f, j) = contact_force_and_jacobian(&p, n, vx, vy, w, 0.3, torsion);

@@ -40,7 +40,6 @@ mod step_draw;
 mod suspension_torsion;
 pub mod term;
 mod time_constant_scale;
-mod traction_sideslip;
 mod turn_memory;
 mod turning_resistance;
 mod wheel_deadband;
@@ -271,9 +270,6 @@ pub struct PlantModifiers {
     pub dead_time_s: f64,
     /// Multiplies the lateral friction coefficients of the tyre model.
     pub lateral_friction_scale: f64,
-    /// Weight of the slip angle in the tyre's longitudinal combined slip (1: the friction
-    /// ellipse).
-    pub traction_sideslip_weight: f64,
     /// Lateral relaxation length of the tyres, m (0: quasi-static tyre).
     pub relaxation_length_m: f64,
     /// Age of the pose when it is read, s.
@@ -299,7 +295,6 @@ impl Default for PlantModifiers {
             time_constant_scale: 1.0,
             dead_time_s: 0.0,
             lateral_friction_scale: 1.0,
-            traction_sideslip_weight: 1.0,
             relaxation_length_m: 0.0,
             pose_latency_s: 0.0,
             body_time_constant_s: 0.0,
@@ -447,7 +442,6 @@ pub static REGISTRY: LazyLock<Vec<&'static dyn Effect>> = LazyLock::new(|| {
     r.extend(terms[2..5].iter().map(|t| t as &'static dyn Effect));
     r.extend([
         &turning_resistance::TurningResistance as &'static dyn Effect,
-        &traction_sideslip::TractionSideslip,
         &suspension_torsion::SuspensionTorsion,
         &imu_yaw_rate_sign_flip::ImuYawRateSignFlip,
         &imu_yaw_rate_scale::ImuYawRateScale,
