@@ -147,19 +147,16 @@ impl PlantFactory for SimFactory {
     }
     fn base_params(&self, params: &ModelParams) -> Vec<ParamSpec> {
         let f = &params.terrain.friction;
-        // A peak carries its sliding value in the declared ratio (`Param::set`), so every point
-        // of the box is a valid terrain; from half the declared peak (a terrain file's
-        // friction is an estimate within a factor of about two) to 1.5 times it, below the
-        // cap of 3 of the terrain file's validation.
-        let bottom = |declared: f64| 0.5 * declared;
+        // Peaks are searched above the (fixed) sliding values, so every point of the box is a
+        // valid terrain; the terrain file's validation caps friction at 3.
         let top = |declared: f64| (1.5 * declared).clamp(1.2, 3.0);
         vec![
             ParamSpec::new(
                 Param::PeakLongitudinal,
-                bottom(f.peak_longitudinal),
+                f.sliding_longitudinal,
                 top(f.peak_longitudinal),
             ),
-            ParamSpec::new(Param::PeakLateral, bottom(f.peak_lateral), top(f.peak_lateral)),
+            ParamSpec::new(Param::PeakLateral, f.sliding_lateral, top(f.peak_lateral)),
             ParamSpec::new(Param::PeakSlipRatio, 0.02, 0.5),
             ParamSpec::new(Param::RollingCoefficient, 0.0, 0.3),
             ParamSpec::new(Param::TimeConstant, 0.02, 1.5),

@@ -142,18 +142,8 @@ impl Param {
             });
         }
         match self {
-            // The sliding value follows its peak in the ratio the terrain file declares: the
-            // data place the curve's level, not its shape beyond the peak.
-            Self::PeakLongitudinal => {
-                let f = &mut m.terrain.friction;
-                f.sliding_longitudinal *= v / f.peak_longitudinal;
-                f.peak_longitudinal = v;
-            }
-            Self::PeakLateral => {
-                let f = &mut m.terrain.friction;
-                f.sliding_lateral *= v / f.peak_lateral;
-                f.peak_lateral = v;
-            }
+            Self::PeakLongitudinal => m.terrain.friction.peak_longitudinal = v,
+            Self::PeakLateral => m.terrain.friction.peak_lateral = v,
             Self::PeakSlipRatio => m.terrain.friction.peak_slip_ratio = v,
             Self::RollingCoefficient => m.terrain.resistance.rolling_coefficient = v,
             Self::Baseline => m.robot.wheels.baseline_m = v,
