@@ -55,26 +55,21 @@ impl ScatterDiff {
         }
     }
 
-    /// The difference in scatter (simulated − real) scaled to be 1 where [`Self::differs`]
-    /// starts to hold: over the larger of [`SCATTER_TOLERANCE_RAD_S`] and the gap at which the
-    /// two intervals stop overlapping (the real interval's half towards the simulated estimate
-    /// plus the simulated interval's half towards the real one). `None` without both
-    /// estimates and intervals. The term of `compare`'s loss for the step scatter.
+    /// The difference in scatter (simulated − real) over the real interval's width, at least
+    /// [`SCATTER_TOLERANCE_RAD_S`]: 1 where the intervals of two runs as uncertain as the real
+    /// one would stop overlapping (if the twin were the robot, its estimate would carry the
+    /// robot's interval). `None` without both estimates and the real interval. The term of
+    /// `compare`'s loss for the step scatter.
+    ///
+    /// Why not the simulated run's own interval: a bootstrap interval of a scatter widens with
+    /// the scatter, so a twin that scattered more would be held to a looser scale, and a search
+    /// minimising the loss would buy the other terms with scatter the robot does not have.
     pub fn scaled_difference(&self) -> Option<f64> {
-        let (Some(r), Some(s), Some(ri), Some(si)) = (
-            self.real.wheel_rad_s,
-            self.sim.wheel_rad_s,
-            self.real.ci95,
-            self.sim.ci95,
-        ) else {
+        let (Some(r), Some(s), Some(ri)) = (self.real.wheel_rad_s, self.sim.wheel_rad_s, self.real.ci95)
+        else {
             return None;
         };
-        let gap = if s >= r {
-            (ri.upper - r) + (s - si.lower)
-        } else {
-            (r - ri.lower) + (si.upper - s)
-        };
-        let scale = gap.max(SCATTER_TOLERANCE_RAD_S);
+        let scale = (ri.upper - ri.lower).max(SCATTER_TOLERANCE_RAD_S);
         ((s - r).is_finite() && scale.is_finite()).then(|| (s - r) / scale)
     }
 

@@ -385,7 +385,7 @@ pub fn write_comparison(r: &ComparisonReport, real_u: &[(f64, f64)], dir: &Path)
     }
     html.section("Step scatter");
     html.paragraph(
-        "How far apart two steps with nearly the same command (within 1 rad/s) land, per wheel: 1.4826 · median |d| / √2 of the pairs' differences in tracking error, with a 95 % bootstrap-over-pairs interval; a step-level offset that window noise does not explain. Not part of the verdict; a term of the loss (the difference over the gap at which the two intervals stop overlapping, at least 0.1 rad/s), so that `tune` and `twin` match it.",
+        "How far apart two steps with nearly the same command (within 1 rad/s) land, per wheel: 1.4826 · median |d| / √2 of the pairs' differences in tracking error, with a 95 % bootstrap-over-pairs interval; a step-level offset that window noise does not explain. Not part of the verdict; a term of the loss (the difference over the width of the real run's interval, at least 0.1 rad/s), so that `tune` and `twin` match it.",
     );
     for c in &r.sims {
         if let Some(d) = &c.step_scatter {
