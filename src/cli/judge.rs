@@ -140,6 +140,7 @@ pub fn judge(args: &JudgeArgs) -> anyhow::Result<()> {
     outcome.yardsticks = judge::yardsticks(&judge::YardstickRequest {
         real: &log,
         others: &other_refs,
+        others_half: None,
         model: &model,
         opts: &opts,
         twin_mean_loss: outcome.loss.real,

@@ -2,16 +2,18 @@
 //! can tell a real run from the twin's own runs, on cases whose answer is known:
 //! - the null case: the "real" run is a run of the model itself, with a seed neither its runs
 //!   nor its references use: indistinguishable (the test's level over several such runs is
-//!   measured in the statistics tier, `tests/statistics/judge_level.rs`);
+//!   measured in the statistics tier, `tests/statistics/judge_level.rs`); the same on the even
+//!   steps of such a run, the references drawn as that half was;
 //! - an independent generator (`tests/common/generator.rs`, not the project's plants) whose
 //!   motors clip at 10 rad/s, against the simulated Warthog without any limit: distinguishable,
 //!   the real run more extreme than every reference, on the loss (which decides) and on the
 //!   count of runs called "differs".
 
 use crate::common;
-use common::judging::{generator_and_model, judged, opts, STEPS};
+use common::judging::{generator_and_model, judged, judged_with, opts, STEPS};
 use drive_sim::calibration::twin;
 use drive_sim::compare::judge::{judge, JudgeOptions, JudgeRequest, DIFFERS};
+use drive_sim::log::UseSteps;
 use drive_sim::terrain::Terrain;
 
 /// The null case: a run of the model itself (a seed neither its runs nor its references use)
@@ -27,6 +29,37 @@ fn a_run_of_the_model_itself_is_not_told_apart() {
     assert_eq!(null.sim_seeds, vec![0, 1, 2, 3]);
     // Every reference saw the same runs: one score per run each.
     assert!(null.references.iter().all(|r| r.runs.len() == 4));
+    assert!(null.indistinguishable, "p {}", null.loss.p);
+}
+
+/// The null case on one half of a run: the even steps of a run of the model itself. Each
+/// reference is drawn the same way, the even steps of a run as long (not a run as long as the
+/// half, whose steps follow one another: `ReferenceRuns`), and the half is not told apart.
+#[test]
+fn the_even_steps_of_a_run_of_the_model_itself_are_not_told_apart() {
+    let (_, model) = generator_and_model(10.0, STEPS);
+    let own = drive_sim::compare::tune::twin_run(&model, 2 * STEPS, 778).unwrap();
+    let o = JudgeOptions {
+        real_steps: UseSteps::Even,
+        ..opts()
+    };
+    let null = judged_with(&own, &model, &o);
+    assert_eq!(
+        null.reference_run_steps,
+        2 * STEPS,
+        "references as long as the real run"
+    );
+    assert_eq!(null.reference_steps, UseSteps::Even);
+    assert_eq!(null.steps_per_run as usize, null.real_steps_analysed);
+    // Each reference holds the half of its run: about as many steps as the judged half.
+    for r in &null.references {
+        assert!(
+            r.steps.abs_diff(null.real_steps_analysed) <= 3,
+            "{} against {}",
+            r.steps,
+            null.real_steps_analysed
+        );
+    }
     assert!(null.indistinguishable, "p {}", null.loss.p);
 }
 

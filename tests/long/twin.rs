@@ -210,6 +210,7 @@ fn a_twin_of_a_generator_run_passes_its_held_out_steps_and_is_told_from_another_
     let ys = yardsticks(&YardstickRequest {
         real: &other,
         others: &[&first, &second_b],
+        others_half: None,
         model: &model,
         opts: &opts,
         twin_mean_loss: differs.loss.real,

@@ -66,6 +66,7 @@ pub(crate) fn judge_grounds(
         outcome.yardsticks = judge::yardsticks(&YardstickRequest {
             real: log,
             others,
+            others_half: None,
             model,
             opts,
             twin_mean_loss: outcome.loss.real,
@@ -118,6 +119,7 @@ pub(crate) fn judge_own_grounds(
         j.outcome.yardsticks = judge::yardsticks(&YardstickRequest {
             real: &g.log,
             others: &[&choosing],
+            others_half: Some(half),
             model: m,
             opts,
             twin_mean_loss: j.outcome.loss.real,

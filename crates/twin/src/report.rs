@@ -225,7 +225,7 @@ fn yardstick_words(j: &Judgement, what: &str) -> String {
         .iter()
         .map(|y| {
             format!(
-                "; the robot's own {what} (`{}`): loss {} against it ({}), the twin's runs {:.2}; the yardstick test (that loss ranked among {} runs of the twin as long): {} p {:.3}",
+                "; the robot's own {what} (`{}`): loss {} against it ({}), the twin's runs {:.2}; the yardstick test (that loss ranked among {} runs of the twin drawn as those steps were): {} p {:.3}",
                 y.other,
                 y.loss.map_or("-".into(), |l| format!("{l:.2}")),
                 if y.reproduces {

@@ -13,7 +13,14 @@
 //!    their mean loss.
 //! 2. The twin also runs `references` DRIVE runs of its own (seeds `seed +
 //!    REFERENCE_SEED_OFFSET + j`), and each takes the real run's place: the same `sims` runs are
-//!    compared with it, giving the same statistics.
+//!    compared with it, giving the same statistics. A reference is drawn as the real steps
+//!    were: when they are one half of a run (its odd or even steps), each reference is the same
+//!    half of a twin run as long as the real run ([`ReferenceRuns`]). Why not a run as long as
+//!    the half: a DRIVE run's consecutive steps are not independent (the site sends the robot
+//!    back, the operator's manoeuvres and the interruptions follow where the last step left
+//!    it), so a run's every other step mixes its commands differently from a run of half the
+//!    length. Judged on the even steps of its own 201-step runs, the twin of `husky_2023` was
+//!    told apart from itself in two of three seeds when its references were 101-step runs.
 //! 3. If the real robot were the twin, the real run would be one more draw like the references,
 //!    and the `references + 1` statistics would be exchangeable (the same simulated runs are
 //!    compared with each). The Monte Carlo p-value of a statistic is then `(1 + #{references
@@ -191,6 +198,7 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&JudgeEvent) + Sync)) -> Res
         ..
     } = real_steps(real, opts.real_steps, "--real-steps", "judge against")?;
     let steps = opts.steps.unwrap_or(n_real as u32);
+    let reference_runs = ReferenceRuns::of(real, opts, steps);
     let mut notes = Vec::new();
     progress(&JudgeEvent::Started {
         dataset: &real.meta.name,
@@ -209,9 +217,9 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&JudgeEvent) + Sync)) -> Res
         .collect::<Result<Vec<_>>>()?;
     let scoring = Scoring {
         model: req.model,
-        steps,
         seeds: &seeds,
         sims: &prepared,
+        reference_runs,
         copts: opts.compare_options(),
     };
     let (real_score, names) = scoring.score("real", None, &judged)?;
@@ -231,6 +239,8 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&JudgeEvent) + Sync)) -> Res
         options: *opts,
         real_steps_analysed: n_real,
         steps_per_run: steps,
+        reference_run_steps: reference_runs.steps,
+        reference_steps: reference_runs.half,
         sim_seeds: seeds,
         reference_seeds: references.iter().filter_map(|c| c.seed).collect(),
         // The Monte Carlo test's rule: reject when p <= alpha (with 19 references and alpha
@@ -283,13 +293,44 @@ fn twin_runs(
     Ok(sims)
 }
 
+/// How a reference run is drawn so that it stands in the real steps' place: `half` of a twin
+/// run of `steps` DRIVE steps.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReferenceRuns {
+    /// DRIVE steps of the twin's run.
+    pub steps: u32,
+    /// Its steps kept: those of the judged real steps.
+    pub half: UseSteps,
+}
+
+impl ReferenceRuns {
+    /// The references of real steps `opts.real_steps` of `real`, whose simulated runs have
+    /// `steps` DRIVE steps: every step of such a run when every real step is judged; else the
+    /// same half of a run as long as the real log (twice `steps` when the options set the runs'
+    /// length).
+    pub fn of(real: &DriveLog, opts: &JudgeOptions, steps: u32) -> Self {
+        let half = opts.real_steps;
+        let steps = match (half, opts.steps) {
+            (UseSteps::All, _) => steps,
+            (_, Some(n)) => 2 * n,
+            (_, None) => real.steps().len() as u32,
+        };
+        Self { steps, half }
+    }
+
+    /// The reference run of `seed`.
+    pub fn run(&self, model: &ModelParams, seed: u64) -> Result<DriveLog> {
+        twin_run(model, self.steps, seed).map(|log| self.half.select(&log))
+    }
+}
+
 /// The twin's runs, analysed once, and how every candidate is compared with them.
 struct Scoring<'a> {
     model: &'a ModelParams,
-    /// DRIVE steps of a reference run.
-    steps: u32,
     seeds: &'a [u64],
     sims: &'a [PreparedSim<'a>],
+    /// How a reference run is drawn.
+    reference_runs: ReferenceRuns,
     copts: CompareOptions,
 }
 
@@ -320,7 +361,9 @@ impl Scoring<'_> {
         let refs: Vec<(u64, Result<CandidateScore>)> = reference_seeds
             .par_iter()
             .map(|&s| {
-                let r = twin_run(self.model, self.steps, s)
+                let r = self
+                    .reference_runs
+                    .run(self.model, s)
                     .and_then(|log| self.score("reference", Some(s), &log))
                     .map(|(c, _)| c);
                 let k = done.fetch_add(1, Ordering::Relaxed) + 1;

@@ -3,6 +3,7 @@
 
 use super::interval;
 use super::JudgeOptions;
+use drive_sim_log::UseSteps;
 use serde::{Deserialize, Serialize};
 
 /// One simulated run against one candidate (the real run or a reference): the criteria it
@@ -111,6 +112,15 @@ pub struct JudgeOutcome {
     pub real_steps_analysed: usize,
     /// DRIVE steps of each run.
     pub steps_per_run: u32,
+    /// DRIVE steps of each reference run before its steps are chosen as the real ones were
+    /// (`reference_steps`): the real log's length when a half of it is judged, else
+    /// `steps_per_run`.
+    #[serde(default)]
+    pub reference_run_steps: u32,
+    /// The steps of each reference run that take the real run's place: the same half as the
+    /// judged real steps (`all` when every step is judged).
+    #[serde(default)]
+    pub reference_steps: UseSteps,
     /// Seeds of the simulated runs that completed.
     pub sim_seeds: Vec<u64>,
     /// Seeds of the reference runs that completed.

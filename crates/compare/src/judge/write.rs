@@ -7,6 +7,7 @@ use super::interval::{short as short_number, ParamInterval};
 use super::{JudgeOutcome, DIFFERS};
 use crate::error::{Error, Result};
 use drive_sim_calibration::twin::annotate_value;
+use drive_sim_log::UseSteps;
 use drive_sim_model::provenance::Provenance;
 use drive_sim_report::{bar_chart, AxisLabel, BarChart, BarSeries};
 use std::path::{Path, PathBuf};
@@ -72,12 +73,21 @@ fn yardstick_test_words(y: &super::Yardstick) -> String {
 pub fn table(o: &JudgeOutcome) -> String {
     let n = o.sim_seeds.len();
     let m = o.references.len();
+    // A half of the real run is stood in for by the same half of the twin's runs as long.
+    let references = match o.reference_steps {
+        UseSteps::All => format!("{m} runs of its own"),
+        half => format!(
+            "the {} steps of {m} runs of its own as long as the real run ({} DRIVE steps)",
+            half.as_str(),
+            o.reference_run_steps
+        ),
+    };
     let mut s = format!(
-        "{}: the twin's {n} runs against the {} {} real steps, and against {m} runs of its own ({} DRIVE steps each)\n\n",
+        "{}: the twin's {n} runs ({} DRIVE steps each) against the {} {} real steps, and against {references}\n\n",
         o.dataset,
+        o.steps_per_run,
         o.real_steps_analysed,
         o.options.real_steps.as_str(),
-        o.steps_per_run
     );
     s.push_str(&format!(
         "**{}**: the loss's Monte Carlo p {:.3} (mean loss {:.2} against the real run, {:.2} against the twin's runs; alpha {}); the verdict's {:.3}\n\n",

@@ -11,7 +11,9 @@
 //! - the other run's loss against the judged steps, beside the twin's runs' mean loss;
 //! - the **yardstick test**: the twin runs `references` DRIVE runs of its own, each as long as
 //!   the other run (its analysed steps: a T/U area is a hull, which grows with the steps), seeds
-//!   `seed..`, each compared with the judged steps as the other run is. If the twin were as
+//!   `seed..`, each compared with the judged steps as the other run is. When the other run is
+//!   the judged run's other half, each of the twin's is the same half of a run as long as the
+//!   judged run, drawn as the robot's was ([`super::ReferenceRuns`] says why). If the twin were as
 //!   close to the judged run as the robot's other day, the other run's loss would be one more
 //!   draw among the twin's runs' losses, and its rank uniform. The twin is **farther** than
 //!   the robot itself when the other run's loss is among the smallest: the Monte Carlo p-value
@@ -22,10 +24,9 @@
 //! farther from it than the robot's other day. Both are reported.
 
 use super::score::monte_carlo_p;
-use super::JudgeOptions;
+use super::{JudgeOptions, ReferenceRuns};
 use crate::error::{Error, Result};
 use crate::real_steps::real_steps;
-use crate::tune::run_loss;
 use crate::{compare_prepared_sims, Input, MetricDiff, PreparedReal, PreparedSim};
 use drive_sim_calibration::ModelParams;
 use drive_sim_log::{DriveLog, UseSteps};
@@ -55,7 +56,8 @@ pub struct Yardstick {
     /// The twin is at least as close to the judged steps as the other real run:
     /// `twin_mean_loss <= loss`.
     pub twin_within: bool,
-    /// The yardstick test's twin runs: DRIVE steps of each (the other run's analysed steps).
+    /// The yardstick test's twin runs: DRIVE steps of each (the other run's analysed steps; the
+    /// judged run's steps when the other run is its other half, of which the same half is kept).
     #[serde(default)]
     pub twin_run_steps: u32,
     /// The yardstick test's twin runs' losses against the judged steps, in seed order (`seed +
@@ -82,6 +84,9 @@ pub struct YardstickRequest<'a> {
     pub real: &'a DriveLog,
     /// Other real runs of the same robot on the same ground.
     pub others: &'a [&'a DriveLog],
+    /// The other runs are these steps of the judged run (its other half), not runs of their
+    /// own: the twin's runs of the test are then drawn the same way.
+    pub others_half: Option<UseSteps>,
     /// The twin.
     pub model: &'a ModelParams,
     /// The judge's options (steps judged, seeds, references, alpha).
@@ -117,10 +122,20 @@ pub fn yardsticks(req: &YardstickRequest) -> Result<Vec<Yardstick>> {
         })?;
         let report = compare_prepared_sims(&prepared, std::slice::from_ref(&sim))?;
         let steps = all.analysed as u32;
+        let draw = match req.others_half {
+            Some(half) => ReferenceRuns {
+                steps: req.real.steps().len() as u32,
+                half,
+            },
+            None => ReferenceRuns {
+                steps,
+                half: UseSteps::All,
+            },
+        };
         let twin = twin_by_steps
             .entry(steps)
-            .or_insert_with(|| twin_losses(&prepared, req.model, opts, steps));
-        out.push(one(other, all.analysed, &report.sims[0], twin, req, steps));
+            .or_insert_with(|| twin_losses(&prepared, req.model, opts, draw));
+        out.push(one(other, all.analysed, &report.sims[0], twin, req, draw.steps));
     }
     Ok(out)
 }
@@ -131,15 +146,25 @@ struct TwinLosses {
     failed: usize,
 }
 
-/// `opts.references` runs of the twin (seeds `seed..`, `steps` steps each) compared with the
+/// `opts.references` runs of the twin (seeds `seed..`, drawn as `draw` says) compared with the
 /// judged steps, in parallel, in seed order.
-fn twin_losses(prepared: &PreparedReal, model: &ModelParams, opts: &JudgeOptions, steps: u32) -> TwinLosses {
+fn twin_losses(
+    prepared: &PreparedReal,
+    model: &ModelParams,
+    opts: &JudgeOptions,
+    draw: ReferenceRuns,
+) -> TwinLosses {
     let runs: Vec<Option<f64>> = (0..opts.references as u64)
         .into_par_iter()
         .map(|i| {
-            run_loss(prepared, model, steps, opts.seed + i)
-                .ok()
-                .map(|l| l.total)
+            let log = draw.run(model, opts.seed + i).ok()?;
+            let sim = PreparedSim::new(Input {
+                log: &log,
+                file: None,
+            })
+            .ok()?;
+            let report = compare_prepared_sims(prepared, std::slice::from_ref(&sim)).ok()?;
+            report.sims[0].loss.as_ref().map(|l| l.total)
         })
         .collect();
     let losses: Vec<f64> = runs.iter().flatten().copied().filter(|l| l.is_finite()).collect();
