@@ -159,7 +159,12 @@ fn the_command_prints_the_table_and_writes_its_files() {
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(
-        stdout.starts_with("warthog_gravel: the twin's 2 runs against the"),
+        stdout.starts_with("warthog_gravel: the twin's 2 runs ("),
+        "{stdout}"
+    );
+    // The references are the even steps of runs as long as the measured run.
+    assert!(
+        stdout.contains("the even steps of 4 runs of its own as long as the real run"),
         "{stdout}"
     );
     assert!(stdout.contains("| differs (the verdict) |"), "{stdout}");
@@ -167,6 +172,7 @@ fn the_command_prints_the_table_and_writes_its_files() {
         serde_json::from_str(&std::fs::read_to_string(out.join("judge.json")).unwrap()).unwrap();
     assert_eq!(j["references"].as_array().unwrap().len(), 4);
     assert_eq!(j["options"]["real_steps"], "even");
+    assert_eq!(j["reference_steps"], "even");
     assert!(j["indistinguishable"].is_boolean());
     assert!(j["provenance"].is_object(), "{j}");
     for f in ["judge.md", "judge_rates.svg", "judge_rates.png"] {
