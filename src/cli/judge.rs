@@ -18,8 +18,9 @@ pub struct JudgeArgs {
     /// Runs of the twin compared with the real run and with each reference.
     #[arg(long, default_value_t = JudgeOptions::default().sims)]
     pub sims: u32,
-    /// Runs of the twin that take the real run's place (the smallest p-value is
-    /// 1 / (references + 1)).
+    /// Runs of the twin that take the real run's place, drawn as the real steps were: for a half
+    /// (`--real-steps odd|even`), that half of a run as long as the real log (the smallest
+    /// p-value is 1 / (references + 1)).
     #[arg(long, default_value_t = JudgeOptions::default().references)]
     pub references: u32,
     /// DRIVE steps of each run (default: as many as the judged real steps, so that the T/U

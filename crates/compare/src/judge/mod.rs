@@ -37,7 +37,8 @@
 //! distinguishable twin falls short.
 //!
 //! Runs have as many DRIVE steps as the judged real steps unless told otherwise (a T/U area
-//! is a hull, which grows with the number of steps), and every run, the references included,
+//! is a hull, which grows with the number of steps; a half's references are that half of runs
+//! as long as the real log, see 2. above), and every run, the references included,
 //! is the protocol of `drive-sim run --robot twin/robot.toml --terrain twin/terrain.toml
 //! --steps N --seed S`, held in memory.
 
