@@ -19,8 +19,9 @@
 //!    the half: a DRIVE run's consecutive steps are not independent (the site sends the robot
 //!    back, the operator's manoeuvres and the interruptions follow where the last step left
 //!    it), so a run's every other step mixes its commands differently from a run of half the
-//!    length. Judged on the even steps of its own 201-step runs, the twin of `husky_2023` was
-//!    told apart from itself in two of three seeds when its references were 101-step runs.
+//!    length. Judged on the odd and even steps of five of its own 201-step runs, the twin of
+//!    `husky_2023` was told apart from itself in three of the ten halves at 0.05 when its
+//!    references were 101-step runs, in none since.
 //! 3. If the real robot were the twin, the real run would be one more draw like the references,
 //!    and the `references + 1` statistics would be exchangeable (the same simulated runs are
 //!    compared with each). The Monte Carlo p-value of a statistic is then `(1 + #{references
