@@ -311,13 +311,27 @@ impl ReferenceRuns {
     /// same half of a run as long as the real log (twice `steps` when the options set the runs'
     /// length).
     pub fn of(real: &DriveLog, opts: &JudgeOptions, steps: u32) -> Self {
-        let half = opts.real_steps;
-        let steps = match (half, opts.steps) {
-            (UseSteps::All, _) => steps,
-            (_, Some(n)) => 2 * n,
-            (_, None) => real.steps().len() as u32,
-        };
-        Self { steps, half }
+        match (opts.real_steps, opts.steps) {
+            (UseSteps::All, _) => Self::whole(steps),
+            (half, Some(n)) => Self { steps: 2 * n, half },
+            (half, None) => Self::half_of(real, half),
+        }
+    }
+
+    /// Every step of a run of `steps` DRIVE steps.
+    pub fn whole(steps: u32) -> Self {
+        Self {
+            steps,
+            half: UseSteps::All,
+        }
+    }
+
+    /// The steps `half` of a run as long as `real`.
+    pub fn half_of(real: &DriveLog, half: UseSteps) -> Self {
+        Self {
+            steps: real.steps().len() as u32,
+            half,
+        }
     }
 
     /// The reference run of `seed`.

@@ -111,7 +111,8 @@ pub fn yardsticks(req: &YardstickRequest) -> Result<Vec<Yardstick>> {
         },
         &opts.compare_options(),
     )?;
-    // The twin's runs depend only on their length: other runs as long share them.
+    // Within one request the twin's runs depend only on their length (the half kept is the
+    // request's): other runs drawn as long share them.
     let mut twin_by_steps: BTreeMap<u32, TwinLosses> = BTreeMap::new();
     let mut out = Vec::new();
     for other in req.others {
@@ -123,17 +124,11 @@ pub fn yardsticks(req: &YardstickRequest) -> Result<Vec<Yardstick>> {
         let report = compare_prepared_sims(&prepared, std::slice::from_ref(&sim))?;
         let steps = all.analysed as u32;
         let draw = match req.others_half {
-            Some(half) => ReferenceRuns {
-                steps: req.real.steps().len() as u32,
-                half,
-            },
-            None => ReferenceRuns {
-                steps,
-                half: UseSteps::All,
-            },
+            Some(half) => ReferenceRuns::half_of(req.real, half),
+            None => ReferenceRuns::whole(steps),
         };
         let twin = twin_by_steps
-            .entry(steps)
+            .entry(draw.steps)
             .or_insert_with(|| twin_losses(&prepared, req.model, opts, draw));
         out.push(one(other, all.analysed, &report.sims[0], twin, req, draw.steps));
     }
