@@ -25,6 +25,7 @@ fn meta() -> LogMeta {
             length_m: 2.13,
             height_m: None,
             max_lin_acc_m_s2: None,
+            command_turn_scale: None,
         },
         origin: Origin::Simulated {
             seed: 0,

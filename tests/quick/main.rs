@@ -11,6 +11,7 @@ mod cli_bad_input;
 mod cli_calibrate;
 mod cli_run;
 mod cli_sweep;
+mod command_space_measured;
 mod foxglove_layout;
 mod mcap_python;
 mod mcap_roundtrip;

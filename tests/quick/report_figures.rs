@@ -21,6 +21,7 @@ fn husky() -> CommandSpace {
         max_wheel_rad_s: 6.06,
         max_lin_m_s: 1.0,
         max_ang_rad_s: 2.0,
+        turn_scale: 1.0,
     }
 }
 

@@ -75,6 +75,7 @@ fn uniform_body_shares_equal_area_fractions_of_u() {
     for a in [0.5, 1.0, 3.0] {
         let sub = CommandSpace {
             max_ang_rad_s: a,
+            turn_scale: 1.0,
             ..s
         };
         let expected = sub.area_body() / s.area_body();

@@ -658,6 +658,7 @@ mod tests {
             max_wheel_rad_s: 16.6667,
             max_lin_m_s: 5.0,
             max_ang_rad_s: 4.0,
+            turn_scale: 1.0,
         }
     }
 

@@ -196,6 +196,9 @@ pub fn models_for_log(log: &DriveLog) -> Result<(Robot, Terrain, Vec<String>)> {
     robot.wheels.radius_m = n.wheel_radius_m;
     robot.wheels.baseline_m = n.baseline_m;
     robot.powertrain.max_wheel_rad_s = n.max_wheel_rad_s;
+    if let Some(k) = n.command_turn_scale {
+        robot.limits.command_turn_scale = k;
+    }
     let mut notes = Vec::new();
     let file = match &log.meta.origin {
         drive_sim_log::Origin::Measured { file } => std::path::PathBuf::from(file),

@@ -302,6 +302,7 @@ mod tests {
             max_wheel_rad_s: 10.0,
             max_lin_m_s: 5.0,
             max_ang_rad_s: 4.0,
+            turn_scale: 1.0,
         };
         let cmds = [(1.0, 2.0), (-3.0, 4.0), (5.0, 5.0), (2.0, -6.0), (-4.0, -1.0)];
         let meas: Vec<StepFeatures> = cmds

@@ -113,6 +113,7 @@ fn read_meta(csv_path: &Path) -> Result<(MeasuredJson, PathBuf)> {
     for (field, v) in [
         ("nominal.height_m", n.height_m),
         ("nominal.max_lin_acc_m_s2", n.max_lin_acc_m_s2),
+        ("nominal.command_turn_scale", n.command_turn_scale),
     ] {
         if let Some(v) = v {
             if !positive(v) {

@@ -107,17 +107,37 @@ impl IdealDiffDrive {
 
 /// The command space U: wheel limits (a square in W) intersected with the user's body limits
 /// (a rectangle in B), mapped through the IDD.
+///
+/// DRIVE draws a command uniformly in a square of wheel speeds and keeps it if its body
+/// velocity is within the user's limits. Between that draw and the command the robot records,
+/// something may scale the turning (a velocity controller converting the body command with a
+/// wider wheel separation): the recorded commands then fill the square only once their
+/// differential mode is divided by [`turn_scale`](Self::turn_scale). With a common mode
+/// `s = (l + r) / 2` and a differential mode `d = (r − l) / 2`, U holds the commands with
+/// `|s| + |d| / turn_scale <= max_wheel_rad_s` (the square `|l|, |r| <= max_wheel_rad_s` when
+/// the scale is 1) and the body velocity within the user's limits.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CommandSpace {
     /// Kinematics used to move between W and B.
     pub idd: IdealDiffDrive,
-    /// Wheel speed limit, `|w| <= max_wheel_rad_s`.
+    /// Wheel speed limit, `|w| <= max_wheel_rad_s` (of the draw, before the turn scale).
     pub max_wheel_rad_s: f64,
     /// User limit on `|vx|`, m/s.
     pub max_lin_m_s: f64,
     /// User limit on `|wz|`, rad/s.
     pub max_ang_rad_s: f64,
+    /// How much more the commands turn than the wheel square they were drawn in, `-`: 1 when
+    /// the recorded commands are the draws themselves.
+    #[serde(default = "unit_turn_scale")]
+    pub turn_scale: f64,
 }
+
+fn unit_turn_scale() -> f64 {
+    1.0
+}
+
+/// The turn scales a robot file or a log may declare, `-`: a factor of ten either way.
+pub const TURN_SCALE: (f64, f64) = (0.1, 10.0);
 
 impl CommandSpace {
     /// Tolerance used by membership tests, so that vertices computed in floating point count as inside.
@@ -127,10 +147,25 @@ impl CommandSpace {
     #[inline]
     pub fn contains_wheels(&self, w: WheelSpeeds) -> bool {
         let b = self.idd.body_from_wheels(w);
-        w.left_rad_s.abs() <= self.max_wheel_rad_s + Self::EPS
-            && w.right_rad_s.abs() <= self.max_wheel_rad_s + Self::EPS
+        self.drawn_wheel_rad_s(w) <= self.max_wheel_rad_s + Self::EPS
             && b.vx_m_s.abs() <= self.max_lin_m_s + Self::EPS
             && b.wz_rad_s.abs() <= self.max_ang_rad_s + Self::EPS
+    }
+    /// The larger wheel speed of the draw a command stands for, `|s| + |d| / turn_scale`
+    /// (`max(|l|, |r|)` at scale 1), rad/s.
+    #[inline]
+    pub fn drawn_wheel_rad_s(&self, w: WheelSpeeds) -> f64 {
+        if self.turn_scale == 1.0 {
+            return w.left_rad_s.abs().max(w.right_rad_s.abs());
+        }
+        let s = (w.left_rad_s + w.right_rad_s) / 2.0;
+        let d = (w.right_rad_s - w.left_rad_s) / 2.0;
+        s.abs() + d.abs() / self.turn_scale
+    }
+    /// The largest wheel speed a command in U can have, rad/s: the bound of the square a
+    /// sampler draws from by rejection (`max_wheel_rad_s` times the turn scale when above 1).
+    pub fn wheel_bound_rad_s(&self) -> f64 {
+        self.max_wheel_rad_s * self.turn_scale.max(1.0)
     }
     /// True if the body command (vx, wz) lies in U.
     #[inline]
@@ -145,9 +180,11 @@ impl CommandSpace {
         let r = self.idd.wheel_radius_m;
         let b = self.idd.baseline_m;
         let wm = self.max_wheel_rad_s;
-        // Wheel square corners in order (l, r): (-,-), (+,-), (+,+), (-,+) mapped to (vx, wz).
-        let to_b = |l: f64, rr: f64| (r * (l + rr) / 2.0, r * (rr - l) / b);
-        let mut poly = vec![to_b(-wm, -wm), to_b(wm, -wm), to_b(wm, wm), to_b(-wm, wm)];
+        // The drawn square's corners (common mode ±wm or differential mode ±wm · scale) in
+        // (vx, wz): a diamond.
+        let vx = r * wm;
+        let wz = 2.0 * r * wm * self.turn_scale / b;
+        let mut poly = vec![(-vx, 0.0), (0.0, -wz), (vx, 0.0), (0.0, wz)];
         let (vm, am) = (self.max_lin_m_s, self.max_ang_rad_s);
         // Half-planes a*vx + c*wz <= d.
         for (a, c, d) in [(1.0, 0.0, vm), (-1.0, 0.0, vm), (0.0, 1.0, am), (0.0, -1.0, am)] {
@@ -175,6 +212,79 @@ impl CommandSpace {
     pub fn area_wheels(&self) -> f64 {
         polygon_area(&self.polygon_wheels())
     }
+
+    /// The U most likely to have drawn `commands` among those of this one's form whose limits
+    /// are none below this one's: the user's limits raised to the commands' reach, and the
+    /// wheel square and turn scale that hold every command in the least area.
+    ///
+    /// DRIVE draws uniformly in U, so the likelihood of n commands is `area⁻ⁿ` for any U that
+    /// holds them all: the smallest such U is the maximum-likelihood one. A turn scale other
+    /// than this U's (1 unless declared) is an extra parameter, taken only when its gain in
+    /// log-likelihood, `n ln(area at this U's scale / area)`, exceeds
+    /// [`TURN_SCALE_EVIDENCE_NATS`]. Limits are rounded
+    /// up to 0.1 and the scale to 0.01 (between 0.2 and 5), so the U returned holds every
+    /// command. Returns `self` unchanged (`gain_nats` 0) when it already holds them all.
+    pub fn fitted_to(&self, commands: &[WheelSpeeds]) -> CommandSpaceFit {
+        let unchanged = CommandSpaceFit {
+            space: *self,
+            gain_nats: 0.0,
+        };
+        if commands.iter().all(|c| self.contains_wheels(*c)) {
+            return unchanged;
+        }
+        let up = |x: f64| (x * 10.0).ceil() / 10.0;
+        let mut base = *self;
+        for c in commands {
+            let b = self.idd.body_from_wheels(*c);
+            base.max_lin_m_s = base.max_lin_m_s.max(up(b.vx_m_s.abs()));
+            base.max_ang_rad_s = base.max_ang_rad_s.max(up(b.wz_rad_s.abs()));
+        }
+        let holding = |turn_scale: f64| {
+            let mut u = CommandSpace { turn_scale, ..base };
+            let reach = commands
+                .iter()
+                .map(|c| u.drawn_wheel_rad_s(*c))
+                .fold(0.0, f64::max);
+            u.max_wheel_rad_s = self.max_wheel_rad_s.max(up(reach));
+            u
+        };
+        // The configured turn scale (1 unless declared) is the null: another is taken only on
+        // strong evidence.
+        let declared = holding(self.turn_scale);
+        let least = (20..=500)
+            .map(|i| holding(f64::from(i) / 100.0))
+            .min_by(|a, b| a.area_body().total_cmp(&b.area_body()))
+            .filter(|u| u.area_body() < declared.area_body())
+            .unwrap_or(declared);
+        let gain_nats = commands.len() as f64 * (declared.area_body() / least.area_body()).ln();
+        if gain_nats > TURN_SCALE_EVIDENCE_NATS {
+            CommandSpaceFit {
+                space: least,
+                gain_nats,
+            }
+        } else {
+            CommandSpaceFit {
+                space: declared,
+                gain_nats: 0.0,
+            }
+        }
+    }
+}
+
+/// The log-likelihood gain (nats) a turn scale other than 1 must bring to be fitted: a
+/// likelihood ratio above e¹⁰ ≈ 22,000. Commands drawn uniformly at scale 1 gain at most about
+/// 7 nats from a fitted scale (100 and 201 commands in the Warthog's and the Husky's U, 200
+/// draws each); husky_2023's 201 commands gain about 80 (test `fitted_to_finds_a_turn_scale`).
+pub const TURN_SCALE_EVIDENCE_NATS: f64 = 10.0;
+
+/// What [`CommandSpace::fitted_to`] returns.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CommandSpaceFit {
+    /// The fitted U.
+    pub space: CommandSpace,
+    /// The log-likelihood gain of its turn scale over the configured one, nats (0 when the
+    /// configured scale is kept).
+    pub gain_nats: f64,
 }
 
 #[cfg(test)]
@@ -190,6 +300,7 @@ mod tests {
             max_wheel_rad_s: 16.6667,
             max_lin_m_s: 5.0,
             max_ang_rad_s: 4.0,
+            turn_scale: 1.0,
         }
     }
 
@@ -241,7 +352,37 @@ mod tests {
     fn husky_space_is_user_limited() {
         // Husky: wheel limit 6.06 rad/s * 0.165 = 1.0 m/s; wz vertex 2*1.0/0.555 = 3.6 rad/s,
         // cut by 2 rad/s.
-        let s = CommandSpace {
+        let s = husky_metadata();
+        let poly = s.polygon_body();
+        let max_wz = poly.iter().map(|p| p.1).fold(f64::MIN, f64::max);
+        assert!((max_wz - 2.0).abs() < 1e-9);
+        assert!(s.contains_wheels(WheelSpeeds::new(6.06, 6.06)));
+        assert!(!s.contains_wheels(WheelSpeeds::new(-6.06, 6.06)));
+    }
+
+    /// Uniform draws in a U by rejection, from a SplitMix64 stream written here.
+    fn draws(u: &CommandSpace, n: usize, seed: u64) -> Vec<WheelSpeeds> {
+        let mut state = seed;
+        let mut unit = move || {
+            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let w = u.wheel_bound_rad_s();
+        let mut out = Vec::new();
+        while out.len() < n {
+            let c = WheelSpeeds::new(w * (2.0 * unit() - 1.0), w * (2.0 * unit() - 1.0));
+            if u.contains_wheels(c) {
+                out.push(c);
+            }
+        }
+        out
+    }
+
+    fn husky_metadata() -> CommandSpace {
+        CommandSpace {
             idd: IdealDiffDrive {
                 wheel_radius_m: 0.165,
                 baseline_m: 0.555,
@@ -249,11 +390,76 @@ mod tests {
             max_wheel_rad_s: 6.06,
             max_lin_m_s: 1.0,
             max_ang_rad_s: 2.0,
+            turn_scale: 1.0,
+        }
+    }
+
+    /// Commands that leave the configured U because they were drawn in a wider square are
+    /// held by a wider square, never by a turn scale; commands whose turning was scaled after
+    /// the draw give that scale back; commands inside U leave it as it is.
+    #[test]
+    fn fitted_to_finds_a_turn_scale() {
+        let configured = husky_metadata();
+        let wide_square = CommandSpace {
+            max_wheel_rad_s: 14.8,
+            max_ang_rad_s: 8.7,
+            ..configured
         };
-        let poly = s.polygon_body();
-        let max_wz = poly.iter().map(|p| p.1).fold(f64::MIN, f64::max);
-        assert!((max_wz - 2.0).abs() < 1e-9);
-        assert!(s.contains_wheels(WheelSpeeds::new(6.06, 6.06)));
-        assert!(!s.contains_wheels(WheelSpeeds::new(-6.06, 6.06)));
+        for seed in 0..20 {
+            for n in [100, 201] {
+                let fit = configured.fitted_to(&draws(&wide_square, n, seed));
+                assert_eq!(fit.space.turn_scale, 1.0, "seed {seed}, {n} commands: {fit:?}");
+                assert_eq!(fit.gain_nats, 0.0);
+                assert!(fit.space.max_wheel_rad_s > 13.5 && fit.space.max_wheel_rad_s <= 14.8);
+            }
+        }
+        let turned = CommandSpace {
+            turn_scale: 2.5,
+            max_ang_rad_s: 8.7,
+            ..configured
+        };
+        for seed in 0..5 {
+            let commands = draws(&turned, 201, seed);
+            let fit = configured.fitted_to(&commands);
+            assert!(
+                (2.3..=2.7).contains(&fit.space.turn_scale) && fit.gain_nats > 40.0,
+                "seed {seed}: {fit:?}"
+            );
+            assert_eq!(fit.space.max_wheel_rad_s, 6.1, "seed {seed}: {fit:?}");
+            assert!(commands.iter().all(|c| fit.space.contains_wheels(*c)));
+        }
+        let inside = draws(&configured, 50, 7);
+        assert_eq!(configured.fitted_to(&inside).space, configured);
+        // A declared turn scale is the null in its turn: commands drawn at it, beyond its
+        // square, widen the square and keep the scale.
+        let declared = CommandSpace {
+            max_wheel_rad_s: 5.0,
+            turn_scale: 2.5,
+            ..turned
+        };
+        let fit = declared.fitted_to(&draws(&turned, 201, 11));
+        assert_eq!(fit.space.turn_scale, 2.5, "{fit:?}");
+        assert_eq!(fit.space.max_wheel_rad_s, 6.1, "{fit:?}");
+    }
+
+    /// At a turn scale k the square's diamond reaches k times the yaw rate, and membership,
+    /// the polygon and the rejection bound agree.
+    #[test]
+    fn a_turn_scale_stretches_the_diamond_in_yaw_rate() {
+        let u = CommandSpace {
+            turn_scale: 2.5,
+            max_ang_rad_s: 20.0,
+            ..husky_metadata()
+        };
+        let wz = 2.0 * 0.165 * 6.06 * 2.5 / 0.555;
+        let top = u.polygon_body().iter().map(|p| p.1).fold(f64::MIN, f64::max);
+        assert!((top - wz).abs() < 1e-9, "{top} vs {wz}");
+        assert!(u.contains_wheels(WheelSpeeds::new(-6.06 * 2.5, 6.06 * 2.5)));
+        assert!(!u.contains_wheels(WheelSpeeds::new(-6.06 * 2.6, 6.06 * 2.6)));
+        assert!(u.contains_wheels(WheelSpeeds::new(6.06, 6.06)));
+        assert!(!u.contains_wheels(WheelSpeeds::new(6.2, 6.0)));
+        assert!((u.wheel_bound_rad_s() - 6.06 * 2.5).abs() < 1e-12);
+        let body_per_wheel = 0.165 * 0.165 / 0.555;
+        assert!((u.area_wheels() * body_per_wheel - u.area_body()).abs() < 1e-9);
     }
 }

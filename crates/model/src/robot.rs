@@ -4,7 +4,7 @@
 use crate::config::{non_negative, positive, Validate};
 use crate::effects::Effects;
 use crate::error::Result;
-use crate::kinematics::{CommandSpace, IdealDiffDrive};
+use crate::kinematics::{CommandSpace, IdealDiffDrive, WheelSpeeds};
 use crate::measurement::Nominal;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -117,6 +117,19 @@ pub struct UserLimits {
     pub max_ang_rad_s: f64,
     /// Maximum linear acceleration, m/s².
     pub max_lin_acc_m_s2: f64,
+    /// How much more the robot's commands turn than the wheel square DRIVE drew them in, `-`
+    /// ([`CommandSpace::turn_scale`]): 1 (the default) when the recorded commands are DRIVE's
+    /// draws. A twin's start fits it when a run's commands leave the configured U.
+    #[serde(default = "unit_scale", skip_serializing_if = "is_unit")]
+    pub command_turn_scale: f64,
+}
+
+fn unit_scale() -> f64 {
+    1.0
+}
+
+fn is_unit(x: &f64) -> bool {
+    *x == 1.0
 }
 
 /// Rectangular safe area centred on the start pose.
@@ -148,43 +161,76 @@ impl Robot {
             max_wheel_rad_s: self.powertrain.max_wheel_rad_s,
             max_lin_m_s: self.limits.max_lin_m_s,
             max_ang_rad_s: self.limits.max_ang_rad_s,
+            turn_scale: self.limits.command_turn_scale,
         }
     }
-    /// Widens the command space U to hold every command of a run (`reach`): a robot's
-    /// configured U (a log's nominal limits, a robot file) can be narrower than what its
-    /// operators commanded, and a simulated DRIVE run inside the narrower U samples other
-    /// commands than the run it is compared with. Each limit below the reach is raised to the
-    /// reach rounded up to 0.1; what changed is returned, one line per limit.
-    pub fn cover_commands(&mut self, reach: &crate::effects::CommandReach) -> Vec<String> {
-        let up = |x: f64| (x * 10.0).ceil() / 10.0;
+    /// Widens the command space U to hold every command of a run: a robot's configured U (a
+    /// log's nominal limits, a robot file) can be narrower than what its operators commanded,
+    /// and a simulated DRIVE run inside the narrower U samples other commands than the run it
+    /// is compared with. U becomes the most likely to have drawn the commands among those of
+    /// its form with no limit below the configured one ([`CommandSpace::fitted_to`]); what
+    /// changed is returned, one line per limit.
+    pub fn cover_commands(&mut self, commands: &[WheelSpeeds]) -> Vec<String> {
+        let before = self.command_space();
+        let fit = before.fitted_to(commands);
+        let after = fit.space;
+        let reach = crate::effects::CommandReach::of_commands(commands.iter().copied(), &before.idd);
         let mut changed = Vec::new();
-        let mut widen = |name: &str, limit: &mut f64, reached: f64, unit: &str| {
-            if reached > *limit {
-                let to = up(reached);
+        let mut note = |name: &str, from: f64, to: f64, reached: f64, unit: &str| {
+            if to != from {
                 changed.push(format!(
-                    "{name} widened from {limit} to {to} {unit}: the run commanded up to {reached:.3} {unit}"
+                    "{name} widened from {from} to {to} {unit}: the run commanded up to {reached:.3} {unit}"
                 ));
-                *limit = to;
             }
         };
-        widen(
-            "powertrain.max_wheel_rad_s",
-            &mut self.powertrain.max_wheel_rad_s,
-            reach.wheel_rad_s,
-            "rad/s",
-        );
-        widen(
+        if after.turn_scale == 1.0 {
+            note(
+                "powertrain.max_wheel_rad_s",
+                before.max_wheel_rad_s,
+                after.max_wheel_rad_s,
+                reach.wheel_rad_s,
+                "rad/s",
+            );
+        }
+        note(
             "limits.max_lin_m_s",
-            &mut self.limits.max_lin_m_s,
+            before.max_lin_m_s,
+            after.max_lin_m_s,
             reach.speed_m_s,
             "m/s",
         );
-        widen(
+        note(
             "limits.max_ang_rad_s",
-            &mut self.limits.max_ang_rad_s,
+            before.max_ang_rad_s,
+            after.max_ang_rad_s,
             reach.yaw_rate_rad_s,
             "rad/s",
         );
+        if after.turn_scale != 1.0 {
+            let square = CommandSpace {
+                turn_scale: 1.0,
+                max_wheel_rad_s: before
+                    .max_wheel_rad_s
+                    .max((reach.wheel_rad_s * 10.0).ceil() / 10.0),
+                ..after
+            };
+            changed.push(format!(
+                "limits.command_turn_scale = {} with powertrain.max_wheel_rad_s = {} rad/s (from {}): \
+                 the run's commands fill that wheel square once their turning is divided by {0}, \
+                 a U of {:.2} (m/s)(rad/s) against {:.2} for the square holding them as they are \
+                 (log-likelihood {:.0} nats higher)",
+                after.turn_scale,
+                after.max_wheel_rad_s,
+                before.max_wheel_rad_s,
+                after.area_body(),
+                square.area_body(),
+                fit.gain_nats
+            ));
+        }
+        self.powertrain.max_wheel_rad_s = after.max_wheel_rad_s;
+        self.limits.max_lin_m_s = after.max_lin_m_s;
+        self.limits.max_ang_rad_s = after.max_ang_rad_s;
+        self.limits.command_turn_scale = after.turn_scale;
         changed
     }
     /// Yaw inertia of the uniform box, `m (d² + b²) / 12`, kg·m² (the paper's I_zz).
@@ -296,6 +342,13 @@ impl Robot {
             ("limits.max_lin_m_s", l.max_lin_m_s, 0.01, 30.0, "m/s"),
             ("limits.max_ang_rad_s", l.max_ang_rad_s, 0.01, 20.0, "rad/s"),
             ("limits.max_lin_acc_m_s2", l.max_lin_acc_m_s2, 0.01, 50.0, "m/s²"),
+            (
+                "limits.command_turn_scale",
+                l.command_turn_scale,
+                crate::kinematics::TURN_SCALE.0,
+                crate::kinematics::TURN_SCALE.1,
+                "-",
+            ),
             ("safe_area.length_m", self.safe_area.length_m, 1.0, 10_000.0, "m"),
             ("safe_area.width_m", self.safe_area.width_m, 1.0, 10_000.0, "m"),
         ] {
@@ -334,6 +387,7 @@ impl Nominal {
             length_m: r.body.length_m,
             height_m: Some(r.body.height_m),
             max_lin_acc_m_s2: Some(r.limits.max_lin_acc_m_s2),
+            command_turn_scale: (r.limits.command_turn_scale != 1.0).then_some(r.limits.command_turn_scale),
         }
     }
 }
@@ -393,27 +447,25 @@ mod tests {
         assert!(msg.contains("wheels") && msg.contains("radius_m"), "{msg}");
     }
 
-    /// The Husky run's commands (14.33 rad/s at a wheel, 8.27 rad/s of yaw rate through the
-    /// nominal IDD) widen the metadata's U (6.06 rad/s, 2.0 rad/s); what U already holds stays.
+    /// Two commands of the Husky's run (14.33 rad/s at a wheel, 8.27 rad/s of yaw rate through
+    /// the nominal IDD) widen the metadata's U (6.06 rad/s, 2.0 rad/s); what U already holds
+    /// stays, and two commands are too few to fit a turn scale.
     #[test]
     fn a_run_commanding_beyond_u_widens_it_and_only_it() {
         let (mut r, _) = Robot::resolve("husky").unwrap();
-        let reach = crate::effects::CommandReach {
-            wheel_rad_s: 14.33,
-            speed_m_s: 0.946,
-            yaw_rate_rad_s: 8.27,
-        };
-        let changed = r.cover_commands(&reach);
+        let commands = [WheelSpeeds::new(-14.33, 13.5), WheelSpeeds::new(5.73, 5.73)];
+        let changed = r.cover_commands(&commands);
         assert_eq!(r.powertrain.max_wheel_rad_s, 14.4);
         assert_eq!(r.limits.max_ang_rad_s, 8.3);
         assert_eq!(r.limits.max_lin_m_s, 1.0);
+        assert_eq!(r.limits.command_turn_scale, 1.0);
         assert_eq!(changed.len(), 2, "{changed:?}");
         assert!(
             changed[0].contains("6.06") && changed[0].contains("14.330"),
             "{changed:?}"
         );
         assert!(
-            r.cover_commands(&reach).is_empty(),
+            r.cover_commands(&commands).is_empty(),
             "widening twice changes nothing"
         );
     }

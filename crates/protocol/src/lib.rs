@@ -397,10 +397,11 @@ impl Runner<'_> {
         if !self.space.contains_wheels(c) {
             return Err(failed(format!(
                 "the command ({}, {}) rad/s lies outside the robot's command space U \
-                 (wheels within ±{} rad/s, |vx| <= {} m/s, |wz| <= {} rad/s)",
+                 (wheels within ±{} rad/s at a turn scale of {}, |vx| <= {} m/s, |wz| <= {} rad/s)",
                 c.left_rad_s,
                 c.right_rad_s,
                 self.space.max_wheel_rad_s,
+                self.space.turn_scale,
                 self.space.max_lin_m_s,
                 self.space.max_ang_rad_s
             )));

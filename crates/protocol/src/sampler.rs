@@ -54,7 +54,7 @@ pub trait Sampler {
 
 /// Draws a command uniformly in U, in the wheel frame, by rejection from the wheel-limit square.
 pub fn uniform_in_wheel_space(space: &CommandSpace, rng: &mut ChaCha8Rng) -> WheelSpeeds {
-    let w = space.max_wheel_rad_s;
+    let w = space.wheel_bound_rad_s();
     // U has at least the area of the inscribed square of the user limits: rejection ends quickly.
     loop {
         let c = WheelSpeeds::new(rng.random_range(-w..=w), rng.random_range(-w..=w));

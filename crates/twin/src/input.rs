@@ -12,6 +12,7 @@ use drive_sim_calibration::to_dir::StartingModels;
 use drive_sim_calibration::CalibrationOptions;
 use drive_sim_log::{DriveLog, OpenOptions, UseSteps};
 use drive_sim_model::effects::CommandReach;
+use drive_sim_model::kinematics::WheelSpeeds;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -168,9 +169,11 @@ fn check_splittable(file: &Path, log: &DriveLog) -> Result<usize> {
 
 /// The models each log's calibration starts from (`robot` / `terrain`, names or files, or the
 /// log's own), with one command space for all: the robot's U widened to hold every command of
-/// the logs (`Robot::cover_commands`, one note per limit widened). A twin's own DRIVE samples
+/// the logs (`Robot::cover_commands`, one note per limit changed). A twin's own DRIVE samples
 /// U; a U narrower than what the operators commanded (the Husky run's metadata says 6.06 rad/s,
-/// its commands reach 14.33) would make it sample other commands than the run it is judged on.
+/// its commands reach 14.33) would make it sample other commands than the run it is judged on,
+/// and so would a U of another shape (the Husky's commands fill the metadata's wheel square
+/// once their turning is divided by about 2.5).
 pub fn starting_models(
     logs: &[&DriveLog],
     robot: Option<&str>,
@@ -189,9 +192,21 @@ pub fn starting_models(
     );
     let configured_u = first.robot.powertrain.max_wheel_rad_s;
     let declared = first.robot.effects.get(SATURATION).is_some_and(f64::is_finite);
+    // One command per step, the draw DRIVE held (its last record: a step's first records
+    // can still carry the previous command).
+    let held: Vec<WheelSpeeds> = logs
+        .iter()
+        .flat_map(|l| {
+            let mut last = std::collections::BTreeMap::new();
+            for s in &l.samples {
+                last.insert(s.step, s.m.cmd);
+            }
+            last.into_values()
+        })
+        .collect();
     let mut notes = Vec::new();
     for (i, m) in starts.iter_mut().enumerate() {
-        let changed = m.robot.cover_commands(&reach);
+        let changed = m.robot.cover_commands(&held);
         if i == 0 {
             notes = changed;
         }
@@ -351,6 +366,7 @@ mod tests {
                 length_m: 1.6,
                 height_m: None,
                 max_lin_acc_m_s2: None,
+                command_turn_scale: None,
             },
             origin: Origin::Measured {
                 file: format!("{name}.csv"),

@@ -47,6 +47,10 @@ pub struct Nominal {
     /// User linear acceleration limit, m/s², when declared.
     #[serde(default)]
     pub max_lin_acc_m_s2: Option<f64>,
+    /// How much more the commands turn than the wheel square they were drawn in
+    /// ([`CommandSpace::turn_scale`](crate::kinematics::CommandSpace::turn_scale)), when not 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub command_turn_scale: Option<f64>,
 }
 
 impl Nominal {
@@ -64,6 +68,7 @@ impl Nominal {
             max_wheel_rad_s: self.max_wheel_rad_s,
             max_lin_m_s: self.max_lin_m_s,
             max_ang_rad_s: self.max_ang_rad_s,
+            turn_scale: self.command_turn_scale.unwrap_or(1.0),
         }
     }
 }
@@ -193,6 +198,10 @@ impl LogMeta {
         }
         if let Some(a) = n.max_lin_acc_m_s2 {
             range("nominal.max_lin_acc_m_s2", a, 0.01, 50.0, "m/s²")?;
+        }
+        if let Some(k) = n.command_turn_scale {
+            let (lo, hi) = crate::kinematics::TURN_SCALE;
+            range("nominal.command_turn_scale", k, lo, hi, "-")?;
         }
         Ok(())
     }

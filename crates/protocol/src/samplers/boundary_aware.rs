@@ -182,6 +182,7 @@ mod tests {
             max_wheel_rad_s: 8.0,
             max_lin_m_s: 2.0,
             max_ang_rad_s: 2.0,
+            turn_scale: 1.0,
         };
         let mut s = BoundaryAware::new(1);
         s.lag_s = 0.0;

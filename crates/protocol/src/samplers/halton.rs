@@ -98,7 +98,7 @@ impl Sampler for Halton {
 impl Halton {
     /// The next command of this strategy: it cannot fail.
     fn draw(&mut self, ctx: &SamplingContext<'_>) -> WheelSpeeds {
-        let w = ctx.space.max_wheel_rad_s;
+        let w = ctx.space.wheel_bound_rad_s();
         loop {
             let (a, b) = self.point(self.index);
             self.index += 1;

@@ -227,6 +227,7 @@ mod tests {
             max_wheel_rad_s: 2.0,
             max_lin_m_s: 1.0,
             max_ang_rad_s: 1.0,
+            turn_scale: 1.0,
         }
     }
 
