@@ -267,6 +267,40 @@ fn imu_faults_and_pose_latency() {
     assert!((lag - 0.5 * v.vx_m_s).abs() < 0.02, "{lag}");
 }
 
+/// A fading odometry reads a held command's speed `1 − κ t` of the true one, from the step's
+/// start, and a new step starts the fade again; the body itself drives on.
+#[test]
+fn a_fading_odometry_reads_the_held_speed_lower_as_the_step_goes_on() {
+    use drive_sim::effects::StepContext;
+    let k = 0.05;
+    let (_, mut s) = setup("warthog", "asphalt", &[("odometry_fade_per_s", k)]);
+    for step in 0..2 {
+        s.begin_step(StepContext {
+            step,
+            ..StepContext::default()
+        });
+        let run = hold(&mut s, WheelSpeeds::new(10.0, 10.0), 6.0);
+        // The read speed over one tick against the true one, at time t into the step.
+        let ratio = |t: f64| {
+            let i = (t / TICK_S).round() as usize;
+            let read = run[i].0.pose.x_m - run[i - 1].0.pose.x_m;
+            let truth = run[i].0.truth.unwrap().pose.x_m - run[i - 1].0.truth.unwrap().pose.x_m;
+            read / truth
+        };
+        for t in [3.0, 5.0] {
+            assert!(
+                (ratio(t) - (1.0 - k * t)).abs() < 0.01,
+                "step {step}, {t} s: {}",
+                ratio(t)
+            );
+        }
+        assert!(
+            run[(5.0 / TICK_S) as usize].1.vx_m_s > 2.5,
+            "the body still drives"
+        );
+    }
+}
+
 fn run_measurements(cfg: SimConfig, terrain: &str, ticks: usize) -> Vec<Measurement> {
     let r = Robot::resolve("warthog").unwrap().0;
     let t = Terrain::resolve(terrain).unwrap().0;

@@ -6,7 +6,7 @@
 
 use crate::error::{Error, Result};
 use drive_sim_log::{GroundTruth, Measurement, Pose};
-use drive_sim_model::effects::{Effects, PlantModifiers, StepContext, TermInput};
+use drive_sim_model::effects::{Effects, FadingOdometry, PlantModifiers, StepContext, TermInput};
 use drive_sim_model::geometry::wrap_angle;
 use drive_sim_model::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use drive_sim_sim::plant::{integrate_unicycle_with, kinematic_measurement, poses_behind, Heading, Plant};
@@ -58,6 +58,8 @@ pub struct KinematicPlant {
     heading: Heading,
     /// Recent true poses (time, pose), for the pose latency.
     poses: VecDeque<(f64, Pose)>,
+    /// The odometry the pose is read through (its fade, `odometry_fade_per_s`).
+    odometry: FadingOdometry,
     time_s: f64,
     velocity: BodyVelocity,
     /// The body velocity before offsets (behind the wheels' when the body lags).
@@ -99,6 +101,7 @@ impl KinematicPlant {
             pose: Pose::default(),
             heading: Heading::of(0.0),
             poses: VecDeque::new(),
+            odometry: FadingOdometry::default(),
             time_s: 0.0,
             velocity: BodyVelocity::default(),
             body: BodyVelocity::default(),
@@ -294,11 +297,18 @@ impl Plant for KinematicPlant {
         let v = self.velocity;
         let mut enc = e.encoders(self.wheels);
         let mut wz = e.imu_yaw_rate_in(v.wz_rad_s, &self.input);
-        let mut pose = if self.mods.pose_latency_s > 0.0 {
+        let delayed = if self.mods.pose_latency_s > 0.0 {
             self.pose_at(self.time_s - self.mods.pose_latency_s)
         } else {
             self.pose
         };
+        // This plant replays DRIVE steps only: no operator's manoeuvre.
+        let mut pose = self.odometry.read(
+            delayed,
+            self.time_s - self.step_t0_s,
+            self.mods.odometry_fade_per_s,
+            true,
+        );
         if let Some((n, rng)) = &mut self.noise {
             let mut draw = |s: f64| {
                 if s > 0.0 {
@@ -342,6 +352,7 @@ impl Plant for KinematicPlant {
     fn begin_step(&mut self, ctx: StepContext) {
         self.ctx = ctx;
         self.step_t0_s = self.time_s;
+        self.odometry.restart();
     }
 
     fn reset(&mut self, pose: Pose, velocity: BodyVelocity, wheels: WheelSpeeds) {
@@ -367,6 +378,7 @@ impl Plant for KinematicPlant {
         self.step_t0_s = 0.0;
         self.poses.clear();
         self.poses.extend(behind);
+        self.odometry.restart();
     }
 }
 

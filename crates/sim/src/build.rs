@@ -220,6 +220,7 @@ impl Simulator {
             airborne_s: 0.0,
             accel_world: [0.0; 3],
             pose_history: VecDeque::new(),
+            odometry: FadingOdometry::default(),
             inertia_kg_m2: chassis.inertia_kg_m2,
             #[cfg(feature = "oracle")]
             reference: None,

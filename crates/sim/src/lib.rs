@@ -68,7 +68,7 @@ pub use config::{SensorNoise, SimConfig};
 pub use drive_sim_model::effects::Effects;
 pub use plant::{IdealPlant, Plant};
 
-use drive_sim_model::effects::{PlantModifiers, StepContext, TermInput};
+use drive_sim_model::effects::{FadingOdometry, PlantModifiers, StepContext, TermInput};
 use drive_sim_model::error::{Error, Result};
 use drive_sim_model::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use drive_sim_model::measurement::{GroundTruth, ImuReading, Measurement, Pose};
@@ -181,6 +181,8 @@ pub struct Simulator {
     /// World-frame acceleration of the centre of mass over the last physics step.
     accel_world: [f64; 3],
     pose_history: VecDeque<(f64, rapier3d::parry::math::Pose)>,
+    /// The odometry the pose is read through (its fade, `odometry_fade_per_s`).
+    odometry: FadingOdometry,
     /// Principal moments of inertia of the chassis (body axes), kg·m².
     inertia_kg_m2: [f64; 3],
     /// rapier's pipeline when the reference step is chosen (feature `oracle`).
@@ -270,6 +272,7 @@ impl Simulator {
         self.airborne_s = 0.0;
         self.accel_world = [0.0; 3];
         self.pose_history.clear();
+        self.odometry.restart();
         if behind.len() > 1 {
             // The way there, at the height and attitude the robot is put down with.
             let now = *self.bodies[self.body].position();
@@ -380,7 +383,12 @@ impl Plant for Simulator {
             enc.left_rad_s += nz.encoder_rad_s * self.normal();
             enc.right_rad_s += nz.encoder_rad_s * self.normal();
         }
-        let mut pose = self.delayed_pose();
+        let mut pose = self.odometry.read(
+            self.delayed_pose(),
+            self.time_s - self.step_t0_s,
+            self.mods.odometry_fade_per_s,
+            !self.manoeuvre,
+        );
         if nz.pose_position_m > 0.0 {
             pose.x_m += nz.pose_position_m * self.normal();
             pose.y_m += nz.pose_position_m * self.normal();
@@ -433,6 +441,7 @@ impl Plant for Simulator {
         self.ctx = ctx;
         self.step_t0_s = self.time_s;
         self.manoeuvre = false;
+        self.odometry.restart();
     }
 
     fn begin_manoeuvre(&mut self) {

@@ -32,6 +32,7 @@ mod lateral_drift;
 mod motor_gain;
 mod motor_gain_drift;
 pub mod motor_torque_speed;
+mod odometry_fade;
 mod pose_latency;
 mod reverse_baseline_scale;
 mod set;
@@ -52,6 +53,7 @@ mod wheel_speed_scatter;
 
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
+pub use odometry_fade::FadingOdometry;
 use serde::{Deserialize, Serialize};
 pub use set::Effects;
 use std::fmt;
@@ -274,6 +276,8 @@ pub struct PlantModifiers {
     pub relaxation_length_m: f64,
     /// Age of the pose when it is read, s.
     pub pose_latency_s: f64,
+    /// Fade of the odometry's displacement through a held command, 1/s (0: none).
+    pub odometry_fade_per_s: f64,
     /// Time constant of the body velocity behind the wheels', s (0: none).
     pub body_time_constant_s: f64,
     /// Stall torque of each side's motor at full voltage, N·m at the wheels (infinite: none).
@@ -297,6 +301,7 @@ impl Default for PlantModifiers {
             lateral_friction_scale: 1.0,
             relaxation_length_m: 0.0,
             pose_latency_s: 0.0,
+            odometry_fade_per_s: 0.0,
             body_time_constant_s: 0.0,
             motor_stall_torque_nm: f64::INFINITY,
             motor_no_load_speed_rad_s: f64::INFINITY,
@@ -450,6 +455,7 @@ pub static REGISTRY: LazyLock<Vec<&'static dyn Effect>> = LazyLock::new(|| {
     r.push(&terms[5]);
     r.extend([
         &pose_latency::PoseLatency as &'static dyn Effect,
+        &odometry_fade::OdometryFade,
         &encoder_scale::EncoderScale,
         &encoder_side_scale::EncoderSideScale,
     ]);

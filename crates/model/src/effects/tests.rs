@@ -29,12 +29,13 @@ fn registry_names_and_keys_are_unique_and_documented() {
     // 16 original catalogue effects, 5 structural ones that discovery points to, the motor's
     // torque-speed line, the turning centre's offset and the crab angle, the speed loop's
     // droop, the wheels' step scatter, the droop's recovery, the wheels' deadband, knee, soft
-    // limit and reverse gain, one encoder's scale, the turn's learnt load (33 named effects),
+    // limit and reverse gain, one encoder's scale, the turn's learnt load, the odometry's fade
+    // (34 named effects),
     // and 6 generic terms: 48 features on a wheel, the 29 that do not read a side's own command
     // on the body and the IMU.
-    assert_eq!(REGISTRY.iter().filter(|e| !e.generic()).count(), 33);
-    assert_eq!(REGISTRY.len(), 39);
-    assert_eq!(n, 40 + 2 * 48 + 4 * 29);
+    assert_eq!(REGISTRY.iter().filter(|e| !e.generic()).count(), 34);
+    assert_eq!(REGISTRY.len(), 40);
+    assert_eq!(n, 41 + 2 * 48 + 4 * 29);
 }
 
 #[test]
@@ -46,6 +47,7 @@ fn default_declares_nothing_and_every_name_round_trips() {
             "imu_yaw_rate_sign_flip" => 1.0,
             "dead_time_s" | "pose_latency_s" | "suspension_torsion_m" | "crab_angle_rad" => 0.3,
             "motor_gain_drift_per_step" => 0.01,
+            "odometry_fade_per_s" => 0.05,
             _ => 0.7,
         };
         e.set(n, v).unwrap();
