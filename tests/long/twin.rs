@@ -381,7 +381,8 @@ fn a_start_covers_the_commands_and_declares_the_saturation_the_encoders_show() {
 /// over the pool's other knobs, with the refinement's rule, and the twin written carries what
 /// either round's check accepted. The generator's steps scatter (an offset per step, which a
 /// calibration by replay does not fit and the first round tunes); the pool is three knobs, so
-/// that the rounds are short.
+/// that the rounds are short. 80 steps: on 60, the held-out pass's 30 left the first
+/// round's gain within two standard errors of its check on 6 seeds.
 #[test]
 fn a_second_round_screens_the_other_knobs_from_the_tuned_twin() {
     let dir = tempfile::tempdir().unwrap();
@@ -395,7 +396,7 @@ fn a_second_round_screens_the_other_knobs_from_the_tuned_twin() {
             step_offset_rad_s: 1.5,
             ..ground_a()
         },
-        60,
+        80,
     );
     let req = TwinRequest {
         logs: vec![run],
@@ -412,18 +413,27 @@ fn a_second_round_screens_the_other_knobs_from_the_tuned_twin() {
         ]),
     };
     let twin = make_twin(&req, &|e| eprintln!("{e}")).unwrap();
+    let pool = ["body_lag", "centripetal_slip", "wheel_speed_scatter"];
     for pass in [&twin.report.held_out.pass, &twin.report.final_twin.pass] {
-        // The first round tunes the scatter, and its check accepts it.
-        assert_eq!(pass.choice.chosen, ["wheel_speed_scatter"]);
+        // The first round tunes the scatter (with another knob or not), and its check accepts it.
+        assert!(
+            pass.choice.chosen.iter().any(|k| k == "wheel_speed_scatter"),
+            "{:?}",
+            pass.choice.chosen
+        );
         assert!(pass.tuning.as_ref().unwrap().accepted);
-        // The second screens the two others from the tuned twin, whose loss it starts from.
+        // The second screens the others from the tuned twin, whose loss it starts from.
         let rf = pass
             .refinement
             .as_ref()
             .expect("a second round after an accepted tuning");
         let mut others: Vec<&str> = rf.screening.knobs.iter().map(|k| k.knob.name.as_str()).collect();
         others.sort_unstable();
-        assert_eq!(others, ["body_lag", "centripetal_slip"]);
+        let not_chosen: Vec<&str> = pool
+            .into_iter()
+            .filter(|k| !pass.choice.chosen.iter().any(|c| c == k))
+            .collect();
+        assert_eq!(others, not_chosen);
         assert_eq!(rf.choice.rule, drive_sim::twin::rule::Rule::refinement());
         assert!(rf.choice.chosen.len() <= 2);
         assert_eq!(rf.tuning.is_some(), !rf.choice.chosen.is_empty());
