@@ -17,15 +17,6 @@ fn log(name: &str) -> DriveLog {
     read_measured_csv(format!("{DIR}/{name}.csv")).unwrap()
 }
 
-/// One command per step: its last record.
-fn held(log: &DriveLog) -> Vec<WheelSpeeds> {
-    let mut last = std::collections::BTreeMap::new();
-    for s in &log.samples {
-        last.insert(s.step, s.m.cmd);
-    }
-    last.into_values().collect()
-}
-
 fn fitted(log: &DriveLog) -> (CommandSpace, Vec<String>) {
     let (starts, notes) = starting_models(&[log], None, None).unwrap();
     (starts[0].robot.command_space(), notes)
@@ -61,7 +52,7 @@ fn the_warthog_runs_keep_their_configured_command_space() {
 #[test]
 fn the_husky_run_is_drawn_in_a_turned_square_and_its_twin_draws_there() {
     let run = log("husky_2023");
-    let commands = held(&run);
+    let commands = run.held_commands();
     let (u, notes) = fitted(&run);
     assert!((2.3..=2.7).contains(&u.turn_scale), "{u:?}");
     assert_eq!(

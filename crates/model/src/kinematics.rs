@@ -132,7 +132,8 @@ pub struct CommandSpace {
     pub turn_scale: f64,
 }
 
-fn unit_turn_scale() -> f64 {
+/// The default turn scale, 1 (serde's default for files that do not declare one).
+pub(crate) fn unit_turn_scale() -> f64 {
     1.0
 }
 
@@ -155,6 +156,7 @@ impl CommandSpace {
     /// (`max(|l|, |r|)` at scale 1), rad/s.
     #[inline]
     pub fn drawn_wheel_rad_s(&self, w: WheelSpeeds) -> f64 {
+        // At scale 1 the square's own test: |s| + |d| is max(|l|, |r|) but for the last bit.
         if self.turn_scale == 1.0 {
             return w.left_rad_s.abs().max(w.right_rad_s.abs());
         }
@@ -225,12 +227,12 @@ impl CommandSpace {
     /// up to 0.1 and the scale to 0.01 (between 0.2 and 5), so the U returned holds every
     /// command. Returns `self` unchanged (`gain_nats` 0) when it already holds them all.
     pub fn fitted_to(&self, commands: &[WheelSpeeds]) -> CommandSpaceFit {
-        let unchanged = CommandSpaceFit {
-            space: *self,
-            gain_nats: 0.0,
-        };
         if commands.iter().all(|c| self.contains_wheels(*c)) {
-            return unchanged;
+            return CommandSpaceFit {
+                space: *self,
+                at_declared_scale: *self,
+                gain_nats: 0.0,
+            };
         }
         let up = |x: f64| (x * 10.0).ceil() / 10.0;
         let mut base = *self;
@@ -251,30 +253,27 @@ impl CommandSpace {
         // The configured turn scale (1 unless declared) is the null: another is taken only on
         // strong evidence.
         let declared = holding(self.turn_scale);
-        let least = (20..=500)
+        let declared_area = declared.area_body();
+        let (least, least_area) = (20..=500)
             .map(|i| holding(f64::from(i) / 100.0))
-            .min_by(|a, b| a.area_body().total_cmp(&b.area_body()))
-            .filter(|u| u.area_body() < declared.area_body())
-            .unwrap_or(declared);
-        let gain_nats = commands.len() as f64 * (declared.area_body() / least.area_body()).ln();
-        if gain_nats > TURN_SCALE_EVIDENCE_NATS {
-            CommandSpaceFit {
-                space: least,
-                gain_nats,
-            }
-        } else {
-            CommandSpaceFit {
-                space: declared,
-                gain_nats: 0.0,
-            }
+            .map(|u| (u, u.area_body()))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap_or((declared, declared_area));
+        let gain_nats = commands.len() as f64 * (declared_area / least_area).ln();
+        let taken = gain_nats > TURN_SCALE_EVIDENCE_NATS;
+        CommandSpaceFit {
+            space: if taken { least } else { declared },
+            at_declared_scale: declared,
+            gain_nats,
         }
     }
 }
 
-/// The log-likelihood gain (nats) a turn scale other than 1 must bring to be fitted: a
-/// likelihood ratio above e¹⁰ ≈ 22,000. Commands drawn uniformly at scale 1 gain at most about
-/// 7 nats from a fitted scale (100 and 201 commands in the Warthog's and the Husky's U, 200
-/// draws each); husky_2023's 201 commands gain about 80 (test `fitted_to_finds_a_turn_scale`).
+/// The log-likelihood gain (nats) a turn scale other than the configured one must bring to be
+/// fitted: a likelihood ratio above e¹⁰ ≈ 22,000. Commands drawn uniformly at scale 1 gain at
+/// most 5.2 nats from a fitted scale over 300 runs of 100 and 201 commands in the Warthog's and
+/// the Husky's U (test `fitted_to_finds_a_turn_scale`, which prints it); husky_2023's 201
+/// commands gain 88 (the note `drive-sim twin` prints at its start).
 pub const TURN_SCALE_EVIDENCE_NATS: f64 = 10.0;
 
 /// What [`CommandSpace::fitted_to`] returns.
@@ -282,8 +281,12 @@ pub const TURN_SCALE_EVIDENCE_NATS: f64 = 10.0;
 pub struct CommandSpaceFit {
     /// The fitted U.
     pub space: CommandSpace,
-    /// The log-likelihood gain of its turn scale over the configured one, nats (0 when the
-    /// configured scale is kept).
+    /// The least U at the configured turn scale that holds the commands (the null the
+    /// fitted scale was weighed against; `space` when that scale is kept).
+    pub at_declared_scale: CommandSpace,
+    /// The log-likelihood gain of the least-area turn scale over the configured one, nats,
+    /// whether it was taken (above [`TURN_SCALE_EVIDENCE_NATS`]) or not; 0 when the configured
+    /// U already holds the commands.
     pub gain_nats: f64,
 }
 
@@ -405,14 +408,35 @@ mod tests {
             max_ang_rad_s: 8.7,
             ..configured
         };
-        for seed in 0..20 {
-            for n in [100, 201] {
-                let fit = configured.fitted_to(&draws(&wide_square, n, seed));
+        // The null: 100 runs each of 100 and 201 commands in the Husky's wide square, and of
+        // 100 in the Warthog's U beyond a configured 12 rad/s.
+        let warthog_wide = CommandSpace {
+            turn_scale: 1.0,
+            ..warthog()
+        };
+        let warthog_configured = CommandSpace {
+            max_wheel_rad_s: 12.0,
+            ..warthog_wide
+        };
+        let mut largest = 0.0f64;
+        for seed in 0..100 {
+            for (from, drawn, n) in [
+                (&configured, &wide_square, 100),
+                (&configured, &wide_square, 201),
+                (&warthog_configured, &warthog_wide, 100),
+            ] {
+                let fit = from.fitted_to(&draws(drawn, n, seed));
                 assert_eq!(fit.space.turn_scale, 1.0, "seed {seed}, {n} commands: {fit:?}");
-                assert_eq!(fit.gain_nats, 0.0);
-                assert!(fit.space.max_wheel_rad_s > 13.5 && fit.space.max_wheel_rad_s <= 14.8);
+                let square = fit.space.max_wheel_rad_s;
+                assert!(
+                    square > drawn.max_wheel_rad_s - 1.3 && square <= drawn.max_wheel_rad_s + 0.1,
+                    "{fit:?}"
+                );
+                largest = largest.max(fit.gain_nats);
             }
         }
+        eprintln!("largest gain of a fitted turn scale over 300 runs drawn at 1: {largest:.1} nats");
+        assert!(largest < TURN_SCALE_EVIDENCE_NATS);
         let turned = CommandSpace {
             turn_scale: 2.5,
             max_ang_rad_s: 8.7,

@@ -120,12 +120,11 @@ pub struct UserLimits {
     /// How much more the robot's commands turn than the wheel square DRIVE drew them in, `-`
     /// ([`CommandSpace::turn_scale`]): 1 (the default) when the recorded commands are DRIVE's
     /// draws. A twin's start fits it when a run's commands leave the configured U.
-    #[serde(default = "unit_scale", skip_serializing_if = "is_unit")]
+    #[serde(
+        default = "crate::kinematics::unit_turn_scale",
+        skip_serializing_if = "is_unit"
+    )]
     pub command_turn_scale: f64,
-}
-
-fn unit_scale() -> f64 {
-    1.0
 }
 
 fn is_unit(x: &f64) -> bool {
@@ -183,7 +182,7 @@ impl Robot {
                 ));
             }
         };
-        if after.turn_scale == 1.0 {
+        if after.turn_scale == before.turn_scale {
             note(
                 "powertrain.max_wheel_rad_s",
                 before.max_wheel_rad_s,
@@ -206,14 +205,7 @@ impl Robot {
             reach.yaw_rate_rad_s,
             "rad/s",
         );
-        if after.turn_scale != 1.0 {
-            let square = CommandSpace {
-                turn_scale: 1.0,
-                max_wheel_rad_s: before
-                    .max_wheel_rad_s
-                    .max((reach.wheel_rad_s * 10.0).ceil() / 10.0),
-                ..after
-            };
+        if after.turn_scale != before.turn_scale {
             changed.push(format!(
                 "limits.command_turn_scale = {} with powertrain.max_wheel_rad_s = {} rad/s (from {}): \
                  the run's commands fill that wheel square once their turning is divided by {0}, \
@@ -223,7 +215,7 @@ impl Robot {
                 after.max_wheel_rad_s,
                 before.max_wheel_rad_s,
                 after.area_body(),
-                square.area_body(),
+                fit.at_declared_scale.area_body(),
                 fit.gain_nats
             ));
         }

@@ -192,18 +192,8 @@ pub fn starting_models(
     );
     let configured_u = first.robot.powertrain.max_wheel_rad_s;
     let declared = first.robot.effects.get(SATURATION).is_some_and(f64::is_finite);
-    // One command per step, the draw DRIVE held (its last record: a step's first records
-    // can still carry the previous command).
-    let held: Vec<WheelSpeeds> = logs
-        .iter()
-        .flat_map(|l| {
-            let mut last = std::collections::BTreeMap::new();
-            for s in &l.samples {
-                last.insert(s.step, s.m.cmd);
-            }
-            last.into_values()
-        })
-        .collect();
+    // One command per step, the draw DRIVE held.
+    let held: Vec<WheelSpeeds> = logs.iter().flat_map(|l| l.held_commands()).collect();
     let mut notes = Vec::new();
     for (i, m) in starts.iter_mut().enumerate() {
         let changed = m.robot.cover_commands(&held);

@@ -383,6 +383,19 @@ impl DriveLog {
         s
     }
 
+    /// The command each completed step holds ([`held_command`](super::held_command)), in step
+    /// order.
+    pub fn held_commands(&self) -> Vec<crate::kinematics::WheelSpeeds> {
+        let mut by_step: std::collections::BTreeMap<u32, Vec<&Sample>> = Default::default();
+        for s in &self.samples {
+            by_step.entry(s.step).or_default().push(s);
+        }
+        by_step
+            .into_values()
+            .filter_map(|samples| super::held_command(samples).map(|h| h.cmd))
+            .collect()
+    }
+
     /// Fraction of protocol time spent on completed steps (the paper's time-efficiency ratio).
     pub fn time_efficiency(&self) -> f64 {
         if self.duration_s <= 0.0 {
