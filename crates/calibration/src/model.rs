@@ -159,6 +159,7 @@ impl PlantFactory for SimFactory {
             ParamSpec::new(Param::PeakLateral, f.sliding_lateral, top(f.peak_lateral)),
             ParamSpec::new(Param::PeakSlipRatio, 0.02, 0.5),
             ParamSpec::new(Param::RollingCoefficient, 0.0, 0.3),
+            ParamSpec::new(Param::SlidingShareLongitudinal, 0.5, 1.0),
             ParamSpec::new(Param::TimeConstant, 0.02, 1.5),
         ]
     }

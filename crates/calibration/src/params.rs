@@ -17,6 +17,10 @@ pub enum Param {
     PeakSlipRatio,
     /// Terrain: rolling-resistance coefficient.
     RollingCoefficient,
+    /// Terrain: the longitudinal sliding friction as a share of its peak (1: no fall past the
+    /// peak). A share, not the sliding value, so that every point of the box is a valid
+    /// terrain whatever the peak is fitted to.
+    SlidingShareLongitudinal,
     /// Robot: baseline (wheel separation), m; the kinematic model's effective baseline.
     Baseline,
     /// Robot: wheel-speed loop time constant, s.
@@ -44,6 +48,7 @@ impl Param {
             Self::PeakLateral => "terrain.friction.peak_lateral".into(),
             Self::PeakSlipRatio => "terrain.friction.peak_slip_ratio".into(),
             Self::RollingCoefficient => "terrain.resistance.rolling_coefficient".into(),
+            Self::SlidingShareLongitudinal => "terrain.friction.sliding_longitudinal_share".into(),
             Self::Baseline => "robot.wheels.baseline_m".into(),
             Self::TimeConstant => "robot.powertrain.time_constant_s".into(),
             Self::Effect { .. } => format!("effect.{}", self.def().map_or("?", |d| d.key)),
@@ -62,9 +67,11 @@ impl Param {
     /// ([`Effect::on_terrain`]).
     pub fn on_terrain(&self) -> bool {
         match self {
-            Self::PeakLongitudinal | Self::PeakLateral | Self::PeakSlipRatio | Self::RollingCoefficient => {
-                true
-            }
+            Self::PeakLongitudinal
+            | Self::PeakLateral
+            | Self::PeakSlipRatio
+            | Self::RollingCoefficient
+            | Self::SlidingShareLongitudinal => true,
             Self::Baseline | Self::TimeConstant => false,
             Self::Effect { .. } => self.effect().is_some_and(|e| e.on_terrain()),
         }
@@ -73,9 +80,11 @@ impl Param {
     /// Unit.
     pub fn unit(&self) -> &'static str {
         match self {
-            Self::PeakLongitudinal | Self::PeakLateral | Self::PeakSlipRatio | Self::RollingCoefficient => {
-                "-"
-            }
+            Self::PeakLongitudinal
+            | Self::PeakLateral
+            | Self::PeakSlipRatio
+            | Self::RollingCoefficient
+            | Self::SlidingShareLongitudinal => "-",
             Self::Baseline => "m",
             Self::TimeConstant => "s",
             Self::Effect { .. } => self.def().map_or("-", |d| d.unit),
@@ -122,6 +131,9 @@ impl Param {
             Self::PeakLateral => m.terrain.friction.peak_lateral,
             Self::PeakSlipRatio => m.terrain.friction.peak_slip_ratio,
             Self::RollingCoefficient => m.terrain.resistance.rolling_coefficient,
+            Self::SlidingShareLongitudinal => {
+                m.terrain.friction.sliding_longitudinal / m.terrain.friction.peak_longitudinal
+            }
             Self::Baseline => m.robot.wheels.baseline_m,
             Self::TimeConstant => m.robot.powertrain.time_constant_s,
             Self::Effect { .. } => self.def().and_then(|d| m.effects.get(d.key)).unwrap_or(f64::NAN),
@@ -146,6 +158,9 @@ impl Param {
             Self::PeakLateral => m.terrain.friction.peak_lateral = v,
             Self::PeakSlipRatio => m.terrain.friction.peak_slip_ratio = v,
             Self::RollingCoefficient => m.terrain.resistance.rolling_coefficient = v,
+            Self::SlidingShareLongitudinal => {
+                m.terrain.friction.sliding_longitudinal = v * m.terrain.friction.peak_longitudinal
+            }
             Self::Baseline => m.robot.wheels.baseline_m = v,
             Self::TimeConstant => m.robot.powertrain.time_constant_s = v,
             Self::Effect { .. } => {
@@ -243,8 +258,15 @@ impl ModelParams {
     /// (a cross-field rule such as peak friction ≥ sliding friction names the field).
     pub fn with_values(&self, specs: &[ParamSpec], values: &[f64]) -> Result<ModelParams> {
         let mut m = self.clone();
-        for (s, v) in specs.iter().zip(values) {
-            s.param.set_unchecked(&mut m, *v)?;
+        // A share of a peak is set after the peak, whatever the order of `specs`.
+        let share_last = |s: &&(&ParamSpec, &f64)| s.0.param == Param::SlidingShareLongitudinal;
+        let pairs: Vec<(&ParamSpec, &f64)> = specs.iter().zip(values).collect();
+        for (s, v) in pairs
+            .iter()
+            .filter(|p| !share_last(p))
+            .chain(pairs.iter().filter(share_last))
+        {
+            s.param.set_unchecked(&mut m, **v)?;
         }
         m.robot
             .validate()
