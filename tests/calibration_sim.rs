@@ -26,9 +26,20 @@ const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/measured
 /// Warthog without the effects its file declares (the cases inject their own truth and start
 /// the calibration from a model that declares nothing).
 fn synthetic_log(effects: &[(&str, f64)], steps: u32, seed: u64) -> (DriveLog, Robot, Terrain) {
+    let (terrain, _) = Terrain::resolve("asphalt").unwrap();
+    synthetic_log_on(&terrain, effects, steps, seed)
+}
+
+/// [`synthetic_log`] on `terrain` (the truth), returned as the log was simulated on.
+fn synthetic_log_on(
+    terrain: &Terrain,
+    effects: &[(&str, f64)],
+    steps: u32,
+    seed: u64,
+) -> (DriveLog, Robot, Terrain) {
     let (mut robot, _) = Robot::resolve("warthog").unwrap();
     robot.effects = Effects::default();
-    let (terrain, _) = Terrain::resolve("asphalt").unwrap();
+    let terrain = terrain.clone();
     let mut e = Effects::default();
     for (n, v) in effects {
         e.set(n, *v).unwrap();
@@ -154,6 +165,28 @@ fn simulator_with_a_saturated_motor_is_diagnosed() {
 #[test]
 fn simulator_with_nothing_injected_adds_nothing() {
     let r = diagnose(&[], 16, 22, &cheap_options());
+    assert!(r.effects.is_empty(), "{:?}", r.effects);
+}
+
+/// The fall of the longitudinal friction past its peak is a base parameter: a simulated run on
+/// asphalt whose sliding friction is 0.9 of its peak, calibrated from the declared share (0.76),
+/// gives it back within its interval (the clustered sandwich's), and adds no effect for it.
+#[test]
+fn simulator_with_a_gentler_friction_fall_gives_back_its_share() {
+    let (declared, _) = Terrain::resolve("asphalt").unwrap();
+    let mut truth = declared.clone();
+    truth.friction.sliding_longitudinal = 0.9 * truth.friction.peak_longitudinal;
+    let (log, robot, _) = synthetic_log_on(&truth, &[], 40, 24);
+    let r = calibrate(&log, &robot, &declared, &SimFactory::default(), &cheap_options()).unwrap();
+    common::print_summary("synthetic simulator, sliding friction 0.9 of the peak", &r, 0.0);
+    let fit = r.final_fit.as_ref().or(r.terrain_fit.as_ref()).unwrap();
+    let p = fit
+        .params
+        .iter()
+        .find(|p| p.name == "terrain.friction.sliding_longitudinal_share")
+        .unwrap();
+    assert!((p.value - 0.9).abs() < 0.05, "{p:?}");
+    assert!(p.ci95.is_some_and(|[lo, hi]| lo <= 0.9 && 0.9 <= hi), "{p:?}");
     assert!(r.effects.is_empty(), "{:?}", r.effects);
 }
 

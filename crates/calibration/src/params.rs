@@ -304,6 +304,21 @@ mod tests {
     }
 
     #[test]
+    fn a_share_of_the_peak_is_set_after_the_peak_whatever_the_order() {
+        let p = params();
+        let specs = [
+            ParamSpec::new(Param::SlidingShareLongitudinal, 0.5, 1.0),
+            ParamSpec::new(Param::PeakLongitudinal, 0.75, 1.5),
+        ];
+        let m = p.with_values(&specs, &[0.8, 1.2]).unwrap();
+        assert_eq!(m.terrain.friction.peak_longitudinal, 1.2);
+        assert!((m.terrain.friction.sliding_longitudinal - 0.96).abs() < 1e-12);
+        assert!((Param::SlidingShareLongitudinal.get(&m) - 0.8).abs() < 1e-12);
+        // Every point of the box is a valid terrain, the flat curve included.
+        assert!(p.with_values(&specs, &[1.0, 0.75]).is_ok());
+    }
+
+    #[test]
     fn typed_parameters_set_and_get() {
         let p = params();
         let dead = Param::effect_param("dead_time_s").unwrap();

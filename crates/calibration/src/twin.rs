@@ -16,6 +16,7 @@
 
 use super::fit::FittedParam;
 use super::model::ModelParams;
+use super::params::Param;
 use super::CalibrationReport;
 use crate::error::{Error, Result};
 use drive_sim_model::effects::{Effect, Effects};
@@ -121,10 +122,46 @@ fn comment_for(p: &FittedParam, dataset: &str, declared: Option<f64>) -> String 
     } else {
         format!(" {}", p.unit)
     };
+    // A share of the peak sits on the line of the value it sets: say which number it is.
+    let what = if p.name == Param::SlidingShareLongitudinal.name() {
+        "share of the peak "
+    } else {
+        ""
+    };
     format!(
-        "[fit] {dataset}: {:.6}{unit} {interval}{declared}{ident}",
+        "[fit] {dataset}: {what}{:.6}{unit} {interval}{declared}{ident}",
         p.value
     )
+}
+
+/// Which file holds the parameter named `name` (report name): the terrain file (`true`) or the
+/// robot's, and the dotted path of the line that holds it there. `terrain` is the serialized
+/// terrain file (an effect's parameter is in the file that carries the effect).
+fn file_path(name: &str, terrain: &toml::Value) -> Option<(bool, String)> {
+    if name == Param::SlidingShareLongitudinal.name() {
+        // A share of the peak is written as the sliding value it sets.
+        return Some((true, "friction.sliding_longitudinal".into()));
+    }
+    if let Some(rest) = name.strip_prefix("robot.") {
+        Some((false, rest.to_string()))
+    } else if let Some(rest) = name.strip_prefix("terrain.") {
+        Some((true, rest.to_string()))
+    } else if let Some(key) = name.strip_prefix("effect.") {
+        let path = format!("effects.{key}");
+        Some((value_at(terrain, &path).is_some(), path))
+    } else {
+        None
+    }
+}
+
+/// The value of the parameter named `name` in a serialized file, whose line is at `path`
+/// ([`file_path`]): the line's value, or for a share of the peak the sliding value over the
+/// peak.
+fn value_in_file(name: &str, path: &str, file: &toml::Value) -> Option<f64> {
+    if name == Param::SlidingShareLongitudinal.name() {
+        return Some(value_at(file, path)? / value_at(file, "friction.peak_longitudinal")?);
+    }
+    value_at(file, path)
 }
 
 /// Looks up `section.key` in a serialized file.
@@ -264,17 +301,8 @@ pub fn twin_files(params: &ModelParams, prov: &Provenance) -> Result<TwinFiles> 
     let mut tc = BTreeMap::new();
     // Which file holds a parameter (by report name), at which dotted path, and its value there.
     let locate = |name: &str| -> Option<(bool, String, f64)> {
-        let (on_terrain, path) = if let Some(rest) = name.strip_prefix("robot.") {
-            (false, rest.to_string())
-        } else if let Some(rest) = name.strip_prefix("terrain.") {
-            (true, rest.to_string())
-        } else if let Some(key) = name.strip_prefix("effect.") {
-            let path = format!("effects.{key}");
-            (value_at(&tv, &path).is_some(), path)
-        } else {
-            return None;
-        };
-        let held = value_at(if on_terrain { &tv } else { &rv }, &path)?;
+        let (on_terrain, path) = file_path(name, &tv)?;
+        let held = value_in_file(name, &path, if on_terrain { &tv } else { &rv })?;
         Some((on_terrain, path, held))
     };
     for (p, dataset) in &prov.fitted {
@@ -283,7 +311,7 @@ pub fn twin_files(params: &ModelParams, prov: &Provenance) -> Result<TwinFiles> 
         };
         let declared = before
             .as_ref()
-            .and_then(|(br, bt)| value_at(if on_terrain { bt } else { br }, &path));
+            .and_then(|(br, bt)| value_in_file(&p.name, &path, if on_terrain { bt } else { br }));
         let same = held == p.value || (held - p.value).abs() <= 1e-12 * p.value.abs().max(1.0);
         let c = if same {
             comment_for(p, dataset, declared)
@@ -584,5 +612,50 @@ mod tests {
             files.robot_toml
         );
         assert!(files.robot_toml.contains("motor_gain_right = 1.0"));
+    }
+    #[test]
+    fn a_fitted_share_of_the_peak_comments_the_sliding_value_it_sets() {
+        let before = model();
+        let mut m = before.clone();
+        let share = Param::SlidingShareLongitudinal;
+        let specs = [crate::params::ParamSpec::new(share, 0.5, 1.0)];
+        m = m.with_values(&specs, &[0.9]).unwrap();
+        let fitted = FittedParam {
+            name: share.name(),
+            initial: Some(share.get(&before)),
+            value: share.get(&m),
+            lower: 0.5,
+            upper: 1.0,
+            at_bound: false,
+            unit: "-".into(),
+            se: Some(0.02),
+            ci95: Some([0.86, 0.94]),
+            identifiable: Some(true),
+            identifiability_note: None,
+            neutral_in_interval: None,
+            confounded: false,
+        };
+        let prov = Provenance {
+            header: vec!["test".into()],
+            fitted: vec![(fitted, "gravel_run".into())],
+            before: Some(before.clone()),
+            chosen: Vec::new(),
+        };
+        let files = twin_files(&m, &prov).unwrap();
+        let line = files
+            .terrain_toml
+            .lines()
+            .find(|l| l.starts_with("sliding_longitudinal = "))
+            .unwrap();
+        let declared = share.get(&before);
+        assert!(
+            line.contains("# [fit] gravel_run: share of the peak 0.900000 ± 2.000e-2")
+                && line.contains(&format!("declared {declared}")),
+            "{line}"
+        );
+        assert!(
+            (files.terrain.friction.sliding_longitudinal - 0.9 * m.terrain.friction.peak_longitudinal).abs()
+                < 1e-12
+        );
     }
 }
