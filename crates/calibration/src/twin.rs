@@ -556,6 +556,34 @@ mod tests {
         m
     }
 
+    /// A value fitted on `gravel_run` with standard error `se` and its 95 % interval.
+    fn fitted_param(name: &str, value: f64, (lower, upper): (f64, f64), se: f64) -> FittedParam {
+        FittedParam {
+            name: name.into(),
+            initial: None,
+            value,
+            lower,
+            upper,
+            at_bound: false,
+            unit: "-".into(),
+            se: Some(se),
+            ci95: Some([value - 1.96 * se, value + 1.96 * se]),
+            identifiable: Some(true),
+            identifiability_note: None,
+            neutral_in_interval: None,
+            confounded: false,
+        }
+    }
+
+    fn provenance(fitted: FittedParam, before: Option<ModelParams>) -> Provenance {
+        Provenance {
+            header: vec!["test".into()],
+            fitted: vec![(fitted, "gravel_run".into())],
+            before,
+            chosen: Vec::new(),
+        }
+    }
+
     #[test]
     fn contact_effects_go_to_the_terrain() {
         let (r, t) = twin_models(&model()).unwrap();
@@ -567,28 +595,13 @@ mod tests {
     #[test]
     fn files_round_trip_value_for_value() {
         let m = model();
-        let fitted = FittedParam {
-            name: "terrain.friction.peak_lateral".into(),
-            initial: Some(0.8),
-            value: m.terrain.friction.peak_lateral,
-            lower: 0.5,
-            upper: 1.5,
-            at_bound: false,
-            unit: "-".into(),
-            se: Some(0.01),
-            ci95: Some([0.89, 0.93]),
-            identifiable: Some(true),
-            identifiability_note: None,
-            neutral_in_interval: None,
-            confounded: false,
-        };
-        let prov = Provenance {
-            header: vec!["test".into()],
-            fitted: vec![(fitted, "gravel_run".into())],
-            before: None,
-            chosen: Vec::new(),
-        };
-        let files = twin_files(&m, &prov).unwrap();
+        let fitted = fitted_param(
+            "terrain.friction.peak_lateral",
+            m.terrain.friction.peak_lateral,
+            (0.5, 1.5),
+            0.01,
+        );
+        let files = twin_files(&m, &provenance(fitted, None)).unwrap();
         assert!(
             files
                 .terrain_toml
@@ -620,28 +633,8 @@ mod tests {
         let share = Param::SlidingShareLongitudinal;
         let specs = [crate::params::ParamSpec::new(share, 0.5, 1.0)];
         m = m.with_values(&specs, &[0.9]).unwrap();
-        let fitted = FittedParam {
-            name: share.name(),
-            initial: Some(share.get(&before)),
-            value: share.get(&m),
-            lower: 0.5,
-            upper: 1.0,
-            at_bound: false,
-            unit: "-".into(),
-            se: Some(0.02),
-            ci95: Some([0.86, 0.94]),
-            identifiable: Some(true),
-            identifiability_note: None,
-            neutral_in_interval: None,
-            confounded: false,
-        };
-        let prov = Provenance {
-            header: vec!["test".into()],
-            fitted: vec![(fitted, "gravel_run".into())],
-            before: Some(before.clone()),
-            chosen: Vec::new(),
-        };
-        let files = twin_files(&m, &prov).unwrap();
+        let fitted = fitted_param(&share.name(), share.get(&m), (0.5, 1.0), 0.02);
+        let files = twin_files(&m, &provenance(fitted, Some(before.clone()))).unwrap();
         let line = files
             .terrain_toml
             .lines()
