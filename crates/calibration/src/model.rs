@@ -160,7 +160,6 @@ impl PlantFactory for SimFactory {
             ParamSpec::new(Param::PeakSlipRatio, 0.02, 0.5),
             ParamSpec::new(Param::RollingCoefficient, 0.0, 0.3),
             ParamSpec::new(Param::SlidingShareLongitudinal, 0.5, 1.0),
-            ParamSpec::new(Param::SlidingShareLateral, 0.3, 1.0),
             ParamSpec::new(Param::TimeConstant, 0.02, 1.5),
         ]
     }

@@ -21,8 +21,6 @@ pub enum Param {
     /// peak). A share, not the sliding value, so that every point of the box is a valid
     /// terrain whatever the peak is fitted to.
     SlidingShareLongitudinal,
-    /// Terrain: the lateral sliding friction as a share of its peak.
-    SlidingShareLateral,
     /// Robot: baseline (wheel separation), m; the kinematic model's effective baseline.
     Baseline,
     /// Robot: wheel-speed loop time constant, s.
@@ -51,7 +49,6 @@ impl Param {
             Self::PeakSlipRatio => "terrain.friction.peak_slip_ratio".into(),
             Self::RollingCoefficient => "terrain.resistance.rolling_coefficient".into(),
             Self::SlidingShareLongitudinal => "terrain.friction.sliding_longitudinal_share".into(),
-            Self::SlidingShareLateral => "terrain.friction.sliding_lateral_share".into(),
             Self::Baseline => "robot.wheels.baseline_m".into(),
             Self::TimeConstant => "robot.powertrain.time_constant_s".into(),
             Self::Effect { .. } => format!("effect.{}", self.def().map_or("?", |d| d.key)),
@@ -74,8 +71,7 @@ impl Param {
             | Self::PeakLateral
             | Self::PeakSlipRatio
             | Self::RollingCoefficient
-            | Self::SlidingShareLongitudinal
-            | Self::SlidingShareLateral => true,
+            | Self::SlidingShareLongitudinal => true,
             Self::Baseline | Self::TimeConstant => false,
             Self::Effect { .. } => self.effect().is_some_and(|e| e.on_terrain()),
         }
@@ -88,8 +84,7 @@ impl Param {
             | Self::PeakLateral
             | Self::PeakSlipRatio
             | Self::RollingCoefficient
-            | Self::SlidingShareLongitudinal
-            | Self::SlidingShareLateral => "-",
+            | Self::SlidingShareLongitudinal => "-",
             Self::Baseline => "m",
             Self::TimeConstant => "s",
             Self::Effect { .. } => self.def().map_or("-", |d| d.unit),
@@ -139,7 +134,6 @@ impl Param {
             Self::SlidingShareLongitudinal => {
                 m.terrain.friction.sliding_longitudinal / m.terrain.friction.peak_longitudinal
             }
-            Self::SlidingShareLateral => m.terrain.friction.sliding_lateral / m.terrain.friction.peak_lateral,
             Self::Baseline => m.robot.wheels.baseline_m,
             Self::TimeConstant => m.robot.powertrain.time_constant_s,
             Self::Effect { .. } => self.def().and_then(|d| m.effects.get(d.key)).unwrap_or(f64::NAN),
@@ -166,9 +160,6 @@ impl Param {
             Self::RollingCoefficient => m.terrain.resistance.rolling_coefficient = v,
             Self::SlidingShareLongitudinal => {
                 m.terrain.friction.sliding_longitudinal = v * m.terrain.friction.peak_longitudinal
-            }
-            Self::SlidingShareLateral => {
-                m.terrain.friction.sliding_lateral = v * m.terrain.friction.peak_lateral
             }
             Self::Baseline => m.robot.wheels.baseline_m = v,
             Self::TimeConstant => m.robot.powertrain.time_constant_s = v,
@@ -268,12 +259,7 @@ impl ModelParams {
     pub fn with_values(&self, specs: &[ParamSpec], values: &[f64]) -> Result<ModelParams> {
         let mut m = self.clone();
         // A share of a peak is set after the peak, whatever the order of `specs`.
-        let share_last = |s: &&(&ParamSpec, &f64)| {
-            matches!(
-                s.0.param,
-                Param::SlidingShareLongitudinal | Param::SlidingShareLateral
-            )
-        };
+        let share_last = |s: &&(&ParamSpec, &f64)| s.0.param == Param::SlidingShareLongitudinal;
         let pairs: Vec<(&ParamSpec, &f64)> = specs.iter().zip(values).collect();
         for (s, v) in pairs
             .iter()
