@@ -258,15 +258,12 @@ impl ModelParams {
     /// (a cross-field rule such as peak friction ≥ sliding friction names the field).
     pub fn with_values(&self, specs: &[ParamSpec], values: &[f64]) -> Result<ModelParams> {
         let mut m = self.clone();
-        // A share of a peak is set after the peak, whatever the order of `specs`.
-        let share_last = |s: &&(&ParamSpec, &f64)| s.0.param == Param::SlidingShareLongitudinal;
-        let pairs: Vec<(&ParamSpec, &f64)> = specs.iter().zip(values).collect();
-        for (s, v) in pairs
-            .iter()
-            .filter(|p| !share_last(p))
-            .chain(pairs.iter().filter(share_last))
-        {
-            s.param.set_unchecked(&mut m, **v)?;
+        // A share of a peak is set after the peak, whatever the order of `specs` (a stable
+        // sort keeps the others' order).
+        let mut pairs: Vec<(&ParamSpec, f64)> = specs.iter().zip(values.iter().copied()).collect();
+        pairs.sort_by_key(|(s, _)| s.param == Param::SlidingShareLongitudinal);
+        for (s, v) in pairs {
+            s.param.set_unchecked(&mut m, v)?;
         }
         m.robot
             .validate()

@@ -33,7 +33,7 @@ pub(super) fn comment_for(p: &FittedParam, dataset: &str, declared: Option<f64>)
         format!(" {}", p.unit)
     };
     // A share of the peak sits on the line of the value it sets: say which number it is.
-    let what = if p.name == Param::SlidingShareLongitudinal.name() {
+    let what = if share_lines(&p.name).is_some() {
         "share of the peak "
     } else {
         ""
@@ -44,13 +44,19 @@ pub(super) fn comment_for(p: &FittedParam, dataset: &str, declared: Option<f64>)
     )
 }
 
+/// A parameter written as a share of another line's value: the dotted paths of the line it
+/// sets and of the line it is a share of (the sliding friction's share of its peak).
+fn share_lines(name: &str) -> Option<(&'static str, &'static str)> {
+    (name == Param::SlidingShareLongitudinal.name())
+        .then_some(("friction.sliding_longitudinal", "friction.peak_longitudinal"))
+}
+
 /// Which file holds the parameter named `name` (report name): the terrain file (`true`) or the
 /// robot's, and the dotted path of the line that holds it there. `terrain` is the serialized
 /// terrain file (an effect's parameter is in the file that carries the effect).
 pub(super) fn file_path(name: &str, terrain: &toml::Value) -> Option<(bool, String)> {
-    if name == Param::SlidingShareLongitudinal.name() {
-        // A share of the peak is written as the sliding value it sets.
-        return Some((true, "friction.sliding_longitudinal".into()));
+    if let Some((line, _)) = share_lines(name) {
+        return Some((true, line.into()));
     }
     if let Some(rest) = name.strip_prefix("robot.") {
         Some((false, rest.to_string()))
@@ -68,10 +74,10 @@ pub(super) fn file_path(name: &str, terrain: &toml::Value) -> Option<(bool, Stri
 /// ([`file_path`]): the line's value, or for a share of the peak the sliding value over the
 /// peak.
 pub(super) fn value_in_file(name: &str, path: &str, file: &toml::Value) -> Option<f64> {
-    if name == Param::SlidingShareLongitudinal.name() {
-        return Some(value_at(file, path)? / value_at(file, "friction.peak_longitudinal")?);
+    match share_lines(name) {
+        Some((_, of)) => Some(value_at(file, path)? / value_at(file, of)?),
+        None => value_at(file, path),
     }
-    value_at(file, path)
 }
 
 /// Looks up `section.key` in a serialized file.

@@ -367,7 +367,7 @@ pub fn write_twin(twin: &TwinFiles, dir: &Path) -> Result<Vec<PathBuf>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::Param;
+    use crate::params::{Param, ParamSpec};
 
     #[test]
     fn annotate_value_changes_only_the_comment() {
@@ -478,7 +478,7 @@ mod tests {
         let before = model();
         let mut m = before.clone();
         let share = Param::SlidingShareLongitudinal;
-        let specs = [crate::params::ParamSpec::new(share, 0.5, 1.0)];
+        let specs = [ParamSpec::new(share, 0.5, 1.0)];
         m = m.with_values(&specs, &[0.9]).unwrap();
         let fitted = fitted_param(&share.name(), share.get(&m), (0.5, 1.0), 0.02);
         let files = twin_files(&m, &provenance(fitted, Some(before.clone()))).unwrap();

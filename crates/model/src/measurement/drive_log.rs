@@ -386,12 +386,9 @@ impl DriveLog {
     /// The command each completed step holds ([`held_command`](super::held_command)), in step
     /// order.
     pub fn held_commands(&self) -> Vec<crate::kinematics::WheelSpeeds> {
-        let mut by_step: std::collections::BTreeMap<u32, Vec<&Sample>> = Default::default();
-        for s in &self.samples {
-            by_step.entry(s.step).or_default().push(s);
-        }
-        by_step
-            .into_values()
+        // A step's samples are contiguous, as in `steps`.
+        self.samples
+            .chunk_by(|a, b| a.step == b.step)
             .filter_map(|samples| super::held_command(samples).map(|h| h.cmd))
             .collect()
     }
