@@ -143,6 +143,7 @@ fn print_analysis_table(analyses: &[drive_sim::analysis::Analysis]) -> anyhow::R
         // step-level offset that window noise does not explain (see `analysis::scatter`).
         writeln!(out, "{:<20} {}", "", a.step_scatter)?;
         writeln!(out, "{:<20} {}", "", a.turn_memory)?;
+        writeln!(out, "{:<20} {}", "", a.command_mix)?;
     }
     Ok(())
 }

@@ -116,7 +116,8 @@ fn a_wheel_speed_limit_is_found_in_closed_loop_and_judged_on_held_out_steps() {
     let m = o.model.as_ref().unwrap();
     assert_eq!(m.effects.get("wheel_speed_saturation_rad_s"), Some(p.chosen));
     // Its files round-trip, and running them (what `drive-sim run --robot twin/robot.toml
-    // --terrain twin/terrain.toml --steps N --seed S` does) gives the judged run again.
+    // --terrain twin/terrain.toml --steps N --seed S` does, its commands drawn in the judged
+    // steps' quadrants) gives the judged run again.
     let files = drive_sim::compare::tune::twin_of(&o, "the test's start", "cargo test").unwrap();
     assert!(
         files.robot_toml.contains("[tune] generator"),
@@ -131,7 +132,8 @@ fn a_wheel_speed_limit_is_found_in_closed_loop_and_judged_on_held_out_steps() {
     let (log, _) = generator_log(LIMIT_RAD_S);
     let even = UseSteps::Even.select(&log);
     let seed = h.chosen[0].seed;
-    let run = drive_sim::compare::tune::twin_run(&back, o.steps_per_run, seed).unwrap();
+    let run = drive_sim::compare::tune::twin_run_matched(&back, &even.held_commands(), o.steps_per_run, seed)
+        .unwrap();
     let c = drive_sim::compare::compare(
         drive_sim::compare::Input {
             log: &even,

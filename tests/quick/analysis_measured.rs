@@ -525,3 +525,39 @@ fn the_localisation_faults_are_found_by_hand_and_excluded() {
     };
     assert_eq!(analyze(&log, &p).unwrap().steps.len(), 100);
 }
+
+/// The analysed steps' commands by quadrant, counted here from the CSV text: the command each
+/// analysed step's steady rows record most, its quadrant by the signs of `left + right` and
+/// `right - left`. `warthog_asphalt` drew a lopsided mix of turns (a fair coin's p below
+/// 0.05), its second run did not: why a twin compared with a run draws in its quadrants.
+#[test]
+fn the_command_mix_is_counted_from_the_csv_text() {
+    use drive_sim::analysis::command_mix::fair_coin_p;
+    for (name, lopsided) in [("warthog_asphalt", true), ("warthog_asphalt_b", false)] {
+        let (h, rows) = raw_rows(name);
+        let c = |n: &str| h.iter().position(|x| x == n).unwrap();
+        let (cs, cw, cl, cr) = (c("step"), c("window"), c("cmd_left_rad_s"), c("cmd_right_rad_s"));
+        let log = read_measured_csv(format!("{DIR}/{name}.csv")).unwrap();
+        let a = analyze(&log, &AnalysisParams::default()).unwrap();
+        let mut counts = [0usize; 4];
+        for s in &a.steps {
+            let (l, r) = most_recorded_command(&rows, cs, cw, (cl, cr), s.step);
+            let k = match (l + r >= 0.0, r - l >= 0.0) {
+                (true, true) => 0,
+                (true, false) => 1,
+                (false, true) => 2,
+                (false, false) => 3,
+            };
+            counts[k] += 1;
+        }
+        let m = a.command_mix;
+        assert_eq!(
+            [m.forward_left, m.forward_right, m.backward_left, m.backward_right],
+            counts,
+            "{name}"
+        );
+        let left = counts[0] + counts[2];
+        assert_eq!(m.left_turns_p, fair_coin_p(left, a.steps.len()), "{name}");
+        assert_eq!(m.left_turns_p < 0.05, lopsided, "{name}: {m}");
+    }
+}

@@ -25,6 +25,7 @@ pub mod error;
 pub use error::{Error, Result};
 
 pub mod bootstrap;
+pub mod command_mix;
 pub mod crosscheck;
 mod pipeline;
 pub mod rho;
@@ -365,6 +366,10 @@ pub struct Analysis {
     /// command ([`drive_sim_log::held_command`]).
     #[serde(default)]
     pub steady_command_changes: Vec<SteadyCommandChange>,
+    /// The analysed steps' commands by quadrant, and how likely their balance is under
+    /// uniform draws ([`command_mix`]).
+    #[serde(default)]
+    pub command_mix: command_mix::CommandMix,
     /// U, S, T and the area of T.
     pub spaces: Spaces,
     /// Maximum kinetic energy over U.
@@ -424,6 +429,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         .iter()
         .filter(|s| !nominal.space.contains_wheels(s.steady.cmd_wheels))
         .count();
+    let command_mix = command_mix::command_mix(steps.iter().map(|s| s.steady.cmd_wheels));
     let spaces = pipeline::command_spaces(&nominal.space, &steps);
     let max_kinetic_energy = risk::max_kinetic_energy(&nominal.space, &nominal.mass);
     let risk = pipeline::risk_scenarios(meta, &steps);
@@ -451,6 +457,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         idd_rmse,
         commands_outside_u,
         steady_command_changes,
+        command_mix,
         spaces,
         max_kinetic_energy,
         risk,

@@ -9,7 +9,7 @@ use crate::{analysis_of, records_time, tf, CompareOptions, Input, Warning};
 use drive_sim_analysis::bootstrap::MIN_STEPS_FOR_INTERVAL;
 use drive_sim_analysis::smoother::Smoothed;
 use drive_sim_analysis::Analysis;
-use drive_sim_model::kinematics::CommandSpace;
+use drive_sim_model::kinematics::{CommandSpace, WheelSpeeds};
 
 /// The real side of a comparison, computed once: its analysis, its steps' bootstrap
 /// statistics, its transfer-function maps and its halves' (the yardstick). A closed-loop
@@ -27,9 +27,17 @@ pub struct PreparedReal<'a> {
     pub(crate) halves: (Smoothed, Smoothed),
     pub(crate) splits: tf::SplitHalves,
     pub(crate) warnings: Vec<Warning>,
+    /// The command of each real step, in order: a twin's run compared with these steps draws
+    /// in their quadrants ([`crate::tune::twin_run_matched`]).
+    commands: Vec<WheelSpeeds>,
 }
 
 impl<'a> PreparedReal<'a> {
+    /// The command of each real step, in order.
+    pub fn commands(&self) -> &[WheelSpeeds] {
+        &self.commands
+    }
+
     /// Analyses `real` for comparisons with `opts` (bad options are refused here).
     pub fn new(real: Input<'a>, opts: &CompareOptions) -> Result<Self> {
         check_options(opts)?;
@@ -64,6 +72,7 @@ impl<'a> PreparedReal<'a> {
             opts.bootstrap.seed ^ 0x5917,
         );
         Ok(Self {
+            commands: real.log.held_commands(),
             input: real,
             opts: *opts,
             analysis,

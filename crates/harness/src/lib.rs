@@ -37,4 +37,4 @@ pub mod simulate;
 pub mod sweep;
 pub mod sweep_run;
 
-pub use simulate::{simulate, simulate_with, unknown_sampler, SimulatedRun};
+pub use simulate::{simulate, simulate_matched, simulate_with, unknown_sampler, SimulatedRun};

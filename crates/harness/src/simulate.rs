@@ -6,9 +6,11 @@ use crate::ground_truth::{ground_truth, GroundTruthParams, TruthField};
 use drive_sim_analysis::smoother::{Grid, KernelCovariance};
 use drive_sim_analysis::{AnalysisParams, SmootherParams};
 use drive_sim_log::{DriveLog, Frame, LogMeta, Nominal, Origin};
+use drive_sim_model::kinematics::WheelSpeeds;
 use drive_sim_model::robot::Robot;
 use drive_sim_model::terrain::Terrain;
 use drive_sim_protocol::sampler::{make_sampler_for, Sampler, SAMPLERS};
+use drive_sim_protocol::samplers::matched::Matched;
 use drive_sim_protocol::{run_drive, FrameSink, ProtocolConfig, RunSummary};
 use drive_sim_sim::{SensorNoise, SimConfig, Simulator};
 use std::time::Instant;
@@ -137,6 +139,26 @@ pub fn simulate(
         ..SimConfig::default()
     };
     simulate_with(robot, terrain, s.as_mut(), &protocol, sim)
+}
+
+/// [`simulate`] with draws in the quadrants of `commands` (step `i` draws uniformly in U in
+/// the quadrant of command `i`; see [`Matched`]) instead of the paper's sampler.
+pub fn simulate_matched(
+    robot: &Robot,
+    terrain: &Terrain,
+    commands: &[WheelSpeeds],
+    steps: u32,
+    seed: u64,
+    noise: SensorNoise,
+) -> Result<SimulatedRun> {
+    let protocol = ProtocolConfig::for_run(robot, terrain, steps);
+    let mut s = Matched::new(commands, seed)?;
+    let sim = SimConfig {
+        seed,
+        noise,
+        ..SimConfig::default()
+    };
+    simulate_with(robot, terrain, &mut s, &protocol, sim)
 }
 
 /// The error for a sampler name that is not registered, listing those that are.

@@ -37,6 +37,26 @@ impl WheelSpeeds {
     pub fn is_finite(self) -> bool {
         self.left_rad_s.is_finite() && self.right_rad_s.is_finite()
     }
+    /// The command's quadrant in the body frame.
+    #[inline]
+    pub fn quadrant(self) -> Quadrant {
+        Quadrant {
+            forward: self.left_rad_s + self.right_rad_s >= 0.0,
+            left: self.right_rad_s - self.left_rad_s >= 0.0,
+        }
+    }
+}
+
+/// A command's quadrant in the body frame: forward (`vx >= 0`) or backward, turning left
+/// (`wz >= 0`) or right. Wheel speeds give it without the robot's geometry: `vx` has the sign
+/// of `left + right`, `wz` the sign of `right - left`. A skid-steering robot's slips change
+/// sign with it, so a run's medians are its mix of quadrants.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Quadrant {
+    /// `vx >= 0`.
+    pub forward: bool,
+    /// `wz >= 0`.
+    pub left: bool,
 }
 
 /// Planar body velocity in the body frame B: longitudinal, lateral (m/s) and yaw rate (rad/s).

@@ -22,7 +22,16 @@
 //!    length. Judged on the odd and even steps of five of its own 201-step runs, the twin of
 //!    `husky_2023` was told apart from itself in three of the ten halves at 0.05 when its
 //!    references were 101-step runs, in none since.
-//! 3. If the real robot were the twin, the real run would be one more draw like the references,
+//! 3. Every run of the twin, the references and the runs of 1. alike, draws its commands as
+//!    the real steps were drawn, quadrant by quadrant: each step uniformly in U inside the
+//!    quadrant (forward or backward, turning left or right) of the real step's command
+//!    ([`crate::tune::twin_run_matched`]). Which quadrant a step drew is the sampler's luck, not
+//!    the robot's, and a run's medians are its quadrants' mix: `warthog_asphalt` drew 36 left
+//!    turns in 98 analysed steps (a fair coin's two-sided p 0.011,
+//!    [`drive_sim_analysis::command_mix`]), and against references drawn uniformly its median
+//!    yaw slip was the right turns' where theirs fell either way. The test conditions on the
+//!    mix, which does not depend on the robot; under the hypothesis it stays exact.
+//! 4. If the real robot were the twin, the real run would be one more draw like the references,
 //!    and the `references + 1` statistics would be exchangeable (the same simulated runs are
 //!    compared with each). The Monte Carlo p-value of a statistic is then `(1 + #{references
 //!    at least as extreme as the real run}) / (references + 1)` (Barnard 1963; Besag & Diggle
@@ -57,14 +66,16 @@ pub use yardstick::{check_same_ground, p_farther, yardsticks, Yardstick, Yardsti
 
 use crate::error::{Error, Result};
 use crate::real_steps::{check_run_steps, check_same_robot, real_steps, RealSteps};
-use crate::tune::twin_run;
+use crate::tune::twin_run_matched;
 use crate::{CompareOptions, Input, PreparedSim, TfSmoother};
 use drive_sim_analysis::bootstrap::Bootstrap;
 use drive_sim_calibration::ModelParams;
 use drive_sim_log::{DriveLog, UseSteps};
+use drive_sim_model::kinematics::WheelSpeeds;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
 
 /// Offset of the reference runs' seeds from the simulated runs'.
 pub const REFERENCE_SEED_OFFSET: u64 = 5000;
@@ -210,13 +221,14 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&JudgeEvent) + Sync)) -> Res
         references: opts.references,
         steps_per_run: steps,
     });
-    let sims = twin_runs(req.model, opts, steps, &mut notes)?;
+    let sims = twin_runs(req.model, opts, steps, &judged.held_commands(), &mut notes)?;
     // Each run is analysed once, for the real run and every reference.
     let seeds: Vec<u64> = sims.iter().map(|(s, _)| *s).collect();
     let prepared = sims
         .iter()
         .map(|(_, log)| PreparedSim::new(Input { log, file: None }))
         .collect::<Result<Vec<_>>>()?;
+    let reference_steps = (reference_runs.steps, reference_runs.half);
     let scoring = Scoring {
         model: req.model,
         seeds: &seeds,
@@ -241,8 +253,8 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&JudgeEvent) + Sync)) -> Res
         options: *opts,
         real_steps_analysed: n_real,
         steps_per_run: steps,
-        reference_run_steps: reference_runs.steps,
-        reference_steps: reference_runs.half,
+        reference_run_steps: reference_steps.0,
+        reference_steps: reference_steps.1,
         sim_seeds: seeds,
         reference_seeds: references.iter().filter_map(|c| c.seed).collect(),
         // The Monte Carlo test's rule: reject when p <= alpha (with 19 references and alpha
@@ -263,18 +275,20 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&JudgeEvent) + Sync)) -> Res
     Ok(outcome)
 }
 
-/// The twin's runs of seeds `seed..` (in parallel, in seed order); a run that fails is left out
-/// with a note. Fewer than two completed: nothing to judge.
+/// The twin's runs of seeds `seed..` (in parallel, in seed order), drawn in the quadrants of
+/// the commands `like` (the judged steps'); a run that fails is left out with a note. Fewer
+/// than two completed: nothing to judge.
 fn twin_runs(
     model: &ModelParams,
     opts: &JudgeOptions,
     steps: u32,
+    like: &[WheelSpeeds],
     notes: &mut Vec<String>,
 ) -> Result<Vec<(u64, DriveLog)>> {
     let sim_seeds: Vec<u64> = (0..opts.sims as u64).map(|i| opts.seed + i).collect();
     let runs: Vec<(u64, Result<DriveLog>)> = sim_seeds
         .par_iter()
-        .map(|&s| (s, twin_run(model, steps, s)))
+        .map(|&s| (s, twin_run_matched(model, like, steps, s)))
         .collect();
     let mut sims = Vec::new();
     for (s, r) in runs {
@@ -296,47 +310,56 @@ fn twin_runs(
 }
 
 /// How a reference run is drawn so that it stands in the real steps' place: `half` of a twin
-/// run of `steps` DRIVE steps.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// run of `steps` DRIVE steps, its commands drawn in the quadrants of a real run's.
+#[derive(Debug, Clone, PartialEq)]
 pub struct ReferenceRuns {
     /// DRIVE steps of the twin's run.
     pub steps: u32,
     /// Its steps kept: those of the judged real steps.
     pub half: UseSteps,
+    /// The real run's commands (all its steps): step `i` of the twin's run draws in the
+    /// quadrant of command `i` ([`Matched`](drive_sim_protocol::samplers::matched::Matched)).
+    pub like: Arc<[WheelSpeeds]>,
 }
 
 impl ReferenceRuns {
     /// The references of real steps `opts.real_steps` of `real`, whose simulated runs have
     /// `steps` DRIVE steps: every step of such a run when every real step is judged; else the
     /// same half of a run as long as the real log (twice `steps` when the options set the runs'
-    /// length).
+    /// length). Each draws in the quadrants of `real`'s commands.
     pub fn of(real: &DriveLog, opts: &JudgeOptions, steps: u32) -> Self {
         match (opts.real_steps, opts.steps) {
-            (UseSteps::All, _) => Self::whole(steps),
-            (half, Some(n)) => Self { steps: 2 * n, half },
+            (UseSteps::All, _) => Self::whole(real, steps),
+            (half, Some(n)) => Self {
+                steps: 2 * n,
+                half,
+                like: real.held_commands().into(),
+            },
             (half, None) => Self::half_of(real, half),
         }
     }
 
-    /// Every step of a run of `steps` DRIVE steps.
-    pub fn whole(steps: u32) -> Self {
+    /// Every step of a run of `steps` DRIVE steps drawn as `real` was.
+    pub fn whole(real: &DriveLog, steps: u32) -> Self {
         Self {
             steps,
             half: UseSteps::All,
+            like: real.held_commands().into(),
         }
     }
 
-    /// The steps `half` of a run as long as `real`.
+    /// The steps `half` of a run as long as `real`, drawn as `real` was.
     pub fn half_of(real: &DriveLog, half: UseSteps) -> Self {
         Self {
             steps: real.steps().len() as u32,
             half,
+            like: real.held_commands().into(),
         }
     }
 
     /// The reference run of `seed`.
     pub fn run(&self, model: &ModelParams, seed: u64) -> Result<DriveLog> {
-        twin_run(model, self.steps, seed).map(|log| self.half.select(&log))
+        twin_run_matched(model, &self.like, self.steps, seed).map(|log| self.half.select(&log))
     }
 }
 

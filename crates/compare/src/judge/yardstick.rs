@@ -11,7 +11,8 @@
 //! - the other run's loss against the judged steps, beside the twin's runs' mean loss;
 //! - the **yardstick test**: the twin runs `references` DRIVE runs of its own, each as long as
 //!   the other run (its analysed steps: a T/U area is a hull, which grows with the steps), seeds
-//!   `seed..`, each compared with the judged steps as the other run is. When the other run is
+//!   `seed..`, each drawn in the quadrants of the other run's commands ([`super::ReferenceRuns`])
+//!   and compared with the judged steps as the other run is. When the other run is
 //!   the judged run's other half, each of the twin's is the same half of a run as long as the
 //!   judged run, drawn as the robot's was ([`super::ReferenceRuns`] says why). If the twin were as
 //!   close to the judged run as the robot's other day, the other run's loss would be one more
@@ -32,7 +33,6 @@ use drive_sim_calibration::ModelParams;
 use drive_sim_log::{DriveLog, UseSteps};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
 
 /// Another real run compared with the judged steps (`judge.json` → `yardsticks`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -111,9 +111,9 @@ pub fn yardsticks(req: &YardstickRequest) -> Result<Vec<Yardstick>> {
         },
         &opts.compare_options(),
     )?;
-    // Within one request the twin's runs depend only on their length (the half kept is the
-    // request's): other runs drawn as long share them.
-    let mut twin_by_steps: BTreeMap<u32, TwinLosses> = BTreeMap::new();
+    // The twin's runs depend on how they are drawn (their length, the half kept, the commands
+    // whose quadrants they draw in): other runs drawn alike share them.
+    let mut twin_by_draw: Vec<(ReferenceRuns, TwinLosses)> = Vec::new();
     let mut out = Vec::new();
     for other in req.others {
         let all = real_steps(other, UseSteps::All, "--other-run", "compare with")?;
@@ -125,12 +125,24 @@ pub fn yardsticks(req: &YardstickRequest) -> Result<Vec<Yardstick>> {
         let steps = all.analysed as u32;
         let draw = match req.others_half {
             Some(half) => ReferenceRuns::half_of(req.real, half),
-            None => ReferenceRuns::whole(steps),
+            None => ReferenceRuns::whole(other, steps),
         };
-        let twin = twin_by_steps
-            .entry(draw.steps)
-            .or_insert_with(|| twin_losses(&prepared, req.model, opts, draw));
-        out.push(one(other, all.analysed, &report.sims[0], twin, req, draw.steps));
+        let at = match twin_by_draw.iter().position(|(d, _)| *d == draw) {
+            Some(at) => at,
+            None => {
+                let losses = twin_losses(&prepared, req.model, opts, &draw);
+                twin_by_draw.push((draw.clone(), losses));
+                twin_by_draw.len() - 1
+            }
+        };
+        out.push(one(
+            other,
+            all.analysed,
+            &report.sims[0],
+            &twin_by_draw[at].1,
+            req,
+            draw.steps,
+        ));
     }
     Ok(out)
 }
@@ -147,7 +159,7 @@ fn twin_losses(
     prepared: &PreparedReal,
     model: &ModelParams,
     opts: &JudgeOptions,
-    draw: ReferenceRuns,
+    draw: &ReferenceRuns,
 ) -> TwinLosses {
     let runs: Vec<Option<f64>> = (0..opts.references as u64)
         .into_par_iter()

@@ -1,6 +1,7 @@
 //! One seeded DRIVE run of a model against real steps: the twin's run, compare, the loss.
 
 use super::*;
+use drive_sim_model::kinematics::WheelSpeeds;
 
 /// The loss of one seeded DRIVE run of a model against the real steps.
 pub(super) struct SeedRun {
@@ -12,6 +13,20 @@ pub(super) struct SeedRun {
 pub fn twin_run(model: &ModelParams, steps: u32, seed: u64) -> Result<DriveLog> {
     let (robot, terrain) = twin::twin_models(model)?;
     Ok(drive_sim_harness::simulate(&robot, &terrain, SAMPLER, steps, seed, SensorNoise::typical())?.log)
+}
+
+/// [`twin_run`] drawn as a real run was, to be compared with it: step `i` draws uniformly in U
+/// in the quadrant (forward or backward, turning left or right) of `like[i]`, the real run's
+/// command of its step `i` ([`Matched`](drive_sim_protocol::samplers::matched::Matched) says
+/// why: the medians of a run are its quadrants' mix).
+pub fn twin_run_matched(
+    model: &ModelParams,
+    like: &[WheelSpeeds],
+    steps: u32,
+    seed: u64,
+) -> Result<DriveLog> {
+    let (robot, terrain) = twin::twin_models(model)?;
+    Ok(drive_sim_harness::simulate_matched(&robot, &terrain, like, steps, seed, SensorNoise::typical())?.log)
 }
 
 /// Compare's options for the loss of the search and the check: `resamples` bootstrap draws,
@@ -30,7 +45,8 @@ pub(super) fn loss_opts(resamples: usize, smoother: TfSmoother) -> CompareOption
     }
 }
 
-/// DRIVE runs of `models` with `seed`, compared with the real steps prepared once.
+/// DRIVE runs of `models` with `seed`, drawn as the real steps were (their commands'
+/// quadrants), compared with the real steps prepared once.
 pub(super) fn run_against(
     real: &PreparedReal,
     models: &[&ModelParams],
@@ -39,7 +55,7 @@ pub(super) fn run_against(
 ) -> Result<ComparisonReport> {
     let logs = models
         .iter()
-        .map(|m| twin_run(m, steps, seed))
+        .map(|m| twin_run_matched(m, real.commands(), steps, seed))
         .collect::<Result<Vec<_>>>()?;
     let inputs: Vec<Input> = logs.iter().map(|log| Input { log, file: None }).collect();
     compare_prepared(real, &inputs)

@@ -9,6 +9,9 @@ use super::sampler::Sampler;
 use super::ProtocolConfig;
 
 pub mod geometry;
+/// Not a registered strategy: draws in the quadrants of a run's commands (a twin judged or
+/// tuned against that run).
+pub mod matched;
 pub mod metrics;
 
 /// A strategy the command line and sweeps can name.
@@ -40,6 +43,22 @@ register! {
     spread_accel,
     active,
     boundary_aware,
+}
+
+/// The Warthog's command space, for the strategies' tests.
+#[cfg(test)]
+pub(crate) fn warthog_space() -> drive_sim_model::kinematics::CommandSpace {
+    use drive_sim_model::kinematics::{CommandSpace, IdealDiffDrive};
+    CommandSpace {
+        idd: IdealDiffDrive {
+            wheel_radius_m: 0.3,
+            baseline_m: 1.08,
+        },
+        max_wheel_rad_s: 16.6667,
+        max_lin_m_s: 5.0,
+        max_ang_rad_s: 4.0,
+        turn_scale: 1.0,
+    }
 }
 
 #[cfg(test)]

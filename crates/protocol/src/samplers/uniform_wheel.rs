@@ -49,20 +49,11 @@ impl UniformWheel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use drive_sim_model::kinematics::{CommandSpace, IdealDiffDrive};
+    use drive_sim_model::kinematics::CommandSpace;
     use drive_sim_model::measurement::Pose;
 
     fn space() -> CommandSpace {
-        CommandSpace {
-            idd: IdealDiffDrive {
-                wheel_radius_m: 0.3,
-                baseline_m: 1.08,
-            },
-            max_wheel_rad_s: 16.6667,
-            max_lin_m_s: 5.0,
-            max_ang_rad_s: 4.0,
-            turn_scale: 1.0,
-        }
+        super::super::warthog_space()
     }
 
     #[test]

@@ -35,6 +35,8 @@ struct DatasetSummary<'a> {
     /// Steps whose steady windows record another command beside the one they hold (analysed
     /// under the held one).
     steady_command_changes: &'a [drive_sim_analysis::SteadyCommandChange],
+    /// The analysed steps' commands by quadrant and the balances' binomial p-values.
+    command_mix: drive_sim_analysis::command_mix::CommandMix,
     t_area_pct_body: f64,
     t_area_pct_wheels: f64,
     lateral_speed: &'a drive_sim_analysis::spaces::LateralSpeed,
@@ -68,6 +70,7 @@ impl<'a> DatasetSummary<'a> {
             idd_rmse: &a.idd_rmse,
             commands_outside_u: a.commands_outside_u,
             steady_command_changes: &a.steady_command_changes,
+            command_mix: a.command_mix,
             t_area_pct_body: a.spaces.t_area_pct_body,
             t_area_pct_wheels: a.spaces.t_area_pct_wheels,
             lateral_speed: &a.spaces.lateral,
