@@ -316,6 +316,7 @@ def run(
     inject: Sequence[str] = (),
     name: Optional[str] = None,
     force: bool = False,
+    draw_like: Optional[PathLike] = None,
 ) -> Run:
     """Runs DRIVE on the simulated robot, as ``drive-sim run`` does.
 
@@ -340,10 +341,15 @@ def run(
         inject: Effects the log's metadata does not declare, ``"NAME=VALUE"`` each.
         name: Log name (file stem); default ``<robot>_<terrain>_s<seed>``.
         force: Overwrite a log of the same name made with other options.
+        draw_like: A log (any ``drive-sim`` input) whose commands' quadrants the run draws in,
+            step by step, instead of ``sampler`` (``drive-sim run --draw-like``): a run to
+            compare with that log, as ``tune``, ``twin`` and ``judge`` draw a twin's runs.
 
     Returns:
         The :class:`Run`.
     """
+    if draw_like is not None and sampler != "uniform-wheel":
+        raise ValueError("<command line>: `draw_like` and `sampler` both say how commands are drawn: give one")
     if isinstance(sampler, str):
         adapter, label = None, sampler
     else:
@@ -354,11 +360,12 @@ def run(
         "run", robot=robot, terrain=terrain, steps=steps, seed=seed, sampler=label,
         out=_path(out), noise=noise, physics_hz=physics_hz, safe_area=safe_area,
         inject=list(inject), name=name, force=force,
+        **({} if draw_like is None else {"draw_like": _path(draw_like)}),
     )
     report, log, rows = _native.run(
         robot, terrain, steps, seed, label, adapter, _path(out), name, force, noise,
         float(physics_hz), None if safe_area is None else tuple(map(float, safe_area)),
-        list(inject), command,
+        list(inject), command, _path(draw_like),
     )
     summary = json.loads(report)
     if not log:

@@ -25,6 +25,7 @@ def run(
     safe_area: Optional[Tuple[float, float]],
     inject: Sequence[str],
     command: Sequence[str],
+    draw_like: Optional[_Path] = None,
 ) -> Tuple[str, Optional[str], List[_Row]]:
     """Runs DRIVE; returns the run.json text, the log's path (None in memory) and the rows."""
 

@@ -191,3 +191,20 @@ def test_catalogs():
     assert "asphalt" in set(drive_sim.terrains()["name"])
     s = drive_sim.samplers()
     assert "uniform-wheel" in set(s["name"]) and list(s.columns) == ["name", "summary"]
+
+
+def test_draw_like_draws_in_the_quadrants_of_a_measured_run():
+    import os
+    csv = os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "data", "measured", "warthog_asphalt.csv")
+    real = drive_sim.analyze([csv]).steps.drop_duplicates("step").set_index("step")
+    r = drive_sim.run("warthog", "asphalt", steps=12, seed=2, draw_like=csv)
+    assert r.summary["sampler"] == "matched-quadrants"
+    assert len(r.steps) == 12
+    for x in r.steps.itertuples():
+        if x.step not in real.index:
+            continue
+        left, right = real.loc[x.step, "cmd_left_rad_s"], real.loc[x.step, "cmd_right_rad_s"]
+        assert (x.cmd_left_rad_s + x.cmd_right_rad_s >= 0) == (left + right >= 0)
+        assert (x.cmd_right_rad_s - x.cmd_left_rad_s >= 0) == (right - left >= 0)
+    with pytest.raises(ValueError, match="draw_like"):
+        drive_sim.run("warthog", "asphalt", steps=3, sampler="halton", draw_like=csv)

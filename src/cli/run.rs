@@ -26,6 +26,12 @@ pub struct RunArgs {
     /// Sampling strategy (see `drive-sim samplers --list`).
     #[arg(long, default_value = "uniform-wheel")]
     pub sampler: String,
+    /// Draw each step's command uniformly in U inside the quadrant (forward or backward,
+    /// turning left or right) of this log's command of that step, in place of `--sampler`: a
+    /// run to compare with that log, drawn as `tune`, `twin` and `judge` draw a twin's runs
+    /// against it (a run's medians are its mix of quadrants).
+    #[arg(long, value_name = "LOG", conflicts_with = "sampler")]
+    pub draw_like: Option<PathBuf>,
     /// Sensor noise: `typical` field sensors or `off`.
     #[arg(long, default_value = "typical", value_parser = ["typical", "off"])]
     pub noise: String,
@@ -97,6 +103,7 @@ pub fn run(args: &RunArgs) -> Result<RunReport> {
         force: args.force,
         safe_area: args.safe_area.clone(),
         cancel: None,
+        draw_like: args.draw_like.clone(),
     };
     let bar = if args.quiet {
         ProgressBar::hidden()
@@ -116,7 +123,7 @@ pub fn run(args: &RunArgs) -> Result<RunReport> {
                 "drive-sim: running DRIVE: {robot} on {terrain}, {} steps, seed {}, sampler {}, log {}",
                 args.steps,
                 args.seed,
-                args.sampler,
+                req.sampler_name(),
                 log.display()
             )
         }),

@@ -106,6 +106,11 @@ fn a_run_of_the_model_itself_with_a_lopsided_turn_mix_is_not_told_apart() {
         &CompareOptions::default(),
     )
     .unwrap();
+    assert!(
+        c.warnings.iter().any(|w| w.name == "lopsided_draw"),
+        "compare warns of the draw: {:?}",
+        c.warnings
+    );
     let yaw = c.sims[0].loss.as_ref().unwrap().term("median_slip_wz").unwrap();
     eprintln!("median yaw slip's term against the uniform draws: {yaw:.2}");
     assert!(yaw.abs() > 1.0, "{yaw}");

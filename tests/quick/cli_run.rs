@@ -299,32 +299,36 @@ fn analyze_two_robots_writes_a_figure_per_robot() {
     assert!(dir.path().join("a/report.html").exists());
 }
 
+/// `drive-sim run` of the Warthog on asphalt, 20 steps of seed 4, into `o/<name>` under `cwd`,
+/// with `extra` options.
+fn warthog_run(cwd: &Path, name: &str, extra: &[&str]) -> Output {
+    let mut a = vec![
+        "run",
+        "--robot",
+        "warthog",
+        "--terrain",
+        "asphalt",
+        "--steps",
+        "20",
+        "--seed",
+        "4",
+        "--quiet",
+        "--out",
+        "o",
+        "--name",
+        name,
+    ];
+    a.extend_from_slice(extra);
+    drive_sim(&a, cwd)
+}
+
 /// `--safe-area` replaces the robot file's safe area for one deployment: a site twice as long
 /// and wide interrupts the same seed's run less, the option is recorded in the run's
 /// provenance, and a malformed or absurd area is bad input (exit code 2) that writes nothing.
 #[test]
 fn safe_area_is_a_deployment_option() {
     let dir = tempfile::tempdir().unwrap();
-    let run = |extra: &[&str], name: &str| {
-        let mut a = vec![
-            "run",
-            "--robot",
-            "warthog",
-            "--terrain",
-            "asphalt",
-            "--steps",
-            "20",
-            "--seed",
-            "4",
-            "--quiet",
-            "--out",
-            "o",
-            "--name",
-            name,
-        ];
-        a.extend_from_slice(extra);
-        drive_sim(&a, dir.path())
-    };
+    let run = |extra: &[&str], name: &str| warthog_run(dir.path(), name, extra);
     let summary = |name: &str| -> serde_json::Value {
         let text = std::fs::read_to_string(dir.path().join(format!("o/{name}.run.json"))).unwrap();
         serde_json::from_str(&text).unwrap()
@@ -355,4 +359,47 @@ fn safe_area_is_a_deployment_option() {
         assert!(stderr(&o).contains(needle), "{bad}: {}", stderr(&o));
         assert!(!dir.path().join("o/bad.mcap").exists());
     }
+}
+
+/// `--draw-like LOG` draws each step's command in the quadrant of the log's command of that
+/// step: the run's held commands turn and drive as the measured run's did, step by step, and
+/// the run records its sampler (`matched-quadrants`) and the log among its inputs. A log that
+/// cannot be read is bad input (exit code 2) that writes nothing; with `--sampler` it is
+/// refused as two answers to one question.
+#[test]
+fn draw_like_draws_in_the_quadrants_of_a_measured_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/measured/warthog_asphalt.csv"
+    );
+    let run = |extra: &[&str], name: &str| warthog_run(dir.path(), name, extra);
+    let o = run(&["--draw-like", csv], "like");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let got = drive_sim::log::mcap::read_mcap(dir.path().join("o/like.mcap"))
+        .unwrap()
+        .held_commands();
+    let measured = drive_sim::log::csv::read_measured_csv(csv)
+        .unwrap()
+        .held_commands();
+    assert_eq!(got.len(), 20);
+    for (i, (g, m)) in got.iter().zip(&measured).enumerate() {
+        assert_eq!(g.quadrant(), m.quadrant(), "step {i}: {g:?} against {m:?}");
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("o/like.run.json")).unwrap()).unwrap();
+    assert_eq!(summary["sampler"], "matched-quadrants");
+    assert_eq!(summary["provenance"]["options"]["--draw-like"], csv);
+    assert!(summary["provenance"]["inputs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|i| i["role"] == "draw_like" && i["sha256"].is_string()));
+    let o = run(&["--draw-like", "no_such_run.csv"], "bad");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no_such_run"), "{}", stderr(&o));
+    assert!(!dir.path().join("o/bad.mcap").exists());
+    let o = run(&["--draw-like", csv, "--sampler", "halton"], "bad");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(!dir.path().join("o/bad.mcap").exists());
 }

@@ -7,6 +7,7 @@ use crate::metrics::{resampled, rows, StepRow};
 use crate::options::check_options;
 use crate::{analysis_of, records_time, tf, CompareOptions, Input, Warning};
 use drive_sim_analysis::bootstrap::MIN_STEPS_FOR_INTERVAL;
+use drive_sim_analysis::command_mix::CommandMix;
 use drive_sim_analysis::smoother::Smoothed;
 use drive_sim_analysis::Analysis;
 use drive_sim_model::kinematics::{CommandSpace, WheelSpeeds};
@@ -55,6 +56,7 @@ impl<'a> PreparedReal<'a> {
                 ),
             });
         }
+        lopsided(&real.log.meta.name, &analysis.command_mix, &mut warnings);
         let stats = resampled(&rows, &opts.bootstrap.draws(rows.len(), 1), &space);
         let tf_grid = tf::TfSetup::new(real.log, opts);
         let all: Vec<&StepRow> = rows.iter().collect();
@@ -85,6 +87,27 @@ impl<'a> PreparedReal<'a> {
             splits,
             warnings,
         })
+    }
+}
+
+/// A named warning when the real run drew its commands' quadrants unevenly (a fair coin's p
+/// below 0.05 for its left turns or its forward commands): its medians are its draw's, and
+/// simulated runs drawn uniformly meet other ones.
+fn lopsided(name: &str, mix: &CommandMix, warnings: &mut Vec<Warning>) {
+    if mix.left_turns_p.min(mix.forward_p) < 0.05 {
+        warnings.push(Warning {
+            name: "lopsided_draw".into(),
+            message: format!(
+                "`{name}` drew {} left turns and {} forward commands in {} steps (fair-coin p {:.4} and {:.4}): \
+                 its medians are its draw's; simulated runs drawn uniformly meet other ones \
+                 (`drive-sim run --draw-like` draws in this run's quadrants, as `tune`, `twin` and `judge` do)",
+                mix.left_turns(),
+                mix.forward(),
+                mix.steps(),
+                mix.left_turns_p,
+                mix.forward_p
+            ),
+        });
     }
 }
 

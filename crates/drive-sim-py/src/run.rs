@@ -31,7 +31,7 @@ struct Outcome {
 /// Runs DRIVE (see `drive_sim.run` for the arguments); `adapter` is the Python sampler's
 /// callable, `sampler` then only its label. `command` is recorded as the provenance's command.
 #[pyfunction]
-#[pyo3(signature = (robot, terrain, steps, seed, sampler, adapter, out, name, force, noise, physics_hz, safe_area, inject, command))]
+#[pyo3(signature = (robot, terrain, steps, seed, sampler, adapter, out, name, force, noise, physics_hz, safe_area, inject, command, draw_like=None))]
 #[allow(clippy::too_many_arguments)] // the keyword arguments of `drive_sim.run`, one by one
 pub(crate) fn run(
     py: Python<'_>,
@@ -49,6 +49,7 @@ pub(crate) fn run(
     safe_area: Option<(f64, f64)>,
     inject: Vec<String>,
     command: Vec<String>,
+    draw_like: Option<PathBuf>,
 ) -> PyResult<RunResult> {
     let steps = u32::try_from(steps).map_err(|_| {
         PyValueError::new_err(format!(
@@ -88,6 +89,7 @@ pub(crate) fn run(
         safe_area: safe_area
             .map(|(length_m, width_m)| drive_sim_model::robot::SafeArea { length_m, width_m }),
         cancel: Some(cancel.clone()),
+        draw_like,
     };
     let outcome = py.allow_threads(move || execute(&req, adapter, cancel, in_memory, command));
     finish(py, outcome)

@@ -83,6 +83,7 @@ pub fn scenario_request(opts: &DemoOptions, robot: &str, terrain: &str) -> RunRe
         name: None,
         safe_area: None,
         cancel: None,
+        draw_like: None,
     }
 }
 

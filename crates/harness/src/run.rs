@@ -5,11 +5,13 @@
 use crate::error::{Error, Result};
 use drive_sim_log::mcap::{McapSummary, McapWriter};
 use drive_sim_log::{DriveLog, Frame, LogMeta, Nominal, Origin};
+use drive_sim_model::kinematics::WheelSpeeds;
 use drive_sim_model::output::write_json_atomic as write_json;
 use drive_sim_model::provenance::{InputFile, Provenance};
 use drive_sim_model::robot::{Robot, BUILTIN_ROBOTS};
 use drive_sim_model::terrain::{Terrain, BUILTIN_TERRAINS};
 use drive_sim_protocol::sampler::{make_sampler_for, Sampler};
+use drive_sim_protocol::samplers::matched::Matched;
 use drive_sim_protocol::{run_drive_cancellable, CancelToken, FrameSink, ProtocolConfig, RunSummary};
 use drive_sim_sim::{SimConfig, Simulator};
 use serde::Serialize;
@@ -43,7 +45,16 @@ pub struct RunRequest {
     pub safe_area: Option<drive_sim_model::robot::SafeArea>,
     /// Stops this run as SIGINT would the process (polled beside the process-wide flag).
     pub cancel: Option<CancelToken>,
+    /// A log (any `drive-sim` input) whose commands' quadrants this run draws in, step by
+    /// step, in place of `sampler` (the run's sampler is then `matched-quadrants`,
+    /// [`drive_sim_protocol::samplers::matched`]): a run made to be compared with that log,
+    /// drawn as the twin's runs that `tune`, `twin` and `judge` compare with it are, so that
+    /// its medians are not moved by the two draws' luck.
+    pub draw_like: Option<PathBuf>,
 }
+
+/// The sampler name a run drawn in another log's quadrants records.
+pub const MATCHED_SAMPLER: &str = "matched-quadrants";
 
 /// Most steps a run may ask for: 100 000 steps are about 7 simulated days of DRIVE.
 pub const MAX_STEPS: u32 = 100_000;
@@ -52,6 +63,14 @@ pub const MAX_STEPS: u32 = 100_000;
 pub const PHYSICS_HZ_RANGE: (f64, f64) = (20.0, 5_000.0);
 
 impl RunRequest {
+    /// The sampler the run records: `sampler`, or [`MATCHED_SAMPLER`] when it draws like a log.
+    pub fn sampler_name(&self) -> &str {
+        match self.draw_like {
+            Some(_) => MATCHED_SAMPLER,
+            None => &self.sampler,
+        }
+    }
+
     /// The validation pass of a run's numbers and names, before anything is loaded or
     /// simulated: steps, physics rate, log name.
     pub fn validate(&self) -> Result<()> {
@@ -240,9 +259,10 @@ fn prepare(req: &RunRequest, own_sampler: bool, write: bool) -> Result<Prepared>
     let (terrain, terrain_file) = Terrain::resolve(&req.terrain)?;
     let seed = req.sim.seed;
     let protocol = ProtocolConfig::for_run(&robot, &terrain, req.steps);
-    let registered = match own_sampler {
-        true => None,
-        false => Some(
+    let registered: Option<Box<dyn Sampler>> = match (own_sampler, &req.draw_like) {
+        (true, _) => None,
+        (false, Some(like)) => Some(Box::new(Matched::new(&commands_of(like)?, seed)?)),
+        (false, None) => Some(
             make_sampler_for(&req.sampler, seed, &protocol)
                 .ok_or_else(|| super::unknown_sampler(&req.sampler))?,
         ),
@@ -257,13 +277,14 @@ fn prepare(req: &RunRequest, own_sampler: bool, write: bool) -> Result<Prepared>
     if write {
         drive_sim_model::output::ensure_dir(&req.out, "--out")?;
     }
-    let provenance = Provenance::new(
-        vec![
-            InputFile::of_model("robot", &robot_file, BUILTIN_ROBOTS),
-            InputFile::of_model("terrain", &terrain_file, BUILTIN_TERRAINS),
-        ],
-        run_options(req, &robot_file, &terrain_file),
-    );
+    let mut inputs = vec![
+        InputFile::of_model("robot", &robot_file, BUILTIN_ROBOTS),
+        InputFile::of_model("terrain", &terrain_file, BUILTIN_TERRAINS),
+    ];
+    if let Some(like) = &req.draw_like {
+        inputs.push(InputFile::of_file("draw_like", like));
+    }
+    let provenance = Provenance::new(inputs, run_options(req, &robot_file, &terrain_file));
     let mcap_path = req.out.join(format!("{name}.mcap"));
     let json_path = req.out.join(format!("{name}.run.json"));
     if write && !req.force {
@@ -282,7 +303,7 @@ fn prepare(req: &RunRequest, own_sampler: bool, write: bool) -> Result<Prepared>
             seed,
             robot_file: robot_file.display().to_string(),
             terrain_file: terrain_file.display().to_string(),
-            sampler: req.sampler.clone(),
+            sampler: req.sampler_name().to_string(),
             injected: req.injected.clone(),
         },
     };
@@ -388,7 +409,7 @@ fn record(
         terrain_file: p.terrain_file.display().to_string(),
         sim: req.sim.clone(),
         protocol: p.protocol,
-        sampler: req.sampler.clone(),
+        sampler: req.sampler_name().to_string(),
         real_time_factor: summary.total_time_s / wall_s.max(1e-9),
         summary,
         wall_s,
@@ -435,7 +456,25 @@ fn run_options(req: &RunRequest, robot_file: &Path, terrain_file: &Path) -> serd
     if let Some(a) = &req.safe_area {
         o["--safe-area"] = serde_json::json!([a.length_m, a.width_m]);
     }
+    if let Some(like) = &req.draw_like {
+        o["--sampler"] = serde_json::json!(MATCHED_SAMPLER);
+        o["--draw-like"] = serde_json::json!(like.display().to_string());
+    }
     o
+}
+
+/// The command of each step of the log at `like`; a log without a step is bad input naming it.
+fn commands_of(like: &Path) -> Result<Vec<WheelSpeeds>> {
+    let opened = drive_sim_log::open(like, &Default::default())?;
+    let commands = opened.log.held_commands();
+    if commands.is_empty() {
+        return Err(Error::config(
+            like,
+            "--draw-like",
+            "the log holds no DRIVE step whose quadrants to draw in",
+        ));
+    }
+    Ok(commands)
 }
 
 /// `"off"` or `"typical"` for the sensor noise the command line names, else the values.
