@@ -31,7 +31,15 @@ pub struct CommandMix {
     pub forward_p: f64,
 }
 
+/// A balance whose fair-coin p is below this is a lopsided draw.
+pub const LOPSIDED_P: f64 = 0.05;
+
 impl CommandMix {
+    /// True when the left turns' or the forward commands' count is unlikely under a fair coin
+    /// (p below [`LOPSIDED_P`]): the run's medians carry its draw.
+    pub fn is_lopsided(&self) -> bool {
+        self.left_turns_p.min(self.forward_p) < LOPSIDED_P
+    }
     /// Steps counted.
     pub fn steps(&self) -> usize {
         self.forward_left + self.forward_right + self.backward_left + self.backward_right
@@ -63,7 +71,7 @@ impl std::fmt::Display for CommandMix {
             self.backward_left,
             self.backward_right
         )?;
-        if self.left_turns_p.min(self.forward_p) < 0.05 {
+        if self.is_lopsided() {
             write!(f, " (a lopsided draw: this run's medians carry it)")?;
         }
         Ok(())

@@ -90,11 +90,11 @@ impl<'a> PreparedReal<'a> {
     }
 }
 
-/// A named warning when the real run drew its commands' quadrants unevenly (a fair coin's p
-/// below 0.05 for its left turns or its forward commands): its medians are its draw's, and
+/// A named warning when the real run drew its commands' quadrants unevenly
+/// ([`CommandMix::is_lopsided`]): its medians are its draw's, and
 /// simulated runs drawn uniformly meet other ones.
 fn lopsided(name: &str, mix: &CommandMix, warnings: &mut Vec<Warning>) {
-    if mix.left_turns_p.min(mix.forward_p) < 0.05 {
+    if mix.is_lopsided() {
         warnings.push(Warning {
             name: "lopsided_draw".into(),
             message: format!(

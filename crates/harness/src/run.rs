@@ -54,7 +54,7 @@ pub struct RunRequest {
 }
 
 /// The sampler name a run drawn in another log's quadrants records.
-pub const MATCHED_SAMPLER: &str = "matched-quadrants";
+pub const MATCHED_SAMPLER: &str = drive_sim_protocol::samplers::matched::NAME;
 
 /// Most steps a run may ask for: 100 000 steps are about 7 simulated days of DRIVE.
 pub const MAX_STEPS: u32 = 100_000;

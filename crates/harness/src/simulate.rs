@@ -131,14 +131,9 @@ pub fn simulate(
     seed: u64,
     noise: SensorNoise,
 ) -> Result<SimulatedRun> {
-    let protocol = ProtocolConfig::for_run(robot, terrain, steps);
-    let mut s = make_sampler_for(sampler, seed, &protocol).ok_or_else(|| unknown_sampler(sampler))?;
-    let sim = SimConfig {
-        seed,
-        noise,
-        ..SimConfig::default()
-    };
-    simulate_with(robot, terrain, s.as_mut(), &protocol, sim)
+    seeded(robot, terrain, steps, seed, noise, |protocol| {
+        make_sampler_for(sampler, seed, protocol).ok_or_else(|| unknown_sampler(sampler).into())
+    })
 }
 
 /// [`simulate`] with draws in the quadrants of `commands` (step `i` draws uniformly in U in
@@ -151,14 +146,29 @@ pub fn simulate_matched(
     seed: u64,
     noise: SensorNoise,
 ) -> Result<SimulatedRun> {
+    seeded(robot, terrain, steps, seed, noise, |_| {
+        Ok(Box::new(Matched::new(commands, seed)?))
+    })
+}
+
+/// A run of `steps` steps with the protocol defaults, the simulator seeded with `seed`, and
+/// the sampler `sampler` builds for that protocol.
+fn seeded(
+    robot: &Robot,
+    terrain: &Terrain,
+    steps: u32,
+    seed: u64,
+    noise: SensorNoise,
+    sampler: impl FnOnce(&ProtocolConfig) -> Result<Box<dyn Sampler>>,
+) -> Result<SimulatedRun> {
     let protocol = ProtocolConfig::for_run(robot, terrain, steps);
-    let mut s = Matched::new(commands, seed)?;
+    let mut s = sampler(&protocol)?;
     let sim = SimConfig {
         seed,
         noise,
         ..SimConfig::default()
     };
-    simulate_with(robot, terrain, &mut s, &protocol, sim)
+    simulate_with(robot, terrain, s.as_mut(), &protocol, sim)
 }
 
 /// The error for a sampler name that is not registered, listing those that are.

@@ -228,7 +228,6 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&JudgeEvent) + Sync)) -> Res
         .iter()
         .map(|(_, log)| PreparedSim::new(Input { log, file: None }))
         .collect::<Result<Vec<_>>>()?;
-    let reference_steps = (reference_runs.steps, reference_runs.half);
     let scoring = Scoring {
         model: req.model,
         seeds: &seeds,
@@ -253,8 +252,8 @@ pub fn judge(req: &JudgeRequest, progress: &(dyn Fn(&JudgeEvent) + Sync)) -> Res
         options: *opts,
         real_steps_analysed: n_real,
         steps_per_run: steps,
-        reference_run_steps: reference_steps.0,
-        reference_steps: reference_steps.1,
+        reference_run_steps: scoring.reference_runs.steps,
+        reference_steps: scoring.reference_runs.half,
         sim_seeds: seeds,
         reference_seeds: references.iter().filter_map(|c| c.seed).collect(),
         // The Monte Carlo test's rule: reject when p <= alpha (with 19 references and alpha

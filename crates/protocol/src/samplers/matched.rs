@@ -18,6 +18,9 @@ use drive_sim_model::{Error, Result};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
+/// The name a run drawn this way records as its sampler.
+pub const NAME: &str = "matched-quadrants";
+
 /// Step `i` draws uniformly in U among the commands of quadrant `quadrants[i % len]` (a run
 /// longer than them starts them again).
 #[derive(Debug, Clone)]
@@ -45,7 +48,7 @@ impl Matched {
 
 impl Sampler for Matched {
     fn name(&self) -> &str {
-        "matched-quadrants"
+        NAME
     }
     fn next(&mut self, ctx: &SamplingContext<'_>) -> Result<WheelSpeeds> {
         let q = self.quadrants[ctx.step as usize % self.quadrants.len()];

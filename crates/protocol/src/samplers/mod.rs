@@ -45,20 +45,11 @@ register! {
     boundary_aware,
 }
 
-/// The Warthog's command space, for the strategies' tests.
+/// The Warthog's command space, for the strategies' tests: its robot file's.
 #[cfg(test)]
 pub(crate) fn warthog_space() -> drive_sim_model::kinematics::CommandSpace {
-    use drive_sim_model::kinematics::{CommandSpace, IdealDiffDrive};
-    CommandSpace {
-        idd: IdealDiffDrive {
-            wheel_radius_m: 0.3,
-            baseline_m: 1.08,
-        },
-        max_wheel_rad_s: 16.6667,
-        max_lin_m_s: 5.0,
-        max_ang_rad_s: 4.0,
-        turn_scale: 1.0,
-    }
+    let (robot, _) = drive_sim_model::robot::Robot::resolve("warthog").expect("the built-in Warthog");
+    robot.command_space()
 }
 
 #[cfg(test)]
