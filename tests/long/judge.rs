@@ -67,9 +67,7 @@ fn the_even_steps_of_a_run_of_the_model_itself_are_not_told_apart() {
 
 /// A run of the model itself that drew nine right turns in ten is not told apart: the judge's
 /// runs and references draw in the quadrants of its commands (forward or backward, turning
-/// left or right), step by step. With the paper's uniform draws instead, this run is told
-/// apart (p 0.1, its mean loss 20.9 against references of 8.1 on average). `warthog_asphalt` drew 62 right turns in
-/// 98 steps, a fair coin's two-sided p of 0.011 under the paper's uniform draws; a skid-steering
+/// left or right), step by step. `warthog_asphalt` drew 62 right turns in 98 steps, a fair coin's two-sided p of 0.011 under the paper's uniform draws; a skid-steering
 /// robot's yaw slip changes sign with the turn, so its median is the right turns'. That the mix
 /// matters here too: against a run of the uniform draws, compare finds the lopsided run's
 /// median yaw slip beyond its threshold.
