@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Which quadrants each measured run's commands were drawn in, and its median slips turn by turn.
+"""Which cells each measured run's commands were drawn in, its median slips turn by turn, and its ρ.
 
 A run's medians (ρ, the slips) are medians over its steps, and a skid-steering robot's yaw slip
 changes sign with the turn: a run that drew more right turns than left ones has the right
@@ -10,7 +10,9 @@ keeps):
 - the steps per quadrant and the fair-coin p-value of the left turns' count (what `analyze`
   prints as "commands drawn");
 - the median yaw slip along the command (rad/s, the analysis's sign) over all the steady
-  windows, over the left turns' (commanded wz > 0) and over the right turns'.
+  windows, over the left turns' (commanded wz > 0) and over the right turns';
+- the steps whose wheels turn opposite ways (pivots, turns in place), the run's median ρ over
+  its steps, and how many of those steps have a ρ at or above it (a second table).
 
     python3 scripts/command_mix.py --out out/command_mix
 
@@ -33,6 +35,7 @@ def main():
     args = ap.parse_args()
     runner = Runner(args.out)
     rows = []
+    rho_rows = []
     for run in RUNS:
         out = os.path.join(args.out, run)
         runner.run([args.bin, "analyze", os.path.join(MEASURED, run + ".csv"), "--out", out])
@@ -50,6 +53,15 @@ def main():
             f"{st.median(r['slip_wz_rad_s'] for r in kept):+.3f} | {st.median(left):+.3f} ({len(left)}) | "
             f"{st.median(right):+.3f} ({len(right)}) |"
         )
+        steps_rho = [r for r in d["rows"] if not r["excluded"] and r["window"] is None]
+        med = st.median(r["rho"] for r in steps_rho)
+        counter = [r["rho"] for r in steps_rho if r["cmd_left_rad_s"] * r["cmd_right_rad_s"] < 0]
+        rest = [r["rho"] for r in steps_rho if r["cmd_left_rad_s"] * r["cmd_right_rad_s"] >= 0]
+        rho_rows.append(
+            f"| {run} | {m.get('counter_rotating', len(counter))} of {steps} | {med:.3f} | "
+            f"{st.median(counter):.3f} | {sum(1 for x in counter if x >= med)} of {len(counter)} | "
+            f"{st.median(rest):.3f} |"
+        )
     write_table(
         args.out,
         [
@@ -62,6 +74,12 @@ def main():
         ],
         rows,
     )
+    header = ["run", "steps with the wheels turning opposite ways", "median ρ", "their median ρ",
+              "of them, ρ at or above the run's median", "the other steps' median ρ"]
+    table = "| " + " | ".join(header) + " |\n|" + "---|" * len(header) + "\n" + "\n".join(rho_rows) + "\n"
+    with open(os.path.join(args.out, "table.md"), "a") as f:
+        f.write("\n" + table)
+    print(table)
 
 
 if __name__ == "__main__":

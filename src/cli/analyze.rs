@@ -144,6 +144,11 @@ fn print_analysis_table(analyses: &[drive_sim::analysis::Analysis]) -> anyhow::R
         writeln!(out, "{:<20} {}", "", a.step_scatter)?;
         writeln!(out, "{:<20} {}", "", a.turn_memory)?;
         writeln!(out, "{:<20} {}", "", a.command_mix)?;
+        // A pose that repeats between samples: an odometry slower than the logger (see
+        // `analysis::pose_updates`).
+        if let Some(p) = &a.pose_updates {
+            writeln!(out, "{:<20} {p}", "")?;
+        }
     }
     Ok(())
 }

@@ -545,3 +545,58 @@ fn leaving_the_height_field_is_named() {
         .expect("a robot driving straight for 200 s leaves a 110 m field");
     assert!(err.to_string().contains("left the simulated ground"), "{err}");
 }
+
+/// An odometry slower than the logger: a DRIVE run on the simulator with `pose_updates`
+/// declared (period 0.12 s, jitter 0.12 s, a Warthog run's) logs poses that stand still between
+/// updates, and the analysis gives back the declared intervals from the log alone; the windows'
+/// body speed over their wheels' scatters more than without it. Off, the pose changes at every
+/// sample.
+#[test]
+fn an_odometry_that_publishes_now_and_then_is_measured_on_its_log() {
+    use drive_sim::analysis::{analyze, AnalysisParams};
+    let terrain = Terrain::resolve("asphalt").unwrap().0;
+    let run = |period: f64, jitter: f64| {
+        let mut robot = Robot::resolve("warthog").unwrap().0;
+        robot.effects.set("pose_update_period_s", period).unwrap();
+        robot.effects.set("pose_update_jitter_s", jitter).unwrap();
+        let ran =
+            drive_sim::harness::simulate(&robot, &terrain, "uniform-wheel", 30, 4, SensorNoise::typical())
+                .unwrap();
+        analyze(&ran.log, &AnalysisParams::default()).unwrap()
+    };
+    // The windows' forward speed over their wheels', straight-ish steps: its spread (MAD).
+    let spread = |a: &drive_sim::analysis::Analysis| {
+        let mut r: Vec<f64> = a
+            .rows
+            .iter()
+            .filter(|x| x.excluded.is_none() && matches!(x.window, Some(1) | Some(2)))
+            .filter(|x| {
+                let wheels = 0.3 * (x.left_rad_s + x.right_rad_s) / 2.0;
+                let d = (x.cmd_right_rad_s - x.cmd_left_rad_s).abs()
+                    / (x.cmd_right_rad_s + x.cmd_left_rad_s).abs().max(1e-9);
+                d < 0.5 && wheels.abs() > 1.0
+            })
+            .map(|x| x.vx_m_s / (0.3 * (x.left_rad_s + x.right_rad_s) / 2.0))
+            .collect();
+        r.sort_by(f64::total_cmp);
+        let m = r[r.len() / 2];
+        let mut d: Vec<f64> = r.iter().map(|v| (v - m).abs()).collect();
+        d.sort_by(f64::total_cmp);
+        d[d.len() / 2]
+    };
+    let held = run(0.12, 0.12);
+    let p = held.pose_updates.expect("intervals measured");
+    assert!(
+        (p.period_s - 0.12).abs() < 0.03 && (p.jitter_s - 0.12).abs() < 0.03,
+        "{p:?}"
+    );
+    assert!(p.held_share > 0.6, "{p:?}");
+    let fresh = run(0.0, 0.0);
+    let q = fresh.pose_updates.expect("intervals measured");
+    assert!(q.every_sample() && q.held_share == 0.0, "{q:?}");
+    let (with, without) = (spread(&held), spread(&fresh));
+    assert!(
+        with > 2.0 * without,
+        "scatter of body over wheels: {with} held, {without} fresh"
+    );
+}

@@ -8,7 +8,11 @@
 //! This stage counts the analysed steps per quadrant and gives the exact two-sided binomial
 //! p-value of each balance: a small one says the run's medians carry its draw's luck (the
 //! twin's runs compared with such a run draw in its quadrants,
-//! `drive_sim_protocol::samplers::matched`).
+//! `drive_sim_protocol::samplers::matched`). It also counts the steps whose wheels turn
+//! opposite ways (pivots and turns in place), a skid-steer's least predictable commands: on the
+//! measured asphalt runs all but one of them have a ρ above their run's median
+//! (`scripts/command_mix.py`), so a run's median ρ moves with how many it drew. Their expected
+//! share depends on U's shape (27.5 % of the Warthog's), so no p-value is given for it.
 
 use drive_sim_model::kinematics::WheelSpeeds;
 use serde::{Deserialize, Serialize};
@@ -29,6 +33,9 @@ pub struct CommandMix {
     pub left_turns_p: f64,
     /// The same for the forward commands' count.
     pub forward_p: f64,
+    /// Steps whose wheels turn opposite ways (`left · right < 0`).
+    #[serde(default)]
+    pub counter_rotating: usize,
 }
 
 /// A balance whose fair-coin p is below this is a lopsided draw.
@@ -60,7 +67,8 @@ impl std::fmt::Display for CommandMix {
         write!(
             f,
             "commands drawn: {} left turns of {} (fair-coin p {:.4}), {} forward (p {:.4}); \
-             by quadrant forward-left {}, forward-right {}, backward-left {}, backward-right {}",
+             by quadrant forward-left {}, forward-right {}, backward-left {}, backward-right {}; \
+             {} with the wheels turning opposite ways",
             self.left_turns(),
             self.steps(),
             self.left_turns_p,
@@ -69,7 +77,8 @@ impl std::fmt::Display for CommandMix {
             self.forward_left,
             self.forward_right,
             self.backward_left,
-            self.backward_right
+            self.backward_right,
+            self.counter_rotating
         )?;
         if self.is_lopsided() {
             write!(f, " (a lopsided draw: this run's medians carry it)")?;
@@ -82,6 +91,7 @@ impl std::fmt::Display for CommandMix {
 pub fn command_mix(commands: impl IntoIterator<Item = WheelSpeeds>) -> CommandMix {
     let mut m = CommandMix::default();
     for c in commands {
+        m.counter_rotating += usize::from(c.left_rad_s * c.right_rad_s < 0.0);
         let q = c.quadrant();
         match (q.forward, q.left) {
             (true, true) => m.forward_left += 1,
@@ -151,5 +161,7 @@ mod tests {
         );
         assert_eq!((m.steps(), m.left_turns(), m.forward()), (5, 3, 3));
         assert!((m.left_turns_p - 1.0).abs() < 1e-12);
+        // Only the turn in place counter-rotates.
+        assert_eq!(m.counter_rotating, 1);
     }
 }

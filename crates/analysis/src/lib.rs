@@ -28,6 +28,7 @@ pub mod bootstrap;
 pub mod command_mix;
 pub mod crosscheck;
 mod pipeline;
+pub mod pose_updates;
 pub mod rho;
 pub mod risk;
 pub mod scatter;
@@ -387,6 +388,9 @@ pub struct Analysis {
     /// How loaded wheels track by the previous step's turn ([`turn_memory`]).
     #[serde(default)]
     pub turn_memory: turn_memory::TurnMemory,
+    /// How often the logged pose changes ([`pose_updates`]; `None` with too few changes).
+    #[serde(default)]
+    pub pose_updates: Option<pose_updates::PoseUpdates>,
     /// Flat rows for summary.json.
     pub rows: Vec<SummaryRow>,
 }
@@ -441,6 +445,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
     let wheels: Vec<scatter::StepWheels> = steps.iter().map(scatter::StepWheels::of).collect();
     let step_scatter = scatter::step_scatter(&wheels);
     let turn_memory = turn_memory::turn_memory(&wheels);
+    let pose_updates = pose_updates::pose_updates(&log.samples, 1.0 / meta.rate_hz);
     Ok(Analysis {
         dataset: meta.name.clone(),
         robot: meta.robot.clone(),
@@ -465,6 +470,7 @@ pub fn analyze(log: &DriveLog, params: &AnalysisParams) -> Result<Analysis> {
         median_ci95,
         step_scatter,
         turn_memory,
+        pose_updates,
         rows,
     })
 }

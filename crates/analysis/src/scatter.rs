@@ -80,6 +80,16 @@ pub struct StepScatter {
     pub steps_with_two_windows: usize,
 }
 
+impl StepScatter {
+    /// The step-level offset per wheel, rad/s: `s = √(σ_step² − f²)`, the step-to-step scatter
+    /// the within-step scatter does not explain (zero when it explains all of it); `None`
+    /// without both estimates.
+    pub fn step_offset_rad_s(&self) -> Option<f64> {
+        let (step, within) = (self.wheel_rad_s?, self.within_step_rad_s?);
+        Some((step * step - within * within).max(0.0).sqrt())
+    }
+}
+
 /// No pairs and no estimate (an analysis read from a file written before the scatter was).
 impl Default for StepScatter {
     fn default() -> Self {

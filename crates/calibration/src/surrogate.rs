@@ -6,7 +6,9 @@
 
 use crate::error::{Error, Result};
 use drive_sim_log::{GroundTruth, Measurement, Pose};
-use drive_sim_model::effects::{Effects, FadingOdometry, PlantModifiers, StepContext, TermInput};
+use drive_sim_model::effects::{
+    Effects, FadingOdometry, PlantModifiers, PoseUpdates, StepContext, TermInput,
+};
 use drive_sim_model::geometry::wrap_angle;
 use drive_sim_model::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use drive_sim_sim::plant::{integrate_unicycle_with, kinematic_measurement, poses_behind, Heading, Plant};
@@ -60,6 +62,8 @@ pub struct KinematicPlant {
     poses: VecDeque<(f64, Pose)>,
     /// The odometry the pose is read through (its fade, `odometry_fade_per_s`).
     odometry: FadingOdometry,
+    /// When that odometry publishes (`pose_updates`): the logger holds its last pose.
+    pose_updates: PoseUpdates,
     time_s: f64,
     velocity: BodyVelocity,
     /// The body velocity before offsets (behind the wheels' when the body lags).
@@ -102,6 +106,7 @@ impl KinematicPlant {
             heading: Heading::of(0.0),
             poses: VecDeque::new(),
             odometry: FadingOdometry::default(),
+            pose_updates: PoseUpdates::default(),
             time_s: 0.0,
             velocity: BodyVelocity::default(),
             body: BodyVelocity::default(),
@@ -324,6 +329,16 @@ impl Plant for KinematicPlant {
             enc.right_rad_s += draw(n.enc_rad_s);
             wz += draw(n.imu_wz_rad_s);
         }
+        // The odometry publishes the noisy pose it matched; the logger holds the last one (the
+        // draws' seed is the noise's: a noiseless replay has one sequence of updates).
+        let seed = self.noise.as_ref().map_or(0, |(n, _)| n.seed);
+        let pose = self.pose_updates.read(
+            pose,
+            self.time_s,
+            self.mods.pose_update_period_s,
+            self.mods.pose_update_jitter_s,
+            seed,
+        );
         let truth = GroundTruth {
             pose: self.pose,
             velocity: v,
@@ -376,6 +391,7 @@ impl Plant for KinematicPlant {
         self.cmds.push_back((f64::NEG_INFINITY, wheels));
         self.time_s = 0.0;
         self.step_t0_s = 0.0;
+        self.pose_updates.restart();
         self.poses.clear();
         self.poses.extend(behind);
         self.odometry.restart();

@@ -39,6 +39,11 @@ impl<'a> PreparedReal<'a> {
         &self.commands
     }
 
+    /// The real run's analysis (its steps as compared).
+    pub fn analysis(&self) -> &Analysis {
+        &self.analysis
+    }
+
     /// Analyses `real` for comparisons with `opts` (bad options are refused here).
     pub fn new(real: Input<'a>, opts: &CompareOptions) -> Result<Self> {
         check_options(opts)?;

@@ -221,6 +221,7 @@ impl Simulator {
             accel_world: [0.0; 3],
             pose_history: VecDeque::new(),
             odometry: FadingOdometry::default(),
+            pose_updates: PoseUpdates::default(),
             inertia_kg_m2: chassis.inertia_kg_m2,
             #[cfg(feature = "oracle")]
             reference: None,

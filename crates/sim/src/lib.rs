@@ -68,7 +68,7 @@ pub use config::{SensorNoise, SimConfig};
 pub use drive_sim_model::effects::Effects;
 pub use plant::{IdealPlant, Plant};
 
-use drive_sim_model::effects::{FadingOdometry, PlantModifiers, StepContext, TermInput};
+use drive_sim_model::effects::{FadingOdometry, PlantModifiers, PoseUpdates, StepContext, TermInput};
 use drive_sim_model::error::{Error, Result};
 use drive_sim_model::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 use drive_sim_model::measurement::{GroundTruth, ImuReading, Measurement, Pose};
@@ -183,6 +183,8 @@ pub struct Simulator {
     pose_history: VecDeque<(f64, rapier3d::parry::math::Pose)>,
     /// The odometry the pose is read through (its fade, `odometry_fade_per_s`).
     odometry: FadingOdometry,
+    /// When that odometry publishes (`pose_updates`): the logger holds its last pose.
+    pose_updates: PoseUpdates,
     /// Principal moments of inertia of the chassis (body axes), kg·m².
     inertia_kg_m2: [f64; 3],
     /// rapier's pipeline when the reference step is chosen (feature `oracle`).
@@ -273,6 +275,7 @@ impl Simulator {
         self.accel_world = [0.0; 3];
         self.pose_history.clear();
         self.odometry.restart();
+        self.pose_updates.restart();
         if behind.len() > 1 {
             // The way there, at the height and attitude the robot is put down with.
             let now = *self.bodies[self.body].position();
@@ -397,6 +400,14 @@ impl Plant for Simulator {
             pose.yaw_rad =
                 drive_sim_model::geometry::wrap_angle(pose.yaw_rad + nz.pose_yaw_rad * self.normal());
         }
+        // The odometry publishes the noisy pose it matched; the logger holds the last one.
+        let pose = self.pose_updates.read(
+            pose,
+            self.time_s,
+            self.mods.pose_update_period_s,
+            self.mods.pose_update_jitter_s,
+            self.seed,
+        );
         let rb = &self.bodies[self.body];
         let inv = rb.position().rotation.inverse();
         let w_body = inv * rb.angvel();

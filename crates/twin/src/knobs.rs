@@ -6,7 +6,8 @@
 //! constant). The pool is every effect on the command, the wheel loop, the body or the
 //! wheel–terrain contact that the simulator runs, with continuous parameters; sensor effects
 //! are left to the calibration by replay, which sees them sample by sample, and the generic
-//! discovered terms are not physical knobs. Nothing here says which knob matters for which
+//! discovered terms are not physical knobs, and the random effects a log measures
+//! ([`crate::measured::MEASURED`]) are declared from it, not searched. Nothing here says which knob matters for which
 //! robot: [`crate::screen`] measures it on the run.
 
 use drive_sim_calibration::params::ParamSpec;
@@ -58,6 +59,7 @@ pub fn pool(start: &ModelParams, reach: &CommandReach) -> Vec<Knob> {
         .iter()
         .enumerate()
         .filter(|(_, e)| !e.generic() && DRIVING_STAGES.contains(&e.stage()))
+        .filter(|(_, e)| !crate::measured::MEASURED.contains(&e.name()))
         .filter_map(|(i, e)| {
             let specs: Vec<ParamSpec> = (0..e.params().len())
                 .map(|j| ParamSpec::for_effect(i, j, reach))
@@ -106,6 +108,8 @@ mod tests {
         for absent in [
             "encoder_scale",
             "imu_yaw_rate_bias_rad_s",
+            "wheel_speed_scatter",
+            "pose_updates",
             "term_wheel_left",
             "imu_yaw_rate_sign_flip",
         ] {

@@ -4,7 +4,8 @@
 //! to try protocols, samplers and smoothers on. This crate goes the whole way, with no recipe
 //! picked by hand:
 //!
-//! 1. **Held-out pass** ([`pass`]): on the odd steps of every run, calibrate by replay, screen
+//! 1. **Held-out pass** ([`pass`]): on the odd steps of every run, calibrate by replay, declare
+//!    the random effects the steps measure directly ([`measured`]), screen
 //!    every knob of the model in closed loop ([`screen`]), choose what to tune by a stated rule
 //!    ([`rule`]), tune it and check the choice on fresh seeds ([`mod@tune`]). Then `judge` the
 //!    twin on the even steps, which played no part in any of it ([`judging`]).
@@ -46,6 +47,7 @@ pub mod event;
 pub mod input;
 pub mod judging;
 pub mod knobs;
+pub mod measured;
 pub mod pass;
 pub mod report;
 pub mod rule;

@@ -22,6 +22,7 @@ use crate::error::Result;
 use crate::event::TwinEvent;
 use crate::input::{starting_models, Ground};
 use crate::knobs::{pool, Knob};
+use crate::measured::{self, MeasuredValue};
 use crate::rule::{Choice, Rule};
 use crate::screen::{screen, ScreenInput, Screening};
 use crate::tune::{tune, TuneInput, Tuning};
@@ -92,6 +93,10 @@ pub struct PassReport {
     pub start: Vec<String>,
     /// Each ground's calibration by replay.
     pub calibration: Vec<GroundCalibration>,
+    /// The random effects the steps measure, declared on the calibrated model before the
+    /// closed loop ([`crate::measured`]).
+    #[serde(default)]
+    pub measured: Vec<MeasuredValue>,
     /// The closed-loop screening of the pool.
     pub screening: Screening,
     /// What the rule chose.
@@ -177,7 +182,7 @@ pub(crate) fn run_pass(req: &PassRequest, progress: &(dyn Fn(&TwinEvent) + Sync)
         steps: req.steps,
     });
     let t0 = Instant::now();
-    let (start, calibration, calibrated, declared) = calibrate(req, &chosen, progress)?;
+    let (start, calibration, mut calibrated, declared) = calibrate(req, &chosen, progress)?;
     timed("calibrate", t0);
     let prepared: Vec<PreparedReal> = chosen
         .iter()
@@ -188,6 +193,8 @@ pub(crate) fn run_pass(req: &PassRequest, progress: &(dyn Fn(&TwinEvent) + Sync)
             )
         })
         .collect::<drive_sim_compare::Result<_>>()?;
+    let measured = measured::measure(&prepared.iter().map(PreparedReal::analysis).collect::<Vec<_>>());
+    measured::declare(&mut calibrated, &measured)?;
     let closed = Closed {
         grounds: prepared
             .into_iter()
@@ -245,6 +252,7 @@ pub(crate) fn run_pass(req: &PassRequest, progress: &(dyn Fn(&TwinEvent) + Sync)
             steps: req.steps.as_str().to_string(),
             start,
             calibration,
+            measured,
             screening,
             choice,
             tuning,

@@ -196,7 +196,7 @@ fn provenance_of(w: &Written, which: Which, g: usize, tuned: bool) -> Provenance
     if !tuned {
         header.push("The tuned model did not complete its closed-loop check: these are the calibrated model's values.".into());
     }
-    header.push("[fit] comments: calibrated by replay (clustered sandwich over the training steps); [twin] comments: tuned in closed loop.".into());
+    header.push("[fit] comments: calibrated by replay (clustered sandwich over the training steps); [log] comments: measured on the steps (random effects); [twin] comments: tuned in closed loop.".into());
     // Both rounds' values, each round's when its check accepted it.
     let rounds = judged
         .pass
@@ -233,7 +233,14 @@ fn provenance_of(w: &Written, which: Which, g: usize, tuned: bool) -> Provenance
                 )
             })
         })
-        .collect();
+        .collect::<Vec<_>>();
+    let measured = judged.pass.measured.iter().map(|v| {
+        (
+            format!("effect.{}", v.name),
+            format!("[log] {:.6} {}, measured: {}", v.value, v.unit, v.from),
+        )
+    });
+    let chosen = measured.chain(chosen).collect();
     Provenance {
         header,
         fitted: cal

@@ -34,6 +34,7 @@ mod motor_gain_drift;
 pub mod motor_torque_speed;
 mod odometry_fade;
 mod pose_latency;
+mod pose_updates;
 mod reverse_baseline_scale;
 mod set;
 pub mod speed_droop;
@@ -54,6 +55,7 @@ mod wheel_speed_scatter;
 use crate::error::{Error, Result};
 use crate::kinematics::{BodyVelocity, IdealDiffDrive, WheelSpeeds};
 pub use odometry_fade::FadingOdometry;
+pub use pose_updates::PoseUpdates;
 use serde::{Deserialize, Serialize};
 pub use set::Effects;
 use std::fmt;
@@ -278,6 +280,11 @@ pub struct PlantModifiers {
     pub pose_latency_s: f64,
     /// Fade of the odometry's displacement through a held command, 1/s (0: none).
     pub odometry_fade_per_s: f64,
+    /// Shortest interval between two odometry poses, s (0 with no jitter: a pose at every
+    /// reading).
+    pub pose_update_period_s: f64,
+    /// Mean of the exponential wait added to each interval, s.
+    pub pose_update_jitter_s: f64,
     /// Time constant of the body velocity behind the wheels', s (0: none).
     pub body_time_constant_s: f64,
     /// Stall torque of each side's motor at full voltage, N·m at the wheels (infinite: none).
@@ -302,6 +309,8 @@ impl Default for PlantModifiers {
             relaxation_length_m: 0.0,
             pose_latency_s: 0.0,
             odometry_fade_per_s: 0.0,
+            pose_update_period_s: 0.0,
+            pose_update_jitter_s: 0.0,
             body_time_constant_s: 0.0,
             motor_stall_torque_nm: f64::INFINITY,
             motor_no_load_speed_rad_s: f64::INFINITY,
@@ -456,6 +465,7 @@ pub static REGISTRY: LazyLock<Vec<&'static dyn Effect>> = LazyLock::new(|| {
     r.extend([
         &pose_latency::PoseLatency as &'static dyn Effect,
         &odometry_fade::OdometryFade,
+        &pose_updates::PoseUpdateEffect,
         &encoder_scale::EncoderScale,
         &encoder_side_scale::EncoderSideScale,
     ]);

@@ -6,22 +6,42 @@
 //! draws, the draws do not depend on how many physics steps a DRIVE step took, and switching
 //! such an effect on moves no other random draw (sensor noise, the sampler's commands).
 
-/// A standard normal number that depends only on `(seed, step, stream)`: SplitMix64 (Steele,
-/// Lea & Flood 2014) of the three, two uniforms, Box–Muller.
-pub(crate) fn step_normal(seed: u64, step: u32, stream: u8) -> f64 {
-    let mix = |mut z: u64| {
-        z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    };
-    let key = mix(seed ^ mix((u64::from(step) << 8) | u64::from(stream)));
+/// SplitMix64's finaliser (Steele, Lea & Flood 2014): a bijective mix of 64 bits.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Two 53-bit uniforms that depend only on `(seed, index, stream)`, the first in (0, 1] (its
+/// logarithm is finite), the second in [0, 1).
+fn uniforms(seed: u64, index: u64, stream: u8) -> (f64, f64) {
+    let key = mix(seed ^ mix((index << 8) | u64::from(stream)));
     let a = mix(key);
     let b = mix(a);
-    // 53-bit uniforms; the first in (0, 1] so that its logarithm is finite.
     let u1 = ((a >> 11) as f64 + 1.0) / (1u64 << 53) as f64;
     let u2 = (b >> 11) as f64 / (1u64 << 53) as f64;
+    (u1, u2)
+}
+
+/// A standard normal number that depends only on `(seed, step, stream)`: two uniforms of a
+/// hash of the three, Box–Muller.
+pub(crate) fn step_normal(seed: u64, step: u32, stream: u8) -> f64 {
+    let (u1, u2) = uniforms(seed, u64::from(step), stream);
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// A standard exponential number (mean 1) that depends only on `(seed, index, stream)`: for
+/// effects that draw per event rather than per step (an odometry update), `index` counting
+/// the events.
+pub(crate) fn event_exponential(seed: u64, index: u64, stream: u8) -> f64 {
+    -uniforms(seed, index, stream).0.ln()
+}
+
+/// A uniform number in (0, 1] that depends only on `(seed, index, stream)`.
+pub(crate) fn event_uniform(seed: u64, index: u64, stream: u8) -> f64 {
+    uniforms(seed, index, stream).0
 }
 
 #[cfg(test)]

@@ -30,12 +30,12 @@ fn registry_names_and_keys_are_unique_and_documented() {
     // torque-speed line, the turning centre's offset and the crab angle, the speed loop's
     // droop, the wheels' step scatter, the droop's recovery, the wheels' deadband, knee, soft
     // limit and reverse gain, one encoder's scale, the turn's learnt load, the odometry's fade
-    // (34 named effects),
+    // and its update intervals (35 named effects),
     // and 6 generic terms: 48 features on a wheel, the 29 that do not read a side's own command
     // on the body and the IMU.
-    assert_eq!(REGISTRY.iter().filter(|e| !e.generic()).count(), 34);
-    assert_eq!(REGISTRY.len(), 40);
-    assert_eq!(n, 41 + 2 * 48 + 4 * 29);
+    assert_eq!(REGISTRY.iter().filter(|e| !e.generic()).count(), 35);
+    assert_eq!(REGISTRY.len(), 41);
+    assert_eq!(n, 43 + 2 * 48 + 4 * 29);
 }
 
 #[test]

@@ -49,6 +49,8 @@ struct DatasetSummary<'a> {
     step_scatter: drive_sim_analysis::scatter::StepScatter,
     /// How loaded wheels track by the previous step's turn, from the same analysed steps.
     turn_memory: drive_sim_analysis::turn_memory::TurnMemory,
+    /// How often the logged pose changes (`null` with too few changes).
+    pose_updates: Option<drive_sim_analysis::pose_updates::PoseUpdates>,
 }
 
 impl<'a> DatasetSummary<'a> {
@@ -80,6 +82,7 @@ impl<'a> DatasetSummary<'a> {
             rows: &a.rows,
             step_scatter: a.step_scatter,
             turn_memory: a.turn_memory,
+            pose_updates: a.pose_updates,
         }
     }
 }
