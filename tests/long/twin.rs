@@ -28,7 +28,7 @@ use drive_sim::compare::judge::{judge, yardsticks, JudgeRequest, YardstickReques
 use drive_sim::log::UseSteps;
 use drive_sim::robot::Robot;
 use drive_sim::terrain::Terrain;
-use drive_sim::twin::{make_twin, TwinOptions, TwinRequest};
+use drive_sim::twin::{make_twin, Twin, TwinOptions, TwinRequest};
 use std::path::Path;
 use std::process::Command;
 
@@ -390,6 +390,28 @@ fn a_start_covers_the_commands_and_declares_the_saturation_the_encoders_show() {
     assert!(notes.iter().all(|n| !n.contains("declared")), "{notes:?}");
 }
 
+/// The twin (in `dir/twin`) of an 80-step run of the generator robot on asphalt with `extra`,
+/// made with `options` and the pool cut down to `knobs`.
+fn twin_of_scattered(dir: &Path, extra: Unmodelled, options: TwinOptions, knobs: &[&str]) -> Twin {
+    let run = dir.join("scattered.mcap");
+    write_drive_mcap(
+        &run,
+        "scattered",
+        "asphalt",
+        TestRobotSpec::warthog_on_asphalt(3),
+        extra,
+        80,
+    );
+    let req = TwinRequest {
+        logs: vec![run],
+        out: dir.join("twin"),
+        input: Default::default(),
+        options,
+        knobs: Some(knobs.iter().map(|k| k.to_string()).collect()),
+    };
+    make_twin(&req, &|e| eprintln!("{e}")).unwrap()
+}
+
 /// A second round runs from the tuned twin when the first round's check accepts its tuning:
 /// over the pool's other knobs, with the refinement's rule; without an accepted tuning there is
 /// none. The generator's steps scatter (an offset per step, which the twin measures and does not
@@ -398,33 +420,18 @@ fn a_start_covers_the_commands_and_declares_the_saturation_the_encoders_show() {
 #[test]
 fn a_second_round_screens_the_other_knobs_from_the_tuned_twin() {
     let dir = tempfile::tempdir().unwrap();
-    let run = dir.path().join("scattered.mcap");
-    write_drive_mcap(
-        &run,
-        "scattered",
-        "asphalt",
-        TestRobotSpec::warthog_on_asphalt(3),
+    let twin = twin_of_scattered(
+        dir.path(),
         Unmodelled {
             step_offset_rad_s: 1.5,
             ..ground_a()
         },
-        80,
-    );
-    let req = TwinRequest {
-        logs: vec![run],
-        out: dir.path().join("twin"),
-        input: Default::default(),
-        options: TwinOptions {
+        TwinOptions {
             budget: 1.0,
             ..options()
         },
-        knobs: Some(vec![
-            "turn_memory".into(),
-            "centripetal_slip".into(),
-            "body_lag".into(),
-        ]),
-    };
-    let twin = make_twin(&req, &|e| eprintln!("{e}")).unwrap();
+        &["turn_memory", "centripetal_slip", "body_lag"],
+    );
     let pool = ["body_lag", "centripetal_slip", "turn_memory"];
     let mut second_rounds = 0;
     for pass in [&twin.report.held_out.pass, &twin.report.final_twin.pass] {
@@ -480,27 +487,16 @@ fn a_second_round_screens_the_other_knobs_from_the_tuned_twin() {
 #[test]
 fn the_wheels_step_offset_is_measured_on_the_steps_not_searched() {
     let dir = tempfile::tempdir().unwrap();
-    let run = dir.path().join("scattered.mcap");
-    write_drive_mcap(
-        &run,
-        "scattered",
-        "asphalt",
-        TestRobotSpec::warthog_on_asphalt(3),
+    let twin = twin_of_scattered(
+        dir.path(),
         Unmodelled {
             step_offset_rad_s: 1.5,
             wheel_limit_rad_s: 0.0,
             ..ground_a()
         },
-        80,
+        options(),
+        &["body_lag"],
     );
-    let req = TwinRequest {
-        logs: vec![run],
-        out: dir.path().join("twin"),
-        input: Default::default(),
-        options: options(),
-        knobs: Some(vec!["body_lag".into()]),
-    };
-    let twin = make_twin(&req, &|e| eprintln!("{e}")).unwrap();
     for pass in [&twin.report.held_out.pass, &twin.report.final_twin.pass] {
         assert!(!pass
             .screening

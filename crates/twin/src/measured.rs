@@ -24,6 +24,9 @@
 use drive_sim_analysis::pose_updates::PoseUpdates;
 use drive_sim_analysis::Analysis;
 use drive_sim_calibration::ModelParams;
+use drive_sim_compare::tune::twin_run_matched;
+use drive_sim_compare::{analysis_of, PreparedReal};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// The effects a log measures (their registry names): never knobs of the closed loop.
@@ -45,6 +48,33 @@ pub struct MeasuredValue {
     pub unit: String,
     /// What on the logs gives it.
     pub from: String,
+}
+
+/// Measures the random effects on each ground's choosing steps (`real`, as compare prepared
+/// them, `steps[i]` DRIVE steps each) and declares them on every model of `models` (one per
+/// ground, one robot): first the pose's updates, then the wheels' offset against one
+/// closed-loop run of each ground's model, seeded `seed`, drawn as its steps were and analysed
+/// as compare analyses a run. Returns what it declared.
+pub fn declare_measured(
+    models: &mut [ModelParams],
+    real: &[PreparedReal],
+    steps: &[u32],
+    seed: u64,
+) -> crate::Result<Vec<MeasuredValue>> {
+    let runs: Vec<&Analysis> = real.iter().map(PreparedReal::analysis).collect();
+    let mut measured = pose_updates(&runs);
+    declare(models, &measured)?;
+    let own: Vec<Analysis> = models
+        .par_iter()
+        .zip(real)
+        .zip(steps)
+        .map(|((model, real), &n)| Ok(analysis_of(&twin_run_matched(model, real.commands(), n, seed)?)?))
+        .collect::<crate::Result<_>>()?;
+    if let Some(offset) = wheel_offset(&runs, &own.iter().collect::<Vec<_>>()) {
+        declare(models, std::slice::from_ref(&offset))?;
+        measured.push(offset);
+    }
+    Ok(measured)
 }
 
 /// The pose's update intervals the choosing steps of `analyses` (one per log, one robot)

@@ -27,17 +27,15 @@ use crate::rule::{Choice, Rule};
 use crate::screen::{screen, ScreenInput, Screening};
 use crate::tune::{tune, TuneInput, Tuning};
 use crate::TwinOptions;
-use drive_sim_analysis::{analyze, Analysis, AnalysisParams};
 use drive_sim_calibration::joint::{calibrate_joint, JointInput, JointLog};
 use drive_sim_calibration::{
     calibrate_timed, twin, CalibrationOptions, FittedParam, ModelParams, SimFactory,
 };
 use drive_sim_compare::real_steps::real_steps;
-use drive_sim_compare::tune::{search_compare_options, twin_run_matched};
+use drive_sim_compare::tune::search_compare_options;
 use drive_sim_compare::{Input, PreparedReal, TfSmoother};
 use drive_sim_log::{DriveLog, UseSteps};
 use drive_sim_model::effects::CommandReach;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -195,24 +193,8 @@ pub(crate) fn run_pass(req: &PassRequest, progress: &(dyn Fn(&TwinEvent) + Sync)
             )
         })
         .collect::<drive_sim_compare::Result<_>>()?;
-    let real: Vec<&Analysis> = prepared.iter().map(PreparedReal::analysis).collect();
-    let mut measured = measured::pose_updates(&real);
-    measured::declare(&mut calibrated, &measured)?;
-    // One closed-loop run of each ground's calibrated model, drawn as its steps were: the
-    // wheels' step scatter it gives by itself.
-    let own: Vec<Analysis> = calibrated
-        .par_iter()
-        .zip(&prepared)
-        .zip(&chosen)
-        .map(|((model, real), (_, n))| {
-            let log = twin_run_matched(model, real.commands(), *n as u32, req.opts.seed)?;
-            Ok(analyze(&log, &AnalysisParams::default())?)
-        })
-        .collect::<Result<_>>()?;
-    if let Some(offset) = measured::wheel_offset(&real, &own.iter().collect::<Vec<_>>()) {
-        measured::declare(&mut calibrated, std::slice::from_ref(&offset))?;
-        measured.push(offset);
-    }
+    let steps: Vec<u32> = chosen.iter().map(|(_, n)| *n as u32).collect();
+    let measured = measured::declare_measured(&mut calibrated, &prepared, &steps, req.opts.seed)?;
     let closed = Closed {
         grounds: prepared
             .into_iter()
