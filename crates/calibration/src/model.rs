@@ -113,8 +113,8 @@ impl PlantFactory for KinematicFactory {
 }
 
 /// The rapier simulator ([`Simulator`]), noise-free, with the model's effects. Its base
-/// parameters are the terrain's friction profile and rolling resistance and the powertrain
-/// time constant.
+/// parameters are the terrain's friction profile and rolling resistance, the powertrain
+/// time constant and the wheelbase.
 #[derive(Debug, Clone, Copy)]
 pub struct SimFactory {
     /// Physics rate, Hz.
@@ -150,7 +150,7 @@ impl PlantFactory for SimFactory {
         // Peaks are searched above the (fixed) sliding values, so every point of the box is a
         // valid terrain; the terrain file's validation caps friction at 3.
         let top = |declared: f64| (1.5 * declared).clamp(1.2, 3.0);
-        vec![
+        let mut specs = vec![
             ParamSpec::new(
                 Param::PeakLongitudinal,
                 f.sliding_longitudinal,
@@ -161,6 +161,15 @@ impl PlantFactory for SimFactory {
             ParamSpec::new(Param::RollingCoefficient, 0.0, 0.3),
             ParamSpec::new(Param::SlidingShareLongitudinal, 0.5, 1.0),
             ParamSpec::new(Param::TimeConstant, 0.02, 1.5),
-        ]
+        ];
+        // Robots with one wheel a side have no wheelbase to fit. The box: from 0.6 of the
+        // declared (the contact patches of wide, soft tyres and a suspension that unloads
+        // the outer wheels shorten the scrub's lever) to the body's length.
+        let w = &params.robot.wheels;
+        if w.per_side > 1 && w.wheelbase_m > 0.0 {
+            let top = (1.2 * w.wheelbase_m).min(params.robot.body.length_m);
+            specs.push(ParamSpec::new(Param::Wheelbase, 0.6 * w.wheelbase_m, top));
+        }
+        specs
     }
 }

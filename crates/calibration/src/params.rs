@@ -23,6 +23,11 @@ pub enum Param {
     SlidingShareLongitudinal,
     /// Robot: baseline (wheel separation), m; the kinematic model's effective baseline.
     Baseline,
+    /// Robot: wheelbase (front to rear wheel of a side), m; in the simulator, the lever of the
+    /// sideways scrub that a skid-steer's wheels oppose to its yaw, so it sets how much of its
+    /// wheels' yaw rate the body turns at, and the lateral friction stays what resists a
+    /// sideways slide. Robot files estimate it from the footprint.
+    Wheelbase,
     /// Robot: wheel-speed loop time constant, s.
     TimeConstant,
     /// Parameter `param` of the effect `effect` (indices in [`REGISTRY`]).
@@ -50,6 +55,7 @@ impl Param {
             Self::RollingCoefficient => "terrain.resistance.rolling_coefficient".into(),
             Self::SlidingShareLongitudinal => "terrain.friction.sliding_longitudinal_share".into(),
             Self::Baseline => "robot.wheels.baseline_m".into(),
+            Self::Wheelbase => "robot.wheels.wheelbase_m".into(),
             Self::TimeConstant => "robot.powertrain.time_constant_s".into(),
             Self::Effect { .. } => format!("effect.{}", self.def().map_or("?", |d| d.key)),
         }
@@ -72,7 +78,7 @@ impl Param {
             | Self::PeakSlipRatio
             | Self::RollingCoefficient
             | Self::SlidingShareLongitudinal => true,
-            Self::Baseline | Self::TimeConstant => false,
+            Self::Baseline | Self::Wheelbase | Self::TimeConstant => false,
             Self::Effect { .. } => self.effect().is_some_and(|e| e.on_terrain()),
         }
     }
@@ -85,7 +91,7 @@ impl Param {
             | Self::PeakSlipRatio
             | Self::RollingCoefficient
             | Self::SlidingShareLongitudinal => "-",
-            Self::Baseline => "m",
+            Self::Baseline | Self::Wheelbase => "m",
             Self::TimeConstant => "s",
             Self::Effect { .. } => self.def().map_or("-", |d| d.unit),
         }
@@ -135,6 +141,7 @@ impl Param {
                 m.terrain.friction.sliding_longitudinal / m.terrain.friction.peak_longitudinal
             }
             Self::Baseline => m.robot.wheels.baseline_m,
+            Self::Wheelbase => m.robot.wheels.wheelbase_m,
             Self::TimeConstant => m.robot.powertrain.time_constant_s,
             Self::Effect { .. } => self.def().and_then(|d| m.effects.get(d.key)).unwrap_or(f64::NAN),
         }
@@ -162,6 +169,7 @@ impl Param {
                 m.terrain.friction.sliding_longitudinal = v * m.terrain.friction.peak_longitudinal
             }
             Self::Baseline => m.robot.wheels.baseline_m = v,
+            Self::Wheelbase => m.robot.wheels.wheelbase_m = v,
             Self::TimeConstant => m.robot.powertrain.time_constant_s = v,
             Self::Effect { .. } => {
                 let d = self.def().ok_or(Error::UnknownEffectParameter)?;
@@ -333,6 +341,26 @@ mod tests {
         assert_eq!(dead.unit(), "s");
         assert_eq!(dead.neutral(), Some(0.0));
         assert_eq!(Param::PeakLateral.name(), "terrain.friction.peak_lateral");
+    }
+
+    #[test]
+    fn the_simulator_fits_the_wheelbase_of_a_robot_with_two_wheels_a_side() {
+        use crate::model::{PlantFactory, SimFactory};
+        let p = params();
+        let specs = SimFactory::default().base_params(&p);
+        let wb = specs.iter().find(|s| s.param == Param::Wheelbase).unwrap();
+        assert_eq!((wb.lower, wb.upper), (0.6 * 1.3, 1.2 * 1.3));
+        assert!(!Param::Wheelbase.on_terrain());
+        assert_eq!(Param::Wheelbase.name(), "robot.wheels.wheelbase_m");
+        let m = p.with_values(&[*wb], &[1.05]).unwrap();
+        assert_eq!(m.robot.wheels.wheelbase_m, 1.05);
+        assert_eq!(Param::Wheelbase.get(&m), 1.05);
+        // One wheel a side: no wheelbase, nothing to fit.
+        let mut one = p.clone();
+        one.robot.wheels.per_side = 1;
+        one.robot.wheels.wheelbase_m = 0.0;
+        let specs = SimFactory::default().base_params(&one);
+        assert!(specs.iter().all(|s| s.param != Param::Wheelbase));
     }
 
     #[test]

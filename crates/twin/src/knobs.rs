@@ -3,7 +3,7 @@
 //!
 //! A knob is one registered effect (all its parameters: a motor line has two ends) or one of
 //! the simulator's base parameters (friction peaks, rolling resistance, the wheel loop's time
-//! constant). The pool is every effect on the command, the wheel loop, the body or the
+//! constant, the wheelbase). The pool is every effect on the command, the wheel loop, the body or the
 //! wheel–terrain contact that the simulator runs, with continuous parameters; sensor effects
 //! are left to the calibration by replay, which sees them sample by sample, and the generic
 //! discovered terms are not physical knobs, and the random effects a log measures
