@@ -8,13 +8,15 @@ against the other asphalt run (out of run, with the robot's own difference besid
 Writes OUT/<dataset>/ (the twin command's files), OUT/out_of_run_<a>_on_<b>/ (judge), the table
 to OUT/table.md and every command to OUT/commands.txt; a twin whose twin.json exists is kept
 (delete OUT to start over). With --looks, each held-out twin (OUT/<dataset>/held_out/) is judged
-again on the even steps with each seed given (OUT/<dataset>/looks/seed_<S>/), and the p-values
-of those looks beside the command's own go to OUT/held_out_looks.md: one look's p-value, from 19
-references, is a draw.
+again on the even steps with each seed given (OUT/<dataset>/looks/seed_<S>/), and each
+out-of-run judgement again with each seed (OUT/out_of_run_<a>_on_<b>/looks/seed_<S>/); the
+p-values of those looks beside the command's own go to OUT/held_out_looks.md and
+OUT/out_of_run_looks.md: one look's p-value, from 19 references, is a draw.
 """
 import argparse
 import json
 import os
+import statistics
 import time
 
 from script_common import DEFAULT_BIN, MEASURED, Runner, write_table
@@ -94,8 +96,25 @@ def round_text(choice, tuning):
     return f"{knobs} ({'accepted' if tuning and tuning['accepted'] else 'not accepted'})"
 
 
+def look_row(label, own, ps):
+    """A table row: the command's look, the further looks, how many pass and the median p."""
+    every = [own["loss"]["p"]] + ps
+    passes = sum(p > own["options"]["alpha"] for p in every)
+    return (f"| {label} | {own['loss']['p']:.3f} (seed {own['options']['seed']}) | " + " | ".join(f"{p:.3f}" for p in ps)
+            + f" | {passes} of {len(every)} | {statistics.median(every):.3f} |")
+
+
+def write_looks(args, name, first, rows, seeds):
+    header = [first, "the command's judgement"] + [f"seed {s}" for s in seeds] + ["p above 0.05", "median p"]
+    table = ("| " + " | ".join(header) + " |\n|" + "---|" * len(header) + "\n" + "\n".join(rows) + "\n")
+    with open(os.path.join(args.out, name), "w") as f:
+        f.write(table)
+    print(table)
+
+
 def looks(runner, args, seeds):
-    """Each held-out twin judged again on its run's even steps with each of `seeds`."""
+    """Each held-out twin judged again on its run's even steps with each of `seeds`, and each
+    out-of-run judgement again with each of them."""
     rows = []
     for d in args.datasets.split(","):
         out = os.path.join(args.out, d)
@@ -111,16 +130,25 @@ def looks(runner, args, seeds):
                             "--seed", str(seed), "--out", look])
             with open(os.path.join(look, "judge.json")) as f:
                 ps.append(json.load(f)["loss"]["p"])
-        alpha = own["options"]["alpha"]
-        every = [own["loss"]["p"]] + ps
-        passes = sum(p > alpha for p in every)
-        rows.append(f"| {d} | {own['loss']['p']:.3f} (seed {own['options']['seed']}) | "
-                    + " | ".join(f"{p:.3f}" for p in ps) + f" | {passes} of {len(every)} |")
-    header = ["run", "held out: the command's judgement"] + [f"seed {s}" for s in seeds] + ["p above 0.05"]
-    table = ("| " + " | ".join(header) + " |\n|" + "---|" * len(header) + "\n" + "\n".join(rows) + "\n")
-    with open(os.path.join(args.out, "held_out_looks.md"), "w") as f:
-        f.write(table)
-    print(table)
+        rows.append(look_row(d, own, ps))
+    write_looks(args, "held_out_looks.md", "run", rows, seeds)
+    rows = []
+    for a, b in OUT_OF_RUN:
+        twin = os.path.join(args.out, a, "twin")
+        out = os.path.join(args.out, f"out_of_run_{a}_on_{b}")
+        with open(os.path.join(out, "judge.json")) as f:
+            own = json.load(f)
+        ps = []
+        for seed in seeds:
+            look = os.path.join(out, "looks", f"seed_{seed}")
+            if not os.path.exists(os.path.join(look, "judge.json")):
+                runner.run([args.bin, "judge", os.path.join(MEASURED, b + ".csv"), "--robot", os.path.join(twin, "robot.toml"),
+                            "--terrain", os.path.join(twin, "terrain.toml"), "--other-run", os.path.join(MEASURED, a + ".csv"),
+                            "--seed", str(seed), "--out", look])
+            with open(os.path.join(look, "judge.json")) as f:
+                ps.append(json.load(f)["loss"]["p"])
+        rows.append(look_row(f"twin of {a} on {b}", own, ps))
+    write_looks(args, "out_of_run_looks.md", "out of run", rows, seeds)
 
 
 if __name__ == "__main__":
