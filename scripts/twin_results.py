@@ -64,12 +64,9 @@ def main():
                            "flagged", "tuned (final: first round; then the second, from the tuned twin)", "wall time"], rows)
     oor = []
     for a, b in OUT_OF_RUN:
-        twin = os.path.join(args.out, a, "twin")
         out = os.path.join(args.out, f"out_of_run_{a}_on_{b}")
         if not os.path.exists(os.path.join(out, "judge.json")):
-            runner.run([args.bin, "judge", os.path.join(MEASURED, b + ".csv"), "--robot", os.path.join(twin, "robot.toml"),
-                        "--terrain", os.path.join(twin, "terrain.toml"), "--other-run", os.path.join(MEASURED, a + ".csv"),
-                        "--out", out])
+            runner.run(out_of_run_judge(args, a, b) + ["--out", out])
         with open(os.path.join(out, "judge.json")) as f:
             o = json.load(f)
         y = o["yardsticks"][0]
@@ -94,6 +91,27 @@ def round_text(choice, tuning):
     if not choice["chosen"]:
         return knobs
     return f"{knobs} ({'accepted' if tuning and tuning['accepted'] else 'not accepted'})"
+
+
+def out_of_run_judge(args, a, b):
+    """The judge command of the twin written from `a` on every step of `b`, with `a` as the
+    robot's own other run (the yardstick), without its output directory."""
+    twin = os.path.join(args.out, a, "twin")
+    return [args.bin, "judge", os.path.join(MEASURED, b + ".csv"), "--robot", os.path.join(twin, "robot.toml"),
+            "--terrain", os.path.join(twin, "terrain.toml"), "--other-run", os.path.join(MEASURED, a + ".csv")]
+
+
+def look_ps(runner, out, seeds, command):
+    """The loss's p of each look `command + ["--seed", S, "--out", OUT/looks/seed_S]`, run where
+    its judge.json is missing."""
+    ps = []
+    for seed in seeds:
+        look = os.path.join(out, "looks", f"seed_{seed}")
+        if not os.path.exists(os.path.join(look, "judge.json")):
+            runner.run(command + ["--seed", str(seed), "--out", look])
+        with open(os.path.join(look, "judge.json")) as f:
+            ps.append(json.load(f)["loss"]["p"])
+    return ps
 
 
 def look_row(label, own, ps):
@@ -121,33 +139,16 @@ def looks(runner, args, seeds):
         with open(os.path.join(out, "twin.json")) as f:
             own = json.load(f)["held_out"]["judgements"][0]["outcome"]
         held = os.path.join(out, "held_out")
-        ps = []
-        for seed in seeds:
-            look = os.path.join(out, "looks", f"seed_{seed}")
-            if not os.path.exists(os.path.join(look, "judge.json")):
-                runner.run([args.bin, "judge", os.path.join(MEASURED, d + ".csv"), "--real-steps", "even",
-                            "--robot", os.path.join(held, "robot.toml"), "--terrain", os.path.join(held, "terrain.toml"),
-                            "--seed", str(seed), "--out", look])
-            with open(os.path.join(look, "judge.json")) as f:
-                ps.append(json.load(f)["loss"]["p"])
-        rows.append(look_row(d, own, ps))
+        command = [args.bin, "judge", os.path.join(MEASURED, d + ".csv"), "--real-steps", "even",
+                   "--robot", os.path.join(held, "robot.toml"), "--terrain", os.path.join(held, "terrain.toml")]
+        rows.append(look_row(d, own, look_ps(runner, out, seeds, command)))
     write_looks(args, "held_out_looks.md", "run", rows, seeds)
     rows = []
     for a, b in OUT_OF_RUN:
-        twin = os.path.join(args.out, a, "twin")
         out = os.path.join(args.out, f"out_of_run_{a}_on_{b}")
         with open(os.path.join(out, "judge.json")) as f:
             own = json.load(f)
-        ps = []
-        for seed in seeds:
-            look = os.path.join(out, "looks", f"seed_{seed}")
-            if not os.path.exists(os.path.join(look, "judge.json")):
-                runner.run([args.bin, "judge", os.path.join(MEASURED, b + ".csv"), "--robot", os.path.join(twin, "robot.toml"),
-                            "--terrain", os.path.join(twin, "terrain.toml"), "--other-run", os.path.join(MEASURED, a + ".csv"),
-                            "--seed", str(seed), "--out", look])
-            with open(os.path.join(look, "judge.json")) as f:
-                ps.append(json.load(f)["loss"]["p"])
-        rows.append(look_row(f"twin of {a} on {b}", own, ps))
+        rows.append(look_row(f"twin of {a} on {b}", own, look_ps(runner, out, seeds, out_of_run_judge(args, a, b))))
     write_looks(args, "out_of_run_looks.md", "out of run", rows, seeds)
 
 

@@ -3,8 +3,8 @@
 //!
 //! A knob is one registered effect (all its parameters: a motor line has two ends) or one of
 //! the simulator's base parameters (friction peaks, rolling resistance, the wheel loop's time
-//! constant, the wheelbase). The pool is every effect on the command, the wheel loop, the body or the
-//! wheel–terrain contact that the simulator runs, with continuous parameters; sensor effects
+//! constant, the wheelbase). The pool is every effect on the command, the wheel loop, the body
+//! or the wheel–terrain contact that the simulator runs, with continuous parameters; sensor effects
 //! are left to the calibration by replay, which sees them sample by sample, and the generic
 //! discovered terms are not physical knobs, and the random effects a log measures
 //! ([`crate::measured::MEASURED`]) are declared from it, not searched. Nothing here says which knob matters for which
