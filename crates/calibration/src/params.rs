@@ -344,9 +344,13 @@ mod tests {
     }
 
     #[test]
-    fn the_simulator_fits_the_wheelbase_of_a_robot_with_two_wheels_a_side() {
+    fn the_simulator_fits_the_wheelbase_the_robot_file_calls_an_estimate() {
         use crate::model::{PlantFactory, SimFactory};
         let p = params();
+        assert!(
+            p.robot.wheels.wheelbase_estimated,
+            "the Warthog's file estimates it"
+        );
         let specs = SimFactory::default().base_params(&p);
         let wb = specs.iter().find(|s| s.param == Param::Wheelbase).unwrap();
         assert_eq!((wb.lower, wb.upper), (0.6 * 1.3, 1.2 * 1.3));
@@ -361,6 +365,16 @@ mod tests {
         one.robot.wheels.wheelbase_m = 0.0;
         let specs = SimFactory::default().base_params(&one);
         assert!(specs.iter().all(|s| s.param != Param::Wheelbase));
+        // A datasheet's wheelbase (not an estimate): kept, not fitted.
+        let mut given = p.clone();
+        given.robot.wheels.wheelbase_estimated = false;
+        let specs = SimFactory::default().base_params(&given);
+        assert!(specs.iter().all(|s| s.param != Param::Wheelbase));
+        let (husky, _) = Robot::resolve("husky").unwrap();
+        assert!(
+            !husky.wheels.wheelbase_estimated,
+            "the Husky's is its datasheet's"
+        );
     }
 
     #[test]

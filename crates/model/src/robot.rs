@@ -73,6 +73,11 @@ pub struct WheelSpec {
     pub baseline_m: f64,
     /// Distance between the front and rear axles, m (0 for a single axle per side).
     pub wheelbase_m: f64,
+    /// Whether `wheelbase_m` is an estimate (`true`: the calibration by replay fits it, as the
+    /// lever of the sideways scrub the wheels oppose to a turn) rather than a datasheet's or a
+    /// tape's value (`false`, the default: kept). Optional; written only when `true`.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub wheelbase_estimated: bool,
     /// Wheels on each side, all driven by that side's motor.
     pub per_side: u32,
     /// Tyre width, m.
@@ -129,6 +134,10 @@ pub struct UserLimits {
 
 fn is_unit(x: &f64) -> bool {
     *x == 1.0
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 /// Rectangular safe area centred on the start pose.
