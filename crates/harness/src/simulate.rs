@@ -137,7 +137,9 @@ pub fn simulate(
 }
 
 /// [`simulate`] with draws in the quadrants of `commands` (step `i` draws uniformly in U in
-/// the quadrant of command `i`; see [`Matched`]) instead of the paper's sampler.
+/// the quadrant of command `i`; see [`Matched`]) instead of the paper's sampler: a twin's
+/// candidate run, its protocol time limited
+/// ([`ProtocolConfig::limit_for_candidates`]; past it, [`drive_sim_model::Error::Diverged`]).
 pub fn simulate_matched(
     robot: &Robot,
     terrain: &Terrain,
@@ -146,9 +148,9 @@ pub fn simulate_matched(
     seed: u64,
     noise: SensorNoise,
 ) -> Result<SimulatedRun> {
-    seeded(robot, terrain, steps, seed, noise, |_| {
-        Ok(Box::new(Matched::new(commands, seed)?))
-    })
+    let protocol = ProtocolConfig::for_run(robot, terrain, steps).limit_for_candidates();
+    let mut sampler = Matched::new(commands, seed)?;
+    simulate_with(robot, terrain, &mut sampler, &protocol, sim_config(seed, noise))
 }
 
 /// A run of `steps` steps with the protocol defaults, the simulator seeded with `seed`, and
@@ -163,12 +165,16 @@ fn seeded(
 ) -> Result<SimulatedRun> {
     let protocol = ProtocolConfig::for_run(robot, terrain, steps);
     let mut s = sampler(&protocol)?;
-    let sim = SimConfig {
+    simulate_with(robot, terrain, s.as_mut(), &protocol, sim_config(seed, noise))
+}
+
+/// The simulator seeded with `seed`, with `noise`.
+fn sim_config(seed: u64, noise: SensorNoise) -> SimConfig {
+    SimConfig {
         seed,
         noise,
         ..SimConfig::default()
-    };
-    simulate_with(robot, terrain, s.as_mut(), &protocol, sim)
+    }
 }
 
 /// The error for a sampler name that is not registered, listing those that are.

@@ -78,6 +78,13 @@ pub struct ProtocolConfig {
     /// doing so.
     #[serde(default = "default_reorient_speed")]
     pub reorient_speed_m_s: f64,
+    /// Longest the whole run may take, protocol time, s: past it the run stops with
+    /// [`Error::Diverged`], as a run whose robot cannot drive its steps. `None` (the default):
+    /// no limit. A twin's candidate runs set it (`ProtocolConfig::limit_for_candidates`): a
+    /// model whose DRIVE spends nearly all its time re-oriented cannot be the robot's twin,
+    /// and its run costs ten to thirty times a sane one's.
+    #[serde(default)]
+    pub max_protocol_s: Option<f64>,
 }
 
 fn default_reorient_yaw_rate() -> f64 {
@@ -102,6 +109,7 @@ impl Default for ProtocolConfig {
             max_reorient_s: 60.0,
             reorient_yaw_rate_rad_s: default_reorient_yaw_rate(),
             reorient_speed_m_s: default_reorient_speed(),
+            max_protocol_s: None,
         }
     }
 }
@@ -123,7 +131,28 @@ impl ProtocolConfig {
     pub fn samples_per_window(&self) -> u32 {
         (self.window_s * self.rate_hz).round() as u32
     }
+
+    /// The steps' own time, s: what the run takes at a time efficiency of 1.
+    pub fn steps_time_s(&self) -> f64 {
+        self.steps as f64 * self.windows_per_step as f64 * self.window_s
+    }
+
+    /// The same protocol with the run's time limited to [`CANDIDATE_TIME_FACTOR`] times its
+    /// steps' own time (a time efficiency of 1/8): the limit of a twin's candidate runs.
+    pub fn limit_for_candidates(self) -> Self {
+        Self {
+            max_protocol_s: Some(CANDIDATE_TIME_FACTOR * self.steps_time_s()),
+            ..self
+        }
+    }
 }
+
+/// How many times its steps' own time a twin's candidate run may take. The twins of the
+/// measured runs run at time efficiencies of 0.41–0.53 (the Warthog's) and 0.45 (the Husky's),
+/// about 2 times their steps' time; a Husky with a rolling resistance of 0.23 needed 22 times
+/// (26,505 s for 201 steps, 27 s of wall time against 0.9 s) and was told apart by a loss 60
+/// times the twin's.
+pub const CANDIDATE_TIME_FACTOR: f64 = 8.0;
 
 /// What a run did, beside its frames.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -247,6 +276,17 @@ impl Runner<'_> {
         let mut m = self.plant.measure();
         m.cmd = cmd;
         let stamp_s = self.plant.time_s() - self.t0;
+        if let Some(limit_s) = self.cfg.max_protocol_s.filter(|l| stamp_s > *l) {
+            return Err(Error::Diverged {
+                step,
+                time_s: stamp_s,
+                message: format!(
+                    "{stamp_s:.0} s of protocol time with {} of {} steps completed, past the run's limit of {limit_s:.0} s: \
+                     the robot cannot drive its steps in the safe area",
+                    self.summary.steps_completed, self.cfg.steps
+                ),
+            });
+        }
         // A signal (Ctrl-C) stops the run between two frames: the log so far stays consistent.
         if drive_sim_model::interrupt::requested() || self.cancel.is_some_and(CancelToken::is_cancelled) {
             return Err(Error::Interrupted {
@@ -479,6 +519,45 @@ mod tests {
         let mut frames = Vec::new();
         let s = run_drive(&mut plant, &robot, &mut sampler, &cfg, &mut frames).unwrap();
         (frames, s, robot)
+    }
+
+    /// A run limited in time stops past its limit, naming how far it got, and loses nothing
+    /// before it; a twin's candidate runs may take 8 times their steps' own time.
+    #[test]
+    fn a_run_past_its_time_limit_stops_as_a_run_that_cannot_drive_its_steps() {
+        let (_, whole, _) = run_ideal(20, 3);
+        let (robot, _) = Robot::resolve("husky").unwrap();
+        let mut plant = IdealPlant::new(robot.idd(), 0.1);
+        let mut sampler = sampler::UniformWheel::new(3);
+        let cfg = ProtocolConfig {
+            steps: 20,
+            max_protocol_s: Some(0.5 * whole.total_time_s),
+            ..Default::default()
+        };
+        let mut frames: Vec<Frame> = Vec::new();
+        let e = run_drive(&mut plant, &robot, &mut sampler, &cfg, &mut frames).unwrap_err();
+        let Error::Diverged { time_s, message, .. } = e else {
+            panic!("{e:?}");
+        };
+        assert!(time_s > 0.5 * whole.total_time_s, "{time_s}");
+        assert!(message.contains("of 20 steps completed"), "{message}");
+        assert!(frames.last().unwrap().stamp_s <= 0.5 * whole.total_time_s);
+        // Without a limit, or with one it never reaches, the same run completes.
+        let mut plant = IdealPlant::new(robot.idd(), 0.1);
+        let mut sampler = sampler::UniformWheel::new(3);
+        let cfg = ProtocolConfig {
+            steps: 20,
+            max_protocol_s: Some(2.0 * whole.total_time_s),
+            ..Default::default()
+        };
+        let s = run_drive(&mut plant, &robot, &mut sampler, &cfg, &mut Vec::new()).unwrap();
+        assert_eq!(s, whole);
+        let candidates = ProtocolConfig {
+            steps: 100,
+            ..Default::default()
+        }
+        .limit_for_candidates();
+        assert_eq!(candidates.max_protocol_s, Some(8.0 * 100.0 * 3.0 * 2.0));
     }
 
     #[test]
