@@ -10,11 +10,11 @@ MEASURED = os.path.join(HERE, "..", "..", "shared", "data", "measured")
 DEFAULT_BIN = os.path.join(HERE, "..", "target", "release", "drive-sim")
 
 
-def write_table(out, header, rows):
+def write_table(out, header, rows, name="table.md"):
     """A markdown table of `header` (column titles) and `rows` (lines `| ... |`), printed and
-    written to `out/table.md`."""
+    written to `out/name`."""
     table = ("| " + " | ".join(header) + " |\n|" + "---|" * len(header) + "\n" + "\n".join(rows) + "\n")
-    with open(os.path.join(out, "table.md"), "w") as f:
+    with open(os.path.join(out, name), "w") as f:
         f.write(table)
     print(table)
 

@@ -77,10 +77,7 @@ def main():
     header = ["twin", "judged against", "judge", "p median ρ", "p median slip vx", "p median slip wz",
               "twin's mean loss", "the robot's own other run: loss (compare's verdict)",
               "yardstick test: the twin's runs against the robot's own run"]
-    table = ("| " + " | ".join(header) + " |\n|" + "---|" * len(header) + "\n" + "\n".join(oor) + "\n")
-    with open(os.path.join(args.out, "out_of_run.md"), "w") as f:
-        f.write(table)
-    print(table)
+    write_table(args.out, header, oor, "out_of_run.md")
     if args.looks:
         looks(runner, args, [int(x) for x in args.looks.split(",")])
 
@@ -124,10 +121,7 @@ def look_row(label, own, ps):
 
 def write_looks(args, name, first, rows, seeds):
     header = [first, "the command's judgement"] + [f"seed {s}" for s in seeds] + ["p above 0.05", "median p"]
-    table = ("| " + " | ".join(header) + " |\n|" + "---|" * len(header) + "\n" + "\n".join(rows) + "\n")
-    with open(os.path.join(args.out, name), "w") as f:
-        f.write(table)
-    print(table)
+    write_table(args.out, header, rows, name)
 
 
 def looks(runner, args, seeds):

@@ -132,9 +132,14 @@ impl ProtocolConfig {
         (self.window_s * self.rate_hz).round() as u32
     }
 
+    /// One step's own time (its windows), s.
+    pub fn step_s(&self) -> f64 {
+        self.window_s * self.windows_per_step as f64
+    }
+
     /// The steps' own time, s: what the run takes at a time efficiency of 1.
     pub fn steps_time_s(&self) -> f64 {
-        self.steps as f64 * self.windows_per_step as f64 * self.window_s
+        self.steps as f64 * self.step_s()
     }
 
     /// The same protocol with the run's time limited to [`CANDIDATE_TIME_FACTOR`] times its
@@ -338,8 +343,7 @@ impl Runner<'_> {
                     AttemptEnd::Completed(outcome) => {
                         history.push(outcome);
                         self.summary.steps_completed += 1;
-                        self.summary.productive_time_s +=
-                            self.cfg.window_s * self.cfg.windows_per_step as f64;
+                        self.summary.productive_time_s += self.cfg.step_s();
                         self.sink.step_done(self.summary.steps_completed);
                         ctx = ctx.next(cmd, self.plant.time_s() - t_attempt);
                         previous = cmd;
@@ -509,15 +513,21 @@ mod tests {
     use drive_sim_sim::IdealPlant;
 
     fn run_ideal(steps: u32, seed: u64) -> (Vec<Frame>, RunSummary, Robot) {
-        let (robot, _) = Robot::resolve("husky").unwrap();
-        let mut plant = IdealPlant::new(robot.idd(), 0.1);
-        let mut sampler = sampler::UniformWheel::new(seed);
         let cfg = ProtocolConfig {
             steps,
             ..Default::default()
         };
+        let (frames, s, robot) = run_ideal_with(&cfg, seed);
+        (frames, s.unwrap(), robot)
+    }
+
+    /// DRIVE with `cfg` on the ideal Husky, the uniform wheel sampler seeded with `seed`.
+    fn run_ideal_with(cfg: &ProtocolConfig, seed: u64) -> (Vec<Frame>, Result<RunSummary>, Robot) {
+        let (robot, _) = Robot::resolve("husky").unwrap();
+        let mut plant = IdealPlant::new(robot.idd(), 0.1);
+        let mut sampler = sampler::UniformWheel::new(seed);
         let mut frames = Vec::new();
-        let s = run_drive(&mut plant, &robot, &mut sampler, &cfg, &mut frames).unwrap();
+        let s = run_drive(&mut plant, &robot, &mut sampler, cfg, &mut frames);
         (frames, s, robot)
     }
 
@@ -526,32 +536,21 @@ mod tests {
     #[test]
     fn a_run_past_its_time_limit_stops_as_a_run_that_cannot_drive_its_steps() {
         let (_, whole, _) = run_ideal(20, 3);
-        let (robot, _) = Robot::resolve("husky").unwrap();
-        let mut plant = IdealPlant::new(robot.idd(), 0.1);
-        let mut sampler = sampler::UniformWheel::new(3);
-        let cfg = ProtocolConfig {
+        let limited = |limit_s: f64| ProtocolConfig {
             steps: 20,
-            max_protocol_s: Some(0.5 * whole.total_time_s),
+            max_protocol_s: Some(limit_s),
             ..Default::default()
         };
-        let mut frames: Vec<Frame> = Vec::new();
-        let e = run_drive(&mut plant, &robot, &mut sampler, &cfg, &mut frames).unwrap_err();
-        let Error::Diverged { time_s, message, .. } = e else {
-            panic!("{e:?}");
+        let (frames, s, _) = run_ideal_with(&limited(0.5 * whole.total_time_s), 3);
+        let Err(Error::Diverged { time_s, message, .. }) = s else {
+            panic!("{s:?}");
         };
         assert!(time_s > 0.5 * whole.total_time_s, "{time_s}");
         assert!(message.contains("of 20 steps completed"), "{message}");
         assert!(frames.last().unwrap().stamp_s <= 0.5 * whole.total_time_s);
         // Without a limit, or with one it never reaches, the same run completes.
-        let mut plant = IdealPlant::new(robot.idd(), 0.1);
-        let mut sampler = sampler::UniformWheel::new(3);
-        let cfg = ProtocolConfig {
-            steps: 20,
-            max_protocol_s: Some(2.0 * whole.total_time_s),
-            ..Default::default()
-        };
-        let s = run_drive(&mut plant, &robot, &mut sampler, &cfg, &mut Vec::new()).unwrap();
-        assert_eq!(s, whole);
+        let (_, s, _) = run_ideal_with(&limited(2.0 * whole.total_time_s), 3);
+        assert_eq!(s.unwrap(), whole);
         let candidates = ProtocolConfig {
             steps: 100,
             ..Default::default()

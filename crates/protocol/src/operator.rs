@@ -178,7 +178,7 @@ impl Runner<'_> {
             !stops_outside((hx, hy), m, (x, y), stop)
         };
         // One second beyond the step: the real robot lags the ideal path it is planned on.
-        let step_s = self.cfg.window_s * self.cfg.windows_per_step as f64;
+        let step_s = self.cfg.step_s();
         let horizon_s = step_s + 1.0;
         let dt = 0.1;
         let time_inside = |heading: f64| {

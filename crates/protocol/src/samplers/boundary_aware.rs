@@ -73,7 +73,7 @@ impl BoundaryAware {
             name: format!("{}({})", ENTRY.name, inner.name()),
             proposals: inner,
             candidates: 32,
-            horizon_s: cfg.window_s * cfg.windows_per_step as f64,
+            horizon_s: cfg.step_s(),
             operator_decel_m_s2: cfg.operator_decel_m_s2,
             border_margin_m: cfg.border_margin_m,
             extra_margin_m: 0.1,
